@@ -1,0 +1,1 @@
+"""Agent programs (installed as ``iw_zenoh.agents``): pure policies with thin ``main()`` shells."""

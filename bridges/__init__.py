@@ -1,0 +1,1 @@
+"""Bridges to the outside (installed as ``iw_zenoh.bridges``): legacy XML/UDP and RS-232."""
