@@ -1,0 +1,104 @@
+"""Seeded random streams: one generator per robot and per sensor kind, derived from one seed.
+
+Deriving a stream from ``(seed, robot_id, stream)`` rather than from the order robots were
+created in keeps a robot's noise the same whichever process (or sensor shard) computes it.
+"""
+
+from __future__ import annotations
+
+import enum
+
+import numpy as np
+import numpy.typing as npt
+
+from iw_zenoh.core.spec import NoiseSpec
+
+__all__ = ["NoiseBank", "Stream", "apply_noise", "rng_for", "standard_normals"]
+
+
+class Stream(enum.IntEnum):
+    """The independent random streams of one robot."""
+
+    MOTION = 0  # movement noise (the world)
+    SENSORS = 1  # every sensor of the robot, in fixed slots (see core.sensors)
+
+
+def rng_for(seed: int, robot_id: int, stream: Stream) -> np.random.Generator:
+    """The generator of one robot's stream.
+
+    Args:
+        seed: The run's seed.
+        robot_id: The robot's id.
+        stream: Which of its streams.
+
+    Returns:
+        A PCG64 generator, the same for the same arguments on every machine.
+    """
+    ss = np.random.SeedSequence(entropy=seed, spawn_key=(robot_id, int(stream)))
+    return np.random.Generator(np.random.PCG64(ss))
+
+
+def standard_normals(rngs: list[np.random.Generator], k: int) -> npt.NDArray[np.float64]:
+    """Draws ``k`` standard normals from each generator.
+
+    Args:
+        rngs: One generator per robot, length N.
+        k: Draws per robot.
+
+    Returns:
+        Array of shape (N, k).
+    """
+    out = np.empty((len(rngs), k), dtype=np.float64)
+    for i, g in enumerate(rngs):
+        out[i] = g.standard_normal(k)
+    return out
+
+
+def apply_noise(value: npt.NDArray[np.float64], z: npt.NDArray[np.float64], spec: NoiseSpec) -> npt.NDArray[np.float64]:
+    """Adds ``N(mean, std)`` built from standard normals ``z`` to ``value`` when enabled.
+
+    Args:
+        value: True values, any shape.
+        z: Standard normal draws, the same shape.
+        spec: The noise.
+
+    Returns:
+        The noisy values (a new array).
+    """
+    if not spec.enabled:
+        return np.array(value, dtype=np.float64, copy=True)
+    return np.asarray(value + spec.mean + spec.std * z, dtype=np.float64)
+
+
+class NoiseBank:
+    """Standard normals for many robots, a fixed number per robot per tick, drawn in blocks.
+
+    Robot i's generator is asked for ``block`` ticks' worth of its values at once, in row-major
+    order, which is exactly the sequence it would give one tick at a time: the values do not
+    depend on ``block``. One generator call per robot per block instead of per tick.
+
+    Args:
+        rngs: One generator per robot.
+        counts: (N,) values per robot per tick.
+        block: Ticks drawn per refill.
+    """
+
+    def __init__(self, rngs: list[np.random.Generator], counts: npt.NDArray[np.int64], *, block: int = 32) -> None:
+        self._rngs = rngs
+        self._counts = [int(c) for c in counts]
+        self._starts = np.concatenate([[0], np.cumsum(self._counts)]).astype(np.int64)
+        self._block = block
+        self._buf = np.zeros((block, int(self._starts[-1])))
+        self._row = block
+
+    def next(self) -> npt.NDArray[np.float64]:
+        """This tick's values, shape (sum(counts),), robot i's at ``starts[i]:starts[i+1]``."""
+        if self._row == self._block:
+            for i, g in enumerate(self._rngs):
+                a, b = self._starts[i], self._starts[i + 1]
+                if b > a:
+                    self._buf[:, a:b] = g.standard_normal((self._block, b - a))
+            self._row = 0
+        row = np.array(self._buf[self._row], dtype=np.float64)
+        self._row += 1
+        return row

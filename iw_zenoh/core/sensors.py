@@ -1,0 +1,457 @@
+"""Every robot's sensors for one tick, in one vectorized call.
+
+Proximity cones return the distance (metres) to the nearest wall or other body inside the cone
+and within range, and the Ciber-Rato reading (1/distance rounded to 0.1, 100 when nothing).
+Compass, beacons (aperture and wall-height occlusion), GPS, ground (target areas), collision,
+wheel encoders (with slip, so odometry drifts) and contact bumpers follow.
+
+Noise: each robot has one generator for its sensors; every tick it gives a fixed layout of
+standard normals (:func:`noise_layout`), one slot per sensor (proximity sensors in order, compass, each beacon, GPS x,
+y and heading, left and right encoder), so switching one sensor's noise off leaves every other
+sensor's noise unchanged, and a robot's readings do not depend on the other robots.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+import shapely
+from shapely import STRtree
+
+from iw_zenoh.core.bodies import Bodies, polygons_at
+from iw_zenoh.core.geometry import to_world, wrap_deg
+from iw_zenoh.core.lab import Scene
+from iw_zenoh.core.noise import NoiseBank, Stream, rng_for
+from iw_zenoh.core.spatial import Boxes, SlotBoxes, boxes_tree, robot_item_pairs
+
+__all__ = [
+    "LEGACY_NOTHING",
+    "Readings",
+    "SensorParams",
+    "legacy_ir_value",
+    "noise_bank",
+    "noise_layout",
+    "proximity_distances",
+    "read_sensors",
+    "step_encoders",
+]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+BoolArray = npt.NDArray[np.bool_]
+
+LEGACY_NOTHING = 100.0  # Ciber-Rato's IR reading when nothing is seen (or closer than 0.01)
+LEGACY_MIN_DIST = 0.01  # below this Ciber-Rato reads 100, as if nothing were there
+
+
+@dataclass(frozen=True)
+class SensorParams:
+    """Tick-wide sensor settings.
+
+    Attributes:
+        beacon_aperture_rad: Half-aperture of beacon sensors (pi: all around).
+        gps_offset_m: Constant (x, y) added to GPS positions (Ciber-Rato hides the lab origin).
+    """
+
+    beacon_aperture_rad: float = float(np.pi)
+    gps_offset_m: tuple[float, float] = (0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class Readings:
+    """One tick of readings for N robots with M proximity sensors, B beacons and Bb bumpers.
+
+    Attributes:
+        proximity_m: (M,) distance to the nearest thing in each cone, ``inf`` for nothing in range.
+        proximity_legacy: (M,) the Ciber-Rato value, 1/d rounded to 0.1 (100 for nothing).
+        compass_deg: (N,) heading in [-180, 180).
+        beacon_deg: (N, B) bearing relative to the heading, NaN when not visible.
+        gps: (N, 3) x, y (m, with offset) and heading (deg).
+        ground: (N,) index of the last target area wholly containing the body, or -1.
+        collision: (N,) as given by the collision verdict.
+        encoder_acc: (N, 2) accumulated encoder ticks (fractional), left and right.
+        bumpers: (Bb,) True where a bumper touches a wall or another body.
+    """
+
+    proximity_m: FloatArray
+    proximity_legacy: FloatArray
+    compass_deg: FloatArray
+    beacon_deg: FloatArray
+    gps: FloatArray
+    ground: IntArray
+    collision: BoolArray
+    encoder_acc: FloatArray
+    bumpers: BoolArray
+
+    @property
+    def encoder_ticks(self) -> IntArray:
+        """(N, 2) whole encoder ticks, as a real encoder counts them."""
+        return np.floor(self.encoder_acc).astype(np.int64)
+
+
+def noise_layout(bodies: Bodies, n_beacons: int) -> tuple[IntArray, IntArray]:
+    """Per robot, how many standard normals a tick draws and where its slots start.
+
+    Args:
+        bodies: The robots.
+        n_beacons: Beacons in the lab.
+
+    Returns:
+        ``(counts, starts)``, both (N,): robot i's draws are ``z[starts[i]:starts[i]+counts[i]]``.
+    """
+    m = np.bincount(bodies.ir_owner, minlength=bodies.n).astype(np.int64)
+    counts = m + 1 + n_beacons + 3 + 2
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+    return counts, starts
+
+
+def noise_bank(bodies: Bodies, n_beacons: int, seed: int, *, block: int = 32) -> NoiseBank:
+    """The sensor noise source of these robots: each robot's own stream, seeded from ``seed``.
+
+    Args:
+        bodies: The robots.
+        n_beacons: Beacons in the lab.
+        seed: The run's seed.
+        block: Ticks drawn at once (the values do not depend on it).
+
+    Returns:
+        A bank whose :meth:`~iw_zenoh.core.noise.NoiseBank.next` feeds :func:`read_sensors`.
+    """
+    counts, _ = noise_layout(bodies, n_beacons)
+    return NoiseBank([rng_for(seed, int(i), Stream.SENSORS) for i in bodies.ids], counts, block=block)
+
+
+def legacy_ir_value(distance: FloatArray, z: FloatArray, std: FloatArray) -> FloatArray:
+    """Ciber-Rato's IR value: ``floor(10 * (ideal + std * z) + 0.5) / 10``, not clamped.
+
+    Args:
+        distance: (M,) distances in lab units, ``inf`` for no hit.
+        z: (M,) standard normals.
+        std: (M,) noise deviation (ObstacleNoise).
+
+    Returns:
+        (M,) readings, ideal ``1/d`` for ``d > 0.01`` and 100 otherwise.
+    """
+    ok = np.isfinite(distance) & (distance > LEGACY_MIN_DIST)
+    ideal = np.where(ok, 1.0 / np.where(ok, distance, 1.0), LEGACY_NOTHING)
+    return np.asarray(np.floor(10.0 * (ideal + std * z) + 0.5) / 10.0, dtype=np.float64)
+
+
+def _wedge_distance(
+    px: FloatArray,
+    py: FloatArray,
+    normals: FloatArray,
+    ax: FloatArray,
+    ay: FloatArray,
+    bx: FloatArray,
+    by: FloatArray,
+) -> FloatArray:
+    """Distance from apex ``p`` to the part of segment ``a-b`` inside the wedge (inf if none).
+
+    Every argument is per pair, shape (P,), but ``normals`` (P, 4): the inward normals
+    ``(lx, ly, rx, ry)`` of the wedge's two edges. A wedge narrower than a half-plane is the
+    intersection of two half-planes through p, so the segment is clipped against each, then the
+    nearest point of what is left is taken.
+    """
+    ax = ax - px
+    ay = ay - py
+    dx = bx - px - ax
+    dy = by - py - ay
+    lo = np.zeros(len(px))
+    hi = np.ones(len(px))
+    empty = np.zeros(len(px), dtype=bool)
+    for nx, ny in ((normals[:, 0], normals[:, 1]), (normals[:, 2], normals[:, 3])):
+        f0 = nx * ax + ny * ay
+        df = nx * dx + ny * dy  # f1 - f0
+        neg0 = f0 < 0.0
+        neg1 = (f0 + df) < 0.0
+        empty |= neg0 & neg1
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = -f0 / df
+        np.maximum(lo, t, out=lo, where=neg0 & ~neg1)
+        np.minimum(hi, t, out=hi, where=~neg0 & neg1)
+    dd = dx * dx + dy * dy
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = -(ax * dx + ay * dy) / dd
+    t = np.minimum(np.maximum(t, lo), hi)  # a NaN (zero-length segment) becomes lo
+    t = np.where(np.isnan(t), lo, t)
+    qx = ax + t * dx
+    qy = ay + t * dy
+    dist = np.sqrt(qx * qx + qy * qy)
+    dist[empty | (lo > hi)] = np.inf
+    return dist
+
+
+def _wedge_normals(phi: FloatArray, half: FloatArray) -> FloatArray:
+    """(M, 4) inward normals ``(lx, ly, rx, ry)`` of each wedge's left and right edges."""
+    return np.stack([np.sin(phi + half), -np.cos(phi + half), -np.sin(phi - half), np.cos(phi - half)], axis=1)
+
+
+def _wedge_bounds(
+    ox: FloatArray, oy: FloatArray, phi: FloatArray, half: FloatArray, r: FloatArray, normals: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Exact bounding boxes of circular sectors: apex, both edge ends, and the arc's extreme
+    points along +-x and +-y where the arc passes them."""
+    # edge directions from the inward normals: left edge (cos(phi+h), sin(phi+h)) = (-ly, lx)
+    lxd, lyd = -normals[:, 1], normals[:, 0]
+    rxd, ryd = normals[:, 3], -normals[:, 2]
+    x0 = np.minimum(ox, np.minimum(ox + r * lxd, ox + r * rxd))
+    x1 = np.maximum(ox, np.maximum(ox + r * lxd, ox + r * rxd))
+    y0 = np.minimum(oy, np.minimum(oy + r * lyd, oy + r * ryd))
+    y1 = np.maximum(oy, np.maximum(oy + r * lyd, oy + r * ryd))
+    for axis_angle, target, sign, base in (
+        (0.0, x1, 1.0, ox),
+        (np.pi, x0, -1.0, ox),
+        (0.5 * np.pi, y1, 1.0, oy),
+        (-0.5 * np.pi, y0, -1.0, oy),
+    ):
+        within = np.abs((axis_angle - phi + np.pi) % (2.0 * np.pi) - np.pi) <= half
+        np.copyto(target, base + sign * r, where=within)
+    return np.stack([x0, y0], axis=1), np.stack([x1, y1], axis=1)
+
+
+def _inside_convex(px: FloatArray, py: FloatArray, poly: FloatArray) -> BoolArray:
+    """(P,) whether points are inside or on counter-clockwise convex polygons (P, K, 2)."""
+    ex = np.roll(poly[..., 0], -1, axis=1) - poly[..., 0]
+    ey = np.roll(poly[..., 1], -1, axis=1) - poly[..., 1]
+    cross = ex * (py[:, None] - poly[..., 1]) - ey * (px[:, None] - poly[..., 0])
+    return np.asarray(np.all(cross >= 0.0, axis=1), dtype=bool)
+
+
+def proximity_distances(scene: Scene, bodies: Bodies, pose: FloatArray) -> FloatArray:
+    """The true distance seen by every proximity cone of every robot.
+
+    Args:
+        scene: The lab's geometry.
+        bodies: The robots.
+        pose: (N, 3) poses.
+
+    Returns:
+        (M,) distance from each sensor's mounting point to the nearest point of a wall, the border
+        or another robot's body inside its cone; ``inf`` when that is beyond its range.
+    """
+    m = len(bodies.ir_owner)
+    if m == 0:
+        return np.zeros(0)
+    n = bodies.n
+    own = bodies.ir_owner
+    c, s = np.cos(pose[own, 2]), np.sin(pose[own, 2])
+    lx, ly = bodies.ir_xy[:, 0], bodies.ir_xy[:, 1]
+    ox = pose[own, 0] + c * lx - s * ly
+    oy = pose[own, 1] + s * lx + c * ly
+    phi = pose[own, 2] + bodies.ir_angle_rad
+    half = bodies.ir_half_cone_rad
+    rng = bodies.ir_range_m
+    normals = _wedge_normals(phi, half)
+    lo, hi = _wedge_bounds(ox, oy, phi, half, rng, normals)
+    wedges = SlotBoxes(lo, hi, bodies.ir_slots)
+    origin_xy = np.stack([ox, oy], axis=1)
+    points = SlotBoxes(origin_xy, origin_xy, bodies.ir_slots)
+    count = np.bincount(own, minlength=n).astype(np.int64)
+    first = np.searchsorted(own, np.arange(n)).astype(np.int64)
+    has = count > 0
+    rlo = np.zeros((n, 2))
+    rhi = np.zeros((n, 2))
+    rlo[has] = np.minimum.reduceat(lo, first[has], axis=0)
+    rhi[has] = np.maximum.reduceat(hi, first[has], axis=0)
+    robots = Boxes(rlo, rhi).shapes()
+    best = np.full(m, np.inf)
+
+    segs = scene.segments
+    sm, ss = robot_item_pairs(scene.segment_tree, scene.segment_boxes, robots, wedges)
+    d = _wedge_distance(ox[sm], oy[sm], normals[sm], segs[ss, 0, 0], segs[ss, 0, 1], segs[ss, 1, 0], segs[ss, 1, 1])
+    np.minimum.at(best, sm, d)
+
+    body_xy = bodies.world_outline(pose)  # (N, K, 2), counter-clockwise
+    bboxes = Boxes(body_xy.min(axis=1), body_xy.max(axis=1))
+    btree = boxes_tree(bboxes)
+    bm, bn = robot_item_pairs(btree, bboxes, robots, wedges)
+    keep = bn != own[bm]
+    bm, bn = bm[keep], bn[keep]
+    # a mounting point inside another body sees it at distance 0 (that body's box holds the
+    # point, so it overlaps the sensor's wedge box and is among these pairs)
+    held = (bboxes.x0[bn] <= ox[bm]) & (bboxes.x1[bn] >= ox[bm]) & (bboxes.y0[bn] <= oy[bm]) & (bboxes.y1[bn] >= oy[bm])
+    if held.any():
+        hm, hn = bm[held], bn[held]
+        best[hm[_inside_convex(ox[hm], oy[hm], body_xy[hn])]] = 0.0
+    # cull bodies whose bounding circle lies outside the cone before testing their edges
+    rad = bodies.bound_radius_m[bn]
+    vx = pose[bn, 0] - ox[bm]
+    vy = pose[bn, 1] - oy[bm]
+    dist = np.sqrt(vx * vx + vy * vy)
+    off = np.abs((np.arctan2(vy, vx) - phi[bm] + np.pi) % (2.0 * np.pi) - np.pi)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        spread = np.where(dist > rad, np.arcsin(np.minimum(1.0, rad / dist)), np.pi)
+    near = (dist - rad <= rng[bm]) & (off <= half[bm] + spread)
+    bm, bn = bm[near], bn[near]
+    if len(bm):
+        k = body_xy.shape[1]
+        a = body_xy[bn]  # (Q, K, 2)
+        b = np.roll(a, -1, axis=1)
+        mi = np.repeat(bm, k)
+        ax, ay = a[..., 0].reshape(-1), a[..., 1].reshape(-1)
+        bx, by = b[..., 0].reshape(-1), b[..., 1].reshape(-1)
+        # only edges facing the sensor can hold the nearest point of a convex body
+        front = (bx - ax) * (oy[mi] - ay) - (by - ay) * (ox[mi] - ax) <= 0.0
+        mi, ax, ay, bx, by = mi[front], ax[front], ay[front], bx[front], by[front]
+        d = _wedge_distance(ox[mi], oy[mi], normals[mi], ax, ay, bx, by)
+        np.minimum.at(best, mi, d)
+
+    # a mounting point inside a wall sees distance 0
+    if len(scene.wall_polygons):
+        wm, wi = robot_item_pairs(scene.wall_tree_boxes, scene.wall_boxes, robots, points)
+        if len(wm):
+            inside = shapely.contains_xy(scene.wall_polygons[wi], ox[wm], oy[wm])
+            best[wm[inside]] = 0.0
+    best[best > rng] = np.inf
+    return best
+
+
+def step_encoders(acc: FloatArray, rolled_m: FloatArray, ticks_per_m: FloatArray, slip: FloatArray) -> FloatArray:
+    """Advances wheel encoders by the distance each wheel rolled this tick.
+
+    Args:
+        acc: (N, 2) accumulated ticks so far.
+        rolled_m: (N, 2) signed distance each wheel rolled (its commanded motion, even if the body
+            was held by a collision: the wheels spin).
+        ticks_per_m: (N,) resolution.
+        slip: (N, 2) relative slip this tick (``mean + std * z``): the counted distance is
+            ``rolled * (1 + slip)``.
+
+    Returns:
+        (N, 2) the new accumulated ticks.
+    """
+    return np.asarray(acc + rolled_m * (1.0 + slip) * ticks_per_m[:, None], dtype=np.float64)
+
+
+def _ground(scene: Scene, bodies: Bodies, pose: FloatArray) -> IntArray:
+    out = np.full(len(pose), -1, dtype=np.int64)
+    if not scene.lab.targets or len(pose) == 0:
+        return out
+    t = scene.target_array  # (T, 3): x, y, radius
+    # a body can only be wholly inside a target whose radius covers the body's centre
+    ri, ti = scene.target_tree.query(shapely.points(pose[:, 0], pose[:, 1]))
+    centre = np.hypot(pose[ri, 0] - t[ti, 0], pose[ri, 1] - t[ti, 1])
+    ok = centre <= t[ti, 2]
+    ri, ti, centre = ri[ok], ti[ok], centre[ok]
+    if len(ri) == 0:
+        return out
+    corners = to_world(bodies.outline[ri], pose[ri, 0], pose[ri, 1], pose[ri, 2])
+    far = np.hypot(corners[..., 0] - t[ti, 0:1], corners[..., 1] - t[ti, 1:2]).max(axis=1)
+    far = np.where(bodies.is_circle[ri], centre + bodies.radius_m[ri], far)
+    ok = far <= t[ti, 2]
+    # the last target wins: write in target order so later ones overwrite earlier ones
+    order = np.argsort(ti[ok], kind="stable")
+    out[ri[ok][order]] = ti[ok][order]
+    return out
+
+
+def _beacons(
+    scene: Scene, pose: FloatArray, z: FloatArray, mean: FloatArray, std: FloatArray, aperture: float
+) -> FloatArray:
+    beacons = scene.lab.beacons
+    n = len(pose)
+    out = np.full((n, len(beacons)), np.nan)
+    for j, bc in enumerate(beacons):
+        dx = bc.x - pose[:, 0]
+        dy = bc.y - pose[:, 1]
+        true = np.degrees(np.arctan2(dy, dx) - pose[:, 2])
+        val = wrap_deg(true + mean + std * z[:, j])
+        lines = shapely.linestrings(np.stack([pose[:, :2], np.broadcast_to([bc.x, bc.y], (n, 2))], axis=1))
+        blocked = shapely.intersects(lines, scene.walls_at_least(bc.height_m))
+        visible = ~blocked & (np.abs(val) <= np.degrees(aperture))
+        out[:, j] = np.where(visible, val, np.nan)
+    return out
+
+
+def _bumpers(scene: Scene, bodies: Bodies, pose: FloatArray) -> BoolArray:
+    nb = len(bodies.bumper_owner)
+    if nb == 0:
+        return np.zeros(0, dtype=bool)
+    own = bodies.bumper_owner
+    bp = polygons_at(bodies.bumper_outline, pose[own])
+    out = np.zeros(nb, dtype=bool)
+    pw = scene.solid_tree.query(bp, predicate="intersects")
+    out[pw[0]] = True
+    others = polygons_at(bodies.outline, pose)
+    pr = STRtree(others).query(bp, predicate="intersects")
+    out[pr[0][pr[1] != own[pr[0]]]] = True
+    return out
+
+
+def read_sensors(
+    scene: Scene,
+    bodies: Bodies,
+    pose: FloatArray,
+    *,
+    collided: BoolArray,
+    encoder_acc: FloatArray,
+    rolled_m: FloatArray,
+    z: FloatArray,
+    params: SensorParams | None = None,
+) -> Readings:
+    """Computes every sensor of every robot for one tick.
+
+    Args:
+        scene: The lab's geometry.
+        bodies: The robots (N).
+        pose: (N, 3) committed poses.
+        collided: (N,) this tick's collision flags.
+        encoder_acc: (N, 2) encoder ticks accumulated before this tick.
+        rolled_m: (N, 2) distance each wheel rolled this tick.
+        z: This tick's standard normals in :func:`noise_layout` order (from each robot's own
+            sensor stream, e.g. a :class:`~iw_zenoh.core.noise.NoiseBank`).
+        params: Tick-wide settings.
+
+    Returns:
+        The readings.
+    """
+    p = params or SensorParams()
+    n = bodies.n
+    nbeac = len(scene.lab.beacons)
+    counts, starts = noise_layout(bodies, nbeac)
+    own = bodies.ir_owner
+    first = np.searchsorted(own, np.arange(n))
+    m_slot = starts[own] + (np.arange(len(own)) - first[own])
+    after = starts + counts - (1 + nbeac + 3 + 2)  # first slot after the proximity ones
+    z_comp = z[after]
+    z_beac = z[after[:, None] + 1 + np.arange(nbeac)[None, :]] if nbeac else np.zeros((n, 0))
+    z_gps = z[after[:, None] + 1 + nbeac + np.arange(3)[None, :]]
+    z_enc = z[after[:, None] + 4 + nbeac + np.arange(2)[None, :]]
+
+    nm, ns = bodies.noise_mean, bodies.noise_std
+    true_d = proximity_distances(scene, bodies, pose)
+    zm = z[m_slot]
+    prox = true_d + nm["proximity_m"][own] + ns["proximity_m"][own] * zm
+    prox = np.where(np.isfinite(true_d), np.maximum(prox, 0.0), np.inf)
+    legacy = legacy_ir_value(true_d, zm, ns["proximity_legacy"][own])
+    heading_deg = np.degrees(pose[:, 2])
+    compass = wrap_deg(heading_deg + nm["compass_deg"] + ns["compass_deg"] * z_comp)
+    beacon = _beacons(scene, pose, z_beac, nm["beacon_deg"], ns["beacon_deg"], p.beacon_aperture_rad)
+    gps = (
+        np.stack(
+            [
+                pose[:, 0] + p.gps_offset_m[0] + nm["gps_m"] + ns["gps_m"] * z_gps[:, 0],
+                pose[:, 1] + p.gps_offset_m[1] + nm["gps_m"] + ns["gps_m"] * z_gps[:, 1],
+                wrap_deg(heading_deg + nm["gps_heading_deg"] + ns["gps_heading_deg"] * z_gps[:, 2]),
+            ],
+            axis=1,
+        )
+        if n
+        else np.zeros((0, 3))
+    )
+    slip = nm["encoder_slip"][:, None] + ns["encoder_slip"][:, None] * z_enc
+    enc = step_encoders(encoder_acc, rolled_m, bodies.ticks_per_m, slip)
+    return Readings(
+        proximity_m=prox,
+        proximity_legacy=legacy,
+        compass_deg=compass,
+        beacon_deg=beacon,
+        gps=gps,
+        ground=_ground(scene, bodies, pose),
+        collision=np.asarray(collided, dtype=bool).copy(),
+        encoder_acc=enc,
+        bumpers=_bumpers(scene, bodies, pose),
+    )

@@ -1,0 +1,310 @@
+"""Robot registration specs: every field of the seed's Tables 4.3-4.5 and of Ciber-Rato, with
+their defaults and ranges.
+
+A value out of range raises :class:`~iw_zenoh.errors.SpecError` naming the field and the reason;
+nothing is clamped silently.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass, field, replace
+
+from iw_zenoh.errors import SpecError
+
+__all__ = [
+    "LEGACY_MAX_IR",
+    "NAME_MAX_CHARS",
+    "BodyShape",
+    "BumperSpec",
+    "EncoderSpec",
+    "IrSensorSpec",
+    "NoiseSpec",
+    "RobotSpec",
+    "RobotType",
+    "SensorNoise",
+    "default_ir_sensors",
+]
+
+NAME_MAX_CHARS = 20  # Table 4.3
+LEGACY_MAX_IR = 8  # Intellwheels registers at most 8 proximity sensors (ids 0..7)
+DEFAULT_IR_RANGE_M = 4.0  # choice: a sonar's useful range; the seed gives none
+
+
+class RobotType(enum.StrEnum):
+    """Who moves a robot: the world (Simulated, Door) or its own odometry (Real)."""
+
+    SIMULATED = "Simulated"
+    REAL = "Real"
+    DOOR = "Door"
+
+
+class BodyShape(enum.StrEnum):
+    """Rectangle (Intellwheels) or disc (Ciber-Rato)."""
+
+    RECT = "rect"
+    CIRCLE = "circle"
+
+
+def _finite(name: str, value: float) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise SpecError(name, f"must be a number, got {value!r}")
+    if not math.isfinite(value):
+        raise SpecError(name, f"must be a finite number, got {value!r}")
+    return float(value)
+
+
+def _positive(name: str, value: float) -> None:
+    if _finite(name, value) <= 0.0:
+        raise SpecError(name, f"must be > 0, got {value!r}")
+
+
+def _within(name: str, value: float, lo: float, hi: float, *, lo_open: bool, hi_open: bool) -> None:
+    v = _finite(name, value)
+    bad_lo = v <= lo if lo_open else v < lo
+    bad_hi = v >= hi if hi_open else v > hi
+    if bad_lo or bad_hi:
+        left = "]" if lo_open else "["
+        right = "[" if hi_open else "]"
+        raise SpecError(name, f"must be in {left}{lo:g};{hi:g}{right}, got {value!r}")
+
+
+@dataclass(frozen=True)
+class NoiseSpec:
+    """Additive Gaussian noise on one sensor: ``value + N(mean, std)`` when enabled.
+
+    Attributes:
+        mean: Bias, in the sensor's unit.
+        std: Standard deviation, in the sensor's unit, >= 0.
+        enabled: When false the sensor reads the true value.
+    """
+
+    mean: float = 0.0
+    std: float = 0.0
+    enabled: bool = True
+
+    def __post_init__(self) -> None:
+        _finite("noise.mean", self.mean)
+        if _finite("noise.std", self.std) < 0.0:
+            raise SpecError("noise.std", f"must be >= 0, got {self.std!r}")
+
+
+@dataclass(frozen=True)
+class SensorNoise:
+    """Noise of every sensor of one robot. Defaults follow Ciber-Rato's Table 3.1.
+
+    Attributes:
+        proximity_m: On proximity distances, metres.
+        proximity_legacy: On the legacy 1/d reading (Ciber-Rato ObstacleNoise).
+        compass_deg: On the compass heading.
+        beacon_deg: On beacon bearings.
+        gps_m: On GPS x and y.
+        gps_heading_deg: On the GPS heading.
+        encoder_slip: Relative wheel slip per tick (a fraction of the distance the wheel rolled).
+        motion: Relative noise on each wheel's speed (movement noise, off by default).
+    """
+
+    proximity_m: NoiseSpec = NoiseSpec(0.0, 0.01)
+    proximity_legacy: NoiseSpec = NoiseSpec(0.0, 0.1)
+    compass_deg: NoiseSpec = NoiseSpec(0.0, 2.0)
+    beacon_deg: NoiseSpec = NoiseSpec(0.0, 2.0)
+    gps_m: NoiseSpec = NoiseSpec(0.0, 0.5)
+    gps_heading_deg: NoiseSpec = NoiseSpec(0.0, 5.0)
+    encoder_slip: NoiseSpec = NoiseSpec(0.0, 0.02)
+    motion: NoiseSpec = NoiseSpec(0.0, 0.0, enabled=False)
+
+    @staticmethod
+    def off() -> SensorNoise:
+        """Every sensor exact and no movement noise."""
+        z = NoiseSpec(0.0, 0.0, enabled=False)
+        return SensorNoise(z, z, z, z, z, z, z, z)
+
+
+@dataclass(frozen=True)
+class IrSensorSpec:
+    """A proximity sensor (sonar or infrared) on a robot, Table 4.4.
+
+    Attributes:
+        id: Sensor id (0..7 for legacy registrations; any non-negative id natively).
+        x_m: Mounting x relative to the centre of movement, along the heading.
+        y_m: Mounting y relative to the centre of movement, to the left.
+        angle_deg: Looking direction relative to the heading, in [-180, 180].
+        cone_deg: Full opening angle, in ]0, 180[ (50-70 a sonar, 1-10 an IR sensor).
+        range_m: Farthest distance it reports; beyond it reads "nothing".
+    """
+
+    id: int
+    x_m: float = 0.0
+    y_m: float = 0.0
+    angle_deg: float = 0.0
+    cone_deg: float = 60.0
+    range_m: float = DEFAULT_IR_RANGE_M
+
+    def __post_init__(self) -> None:
+        if isinstance(self.id, bool) or not isinstance(self.id, int) or self.id < 0:
+            raise SpecError("ir.id", f"must be an integer >= 0, got {self.id!r}")
+        p = f"ir[{self.id}]"
+        _finite(f"{p}.x", self.x_m)
+        _finite(f"{p}.y", self.y_m)
+        _within(f"{p}.angle", self.angle_deg, -180.0, 180.0, lo_open=False, hi_open=False)
+        _within(f"{p}.cone", self.cone_deg, 0.0, 180.0, lo_open=True, hi_open=True)
+        _positive(f"{p}.range", self.range_m)
+
+
+@dataclass(frozen=True)
+class BumperSpec:
+    """A contact sensor: a polygon in the robot frame that reads yes when it touches anything.
+
+    Attributes:
+        id: Bumper id.
+        corners: Polygon vertices in the robot frame (metres), at least 3.
+    """
+
+    id: int
+    corners: tuple[tuple[float, float], ...]
+
+    def __post_init__(self) -> None:
+        if len(self.corners) < 3:
+            raise SpecError(f"bumper[{self.id}].corners", f"needs at least 3 corners, got {len(self.corners)}")
+        for i, (cx, cy) in enumerate(self.corners):
+            _finite(f"bumper[{self.id}].corners[{i}].x", cx)
+            _finite(f"bumper[{self.id}].corners[{i}].y", cy)
+
+
+@dataclass(frozen=True)
+class EncoderSpec:
+    """Wheel encoders.
+
+    Attributes:
+        ticks_per_m: Encoder ticks per metre a wheel rolls.
+    """
+
+    ticks_per_m: float = 2000.0
+
+    def __post_init__(self) -> None:
+        _positive("encoder.ticks_per_m", self.ticks_per_m)
+
+
+def default_ir_sensors(width_m: float, height_m: float, com: float) -> tuple[IrSensorSpec, ...]:
+    """The four sensors the seed places when none are registered (Table 4.5).
+
+    Args:
+        width_m: Body length along the heading.
+        height_m: Body size across the heading.
+        com: Centre of movement fraction.
+
+    Returns:
+        Sensors 0 (front), 1 (left), 2 (right), 3 (back), cone 60 degrees each.
+    """
+    return (
+        IrSensorSpec(0, width_m * com, 0.0, 0.0, 60.0),
+        IrSensorSpec(1, 0.0, 0.5 * height_m, 90.0, 60.0),
+        IrSensorSpec(2, 0.0, -0.5 * height_m, -90.0, 60.0),
+        IrSensorSpec(3, -width_m * (1.0 - com), 0.0, 180.0, 60.0),
+    )
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """A robot registration, Table 4.3 plus the native extensions.
+
+    Attributes:
+        name: Up to 20 characters.
+        id: Requested id; 0 asks the world for the first free grid slot.
+        type: Simulated, Real or Door.
+        shape: Rectangle or disc (Ciber-Rato's is 1 across); a disc's width and height are its
+            diameter.
+        width_m: Length along the heading, > 0.
+        height_m: Size across the heading and wheel base, > 0.
+        com: Centre of movement as a fraction of width from the rear, in ]0;1[.
+        x_m: Start x (> 0), or ``None`` for the grid position.
+        y_m: Start y (> 0), or ``None`` for the grid position.
+        dir_deg: Start heading in [-180;180], or ``None`` for the grid's.
+        max_speed_mps: Top speed at power 0.15 on both wheels, > 0.
+        acceleration_curve: Motor inertia, in ]0;1].
+        ir_sensors: Proximity sensors; empty means the four defaults of Table 4.5.
+        bumpers: Contact sensors.
+        encoder: Wheel encoder parameters.
+        noise: Sensor and movement noise.
+        legacy: A Ciber-Rato / Intellwheels registration: at most 8 sensors with ids 0..7.
+    """
+
+    name: str
+    id: int = 0
+    type: RobotType = RobotType.SIMULATED
+    shape: BodyShape = BodyShape.RECT
+    width_m: float = 1.0
+    height_m: float = 1.0
+    com: float = 0.5
+    x_m: float | None = None
+    y_m: float | None = None
+    dir_deg: float | None = None
+    max_speed_mps: float = 0.5
+    acceleration_curve: float = 0.5
+    ir_sensors: tuple[IrSensorSpec, ...] = ()
+    bumpers: tuple[BumperSpec, ...] = ()
+    encoder: EncoderSpec = field(default_factory=EncoderSpec)
+    noise: SensorNoise = field(default_factory=SensorNoise)
+    legacy: bool = False
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise SpecError("name", "is required: a non-empty string")
+        if len(self.name) > NAME_MAX_CHARS:
+            raise SpecError("name", f"must be at most {NAME_MAX_CHARS} characters, got {len(self.name)}")
+        if any(ord(c) < 32 for c in self.name):
+            raise SpecError("name", "must not contain control characters")
+        if isinstance(self.id, bool) or not isinstance(self.id, int) or self.id < 0:
+            raise SpecError("id", f"must be an integer >= 0 (0 = first free grid slot), got {self.id!r}")
+        try:
+            RobotType(self.type)
+        except ValueError:
+            raise SpecError("type", f"must be Simulated, Real or Door, got {self.type!r}") from None
+        try:
+            BodyShape(self.shape)
+        except ValueError:
+            raise SpecError("shape", f"must be rect or circle, got {self.shape!r}") from None
+        _positive("width", self.width_m)
+        _positive("height", self.height_m)
+        _within("com", self.com, 0.0, 1.0, lo_open=True, hi_open=True)
+        for name, v in (("x", self.x_m), ("y", self.y_m)):
+            if v is not None:
+                _positive(name, v)
+        if self.dir_deg is not None:
+            _within("dir", self.dir_deg, -180.0, 180.0, lo_open=False, hi_open=False)
+        _positive("max_speed", self.max_speed_mps)
+        _within("acceleration_curve", self.acceleration_curve, 0.0, 1.0, lo_open=True, hi_open=False)
+        ids = [s.id for s in self.ir_sensors]
+        if len(set(ids)) != len(ids):
+            raise SpecError("ir_sensors", f"sensor ids must be unique, got {ids}")
+        if self.legacy:
+            if len(self.ir_sensors) > LEGACY_MAX_IR:
+                raise SpecError(
+                    "ir_sensors", f"a legacy robot has at most {LEGACY_MAX_IR} sensors, got {len(self.ir_sensors)}"
+                )
+            bad = [i for i in ids if i >= LEGACY_MAX_IR]
+            if bad:
+                raise SpecError("ir_sensors", f"legacy sensor ids are 0..{LEGACY_MAX_IR - 1}, got {bad}")
+        if self.shape == BodyShape.CIRCLE and self.width_m != self.height_m:
+            raise SpecError(
+                "height",
+                f"a circle's width and height are its diameter and must match, "
+                f"got {self.width_m!r} and {self.height_m!r}",
+            )
+        if len({b.id for b in self.bumpers}) != len(self.bumpers):
+            raise SpecError("bumpers", "bumper ids must be unique")
+
+    @property
+    def sensors(self) -> tuple[IrSensorSpec, ...]:
+        """The proximity sensors in use: the registered ones, or Table 4.5's four defaults."""
+        return self.ir_sensors or default_ir_sensors(self.width_m, self.height_m, self.com)
+
+    @property
+    def wheel_base_m(self) -> float:
+        """Distance between the wheels: the body's height (across the heading)."""
+        return self.height_m
+
+    def placed(self, robot_id: int, x_m: float, y_m: float, dir_deg: float) -> RobotSpec:
+        """A copy with its id and start pose set (what the world answers a registration with)."""
+        return replace(self, id=robot_id, x_m=x_m, y_m=y_m, dir_deg=dir_deg)

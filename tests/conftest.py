@@ -1,0 +1,35 @@
+"""Shared fixtures: a seeded generator, a small map and its scene."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, settings
+
+from iw_zenoh.core.lab import Lab, Scene, Wall
+
+settings.register_profile("ci", deadline=None, suppress_health_check=[HealthCheck.too_slow])
+settings.load_profile("ci")
+
+
+def box_wall(x0: float, y0: float, x1: float, y1: float, height_m: float = 4.0) -> Wall:
+    """An axis-aligned rectangular wall."""
+    return Wall(((x0, y0), (x1, y0), (x1, y1), (x0, y1)), height_m)
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    """A seeded generator, the same in every run."""
+    return np.random.default_rng(20261122)
+
+
+@pytest.fixture
+def small_map() -> Lab:
+    """A 10 x 6 lab with one 1 x 1 pillar at (5..6, 2..3)."""
+    return Lab("small", 10.0, 6.0, (box_wall(5.0, 2.0, 6.0, 3.0),))
+
+
+@pytest.fixture
+def small_scene(small_map: Lab) -> Scene:
+    """The small map's geometry."""
+    return Scene(small_map)

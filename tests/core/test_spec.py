@@ -1,0 +1,103 @@
+from __future__ import annotations
+
+import pytest
+
+from iw_zenoh.core.spec import IrSensorSpec, RobotSpec, RobotType, default_ir_sensors
+from iw_zenoh.errors import SpecError
+
+
+def test_defaults_follow_table_4_3() -> None:
+    s = RobotSpec("chair")
+    assert (s.width_m, s.height_m, s.com) == (1.0, 1.0, 0.5)
+    assert (s.max_speed_mps, s.acceleration_curve) == (0.5, 0.5)
+    assert s.type == RobotType.SIMULATED
+    assert s.x_m is None
+    assert s.dir_deg is None
+
+
+def test_default_sensors_follow_table_4_5() -> None:
+    w, h, com = 1.04, 0.66, 0.81
+    got = RobotSpec("c", width_m=w, height_m=h, com=com).sensors
+    assert [(s.id, s.x_m, s.y_m, s.angle_deg, s.cone_deg) for s in got] == [
+        (0, w * com, 0.0, 0.0, 60.0),
+        (1, 0.0, 0.5 * h, 90.0, 60.0),
+        (2, 0.0, -0.5 * h, -90.0, 60.0),
+        (3, -w * (1 - com), 0.0, 180.0, 60.0),
+    ]
+    assert got == default_ir_sensors(w, h, com)
+
+
+def test_registered_sensors_replace_the_defaults() -> None:
+    mine = (IrSensorSpec(0, 0.72, 0.24, 0.0, 60.0),)
+    assert RobotSpec("c", ir_sensors=mine).sensors == mine
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"name": ""}, "name"),
+        ({"name": "x" * 21}, "name"),
+        ({"width_m": 0.0}, "width"),
+        ({"height_m": -1.0}, "height"),
+        ({"com": 0.0}, "com"),
+        ({"com": 1.0}, "com"),
+        ({"x_m": 0.0}, "x"),
+        ({"y_m": float("nan")}, "y"),
+        ({"dir_deg": 180.5}, "dir"),
+        ({"max_speed_mps": 0.0}, "max_speed"),
+        ({"acceleration_curve": 0.0}, "acceleration_curve"),
+        ({"acceleration_curve": 1.01}, "acceleration_curve"),
+        ({"id": -1}, "id"),
+        ({"type": "Flying"}, "type"),
+        ({"width_m": "wide"}, "width"),
+    ],
+)
+def test_out_of_range_fields_are_refused_with_the_field(kwargs: dict[str, object], field: str) -> None:
+    args: dict[str, object] = {"name": "chair", **kwargs}
+    with pytest.raises(SpecError) as e:
+        RobotSpec(**args)  # type: ignore[arg-type]
+    assert e.value.field == field
+    assert e.value.reason
+
+
+def test_acceleration_curve_of_one_is_allowed() -> None:
+    assert RobotSpec("c", acceleration_curve=1.0).acceleration_curve == 1.0
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"angle_deg": 181.0}, "ir[0].angle"),
+        ({"cone_deg": 0.0}, "ir[0].cone"),
+        ({"cone_deg": 180.0}, "ir[0].cone"),
+        ({"range_m": 0.0}, "ir[0].range"),
+    ],
+)
+def test_sensor_fields_are_refused(kwargs: dict[str, float], field: str) -> None:
+    with pytest.raises(SpecError) as e:
+        IrSensorSpec(0, **kwargs)
+    assert e.value.field == field
+
+
+def test_legacy_robots_have_at_most_eight_sensors_numbered_0_to_7() -> None:
+    eight = tuple(IrSensorSpec(i) for i in range(8))
+    assert len(RobotSpec("c", ir_sensors=eight, legacy=True).sensors) == 8
+    with pytest.raises(SpecError, match="at most 8"):
+        RobotSpec("c", ir_sensors=(*eight, IrSensorSpec(8)), legacy=True)
+    with pytest.raises(SpecError, match="0..7"):
+        RobotSpec("c", ir_sensors=(IrSensorSpec(9),), legacy=True)
+
+
+def test_native_robots_take_any_number_of_sensors() -> None:
+    many = tuple(IrSensorSpec(i) for i in range(32))
+    assert len(RobotSpec("c", ir_sensors=many).sensors) == 32
+
+
+def test_duplicate_sensor_ids_are_refused() -> None:
+    with pytest.raises(SpecError, match="unique"):
+        RobotSpec("c", ir_sensors=(IrSensorSpec(1), IrSensorSpec(1)))
+
+
+def test_a_circle_needs_equal_width_and_height() -> None:
+    with pytest.raises(SpecError, match="diameter"):
+        RobotSpec("c", shape="circle", width_m=1.0, height_m=0.5)  # type: ignore[arg-type]
