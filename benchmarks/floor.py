@@ -1,0 +1,84 @@
+"""A large floor crowded with chairs, shared by the benchmarks.
+
+The hospital floor (``maps/hospital.xml``) is repeated as a grid of wings, and chairs (the LIACC
+prototype: 1.04 x 0.66 m, eight 60-degree cones of 4 m) are put on free lattice points about a
+metre apart, in corridors and rooms alike, without touching walls or each other.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import shapely
+
+from iw_zenoh.core.bodies import Bodies
+from iw_zenoh.core.lab import Lab, Scene, tile_lab
+from iw_zenoh.core.spec import IrSensorSpec, RobotSpec
+from iw_zenoh.maps import load_lab
+
+HOSPITAL = Path(__file__).resolve().parents[1] / "maps" / "hospital.xml"
+CHAIRS_PER_WING = 100  # a wing is 40 x 20 m: one chair per 8 m^2 on average, ~1 m apart in crowds
+LATTICE_M = 1.25  # centre spacing of the lattice chairs stand on
+PROTOTYPE_SENSORS = tuple(
+    IrSensorSpec(i, x, y, a, 60.0, 4.0)
+    for i, (x, y, a) in enumerate(
+        [
+            (0.72, 0.24, 0),
+            (0.72, -0.24, 0),
+            (0.54, 0.24, 90),
+            (0.54, -0.24, -90),
+            (0.05, 0.28, 90),
+            (0.05, -0.28, -90),
+            (-0.03, 0.28, 180),
+            (-0.03, -0.28, 180),
+        ]
+    )
+)
+
+
+def chair(robot_id: int) -> RobotSpec:
+    """The LIACC prototype chair of the seed (section 5.4.4) with 4 m cones."""
+    return RobotSpec(
+        f"c{robot_id}",
+        id=robot_id,
+        width_m=1.04,
+        height_m=0.66,
+        com=0.81,
+        acceleration_curve=0.2,
+        ir_sensors=PROTOTYPE_SENSORS,
+    )
+
+
+def crowded_floor(n: int, seed: int = 1) -> tuple[Scene, Bodies, np.ndarray]:
+    """A floor of hospital wings holding ``n`` chairs.
+
+    Args:
+        n: Number of chairs.
+        seed: Seeds the choice of lattice points and headings.
+
+    Returns:
+        ``(scene, bodies, pose)`` with pose (n, 3).
+    """
+    wing = load_lab(HOSPITAL)
+    wings = max(1, math.ceil(n / CHAIRS_PER_WING))
+    cols = math.ceil(math.sqrt(wings * 2))  # wings are 2:1, so this keeps the floor squarish
+    rows = math.ceil(wings / cols)
+    lab: Lab = tile_lab(wing, cols, rows)
+    scene = Scene(lab)
+    g = np.random.default_rng(seed)
+    xs = np.arange(LATTICE_M / 2 + 0.3, lab.width_m - 0.6, LATTICE_M)
+    ys = np.arange(LATTICE_M / 2 + 0.3, lab.height_m - 0.6, LATTICE_M)
+    pts = np.array([(x, y) for y in ys for x in xs])
+    heading = g.choice([0.0, math.pi / 2, math.pi, -math.pi / 2], size=len(pts)) + g.uniform(-0.2, 0.2, len(pts))
+    bodies_all = Bodies.from_specs([chair(1)] * len(pts))
+    pose_all = np.column_stack([pts, heading])
+    polys = shapely.polygons(bodies_all.world_outline(pose_all))
+    free = ~np.isin(np.arange(len(pts)), scene.solid_tree.query(polys, predicate="intersects")[0])
+    candidates = np.flatnonzero(free)
+    if len(candidates) < n:
+        raise ValueError(f"only {len(candidates)} free places for {n} chairs")
+    pick = np.sort(g.choice(candidates, size=n, replace=False))
+    bodies = Bodies.from_specs([chair(i + 1) for i in range(n)])
+    return scene, bodies, pose_all[pick]
