@@ -87,6 +87,7 @@ def check_collisions(
     pose_next: FloatArray,
     *,
     active: BoolArray | None = None,
+    ignore_walls: BoolArray | None = None,
 ) -> Collisions:
     """Checks every robot's next pose against the walls and the other robots.
 
@@ -99,6 +100,8 @@ def check_collisions(
         pose_now: Current poses, (N, 3).
         pose_next: Proposed poses, (N, 3).
         active: (N,) robots that take part (default all); inactive ones neither hit nor are hit.
+        ignore_walls: (N,) robots that pass through walls and the border (doors: they are hung
+            in a wall), still hitting robots.
 
     Returns:
         The collisions, by robot index.
@@ -109,6 +112,7 @@ def check_collisions(
         return Collisions.none(0)
     act = np.ones(n, dtype=bool) if active is None else np.asarray(active, dtype=bool)
     idx = np.flatnonzero(act)
+    wall_free = np.zeros(len(idx), dtype=bool) if ignore_walls is None else np.asarray(ignore_walls, dtype=bool)[idx]
     o = outline[idx]
     now, nxt = pose_now[idx], pose_next[idx]
     mid = interpolate_pose(now, nxt, 0.5)
@@ -137,6 +141,8 @@ def check_collisions(
     nw = len(scene.lab.walls)
     if nw:
         ri, wi = scene.wall_tree_boxes.query(shapes)
+        keep = ~wall_free[ri]
+        ri, wi = ri[keep], wi[keep]
         if len(ri):
             wp = scene.wall_polygons[wi]
             hit = shapely.intersects(poly("next", c_next, ri), wp)
@@ -153,7 +159,7 @@ def check_collisions(
         | (c_next[..., 1].min(axis=1) < 0.0)
         | (c_next[..., 0].max(axis=1) > scene.lab.width_m)
         | (c_next[..., 1].max(axis=1) > scene.lab.height_m)
-    )
+    ) & ~wall_free
     border = np.stack([np.flatnonzero(outside), np.full(int(outside.sum()), nw)], axis=1).astype(np.int64)
     walls = _union(walls, border, nw + 1)
 

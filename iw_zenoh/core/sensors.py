@@ -220,13 +220,15 @@ def _inside_convex(px: FloatArray, py: FloatArray, poly: FloatArray) -> BoolArra
     return np.asarray(np.all(cross >= 0.0, axis=1), dtype=bool)
 
 
-def proximity_distances(scene: Scene, bodies: Bodies, pose: FloatArray) -> FloatArray:
+def proximity_distances(scene: Scene, bodies: Bodies, pose: FloatArray, *, only: BoolArray | None = None) -> FloatArray:
     """The true distance seen by every proximity cone of every robot.
 
     Args:
         scene: The lab's geometry.
         bodies: The robots.
         pose: (N, 3) poses.
+        only: (N,) compute the sensors of these robots only (a sensor shard); every robot is
+            still an obstacle to them. The others read ``inf``.
 
     Returns:
         (M,) distance from each sensor's mounting point to the nearest point of a wall, the border
@@ -235,20 +237,35 @@ def proximity_distances(scene: Scene, bodies: Bodies, pose: FloatArray) -> Float
     m = len(bodies.ir_owner)
     if m == 0:
         return np.zeros(0)
+    if only is not None and not np.all(only):
+        sel = np.asarray(only, dtype=bool)[bodies.ir_owner]
+        out = np.full(m, np.inf)
+        if sel.any():
+            out[sel] = _proximity(scene, bodies, pose, np.flatnonzero(sel))
+        return out
+    return _proximity(scene, bodies, pose, np.arange(m))
+
+
+def _proximity(scene: Scene, bodies: Bodies, pose: FloatArray, sensors: IntArray) -> FloatArray:
+    m = len(sensors)
     n = bodies.n
-    own = bodies.ir_owner
+    own = bodies.ir_owner[sensors]
     c, s = np.cos(pose[own, 2]), np.sin(pose[own, 2])
-    lx, ly = bodies.ir_xy[:, 0], bodies.ir_xy[:, 1]
+    lx, ly = bodies.ir_xy[sensors, 0], bodies.ir_xy[sensors, 1]
     ox = pose[own, 0] + c * lx - s * ly
     oy = pose[own, 1] + s * lx + c * ly
-    phi = pose[own, 2] + bodies.ir_angle_rad
-    half = bodies.ir_half_cone_rad
-    rng = bodies.ir_range_m
+    phi = pose[own, 2] + bodies.ir_angle_rad[sensors]
+    half = bodies.ir_half_cone_rad[sensors]
+    rng = bodies.ir_range_m[sensors]
     normals = _wedge_normals(phi, half)
     lo, hi = _wedge_bounds(ox, oy, phi, half, rng, normals)
-    wedges = SlotBoxes(lo, hi, bodies.ir_slots)
+    # slots of the selected sensors: position in ``sensors`` (or -1)
+    where = np.full(len(bodies.ir_owner), -1, dtype=np.int64)
+    where[sensors] = np.arange(m)
+    slots = np.where(bodies.ir_slots >= 0, where[np.maximum(bodies.ir_slots, 0)], -1)
+    wedges = SlotBoxes(lo, hi, slots)
     origin_xy = np.stack([ox, oy], axis=1)
-    points = SlotBoxes(origin_xy, origin_xy, bodies.ir_slots)
+    points = SlotBoxes(origin_xy, origin_xy, slots)
     count = np.bincount(own, minlength=n).astype(np.int64)
     first = np.searchsorted(own, np.arange(n)).astype(np.int64)
     has = count > 0
@@ -257,6 +274,7 @@ def proximity_distances(scene: Scene, bodies: Bodies, pose: FloatArray) -> Float
     rlo[has] = np.minimum.reduceat(lo, first[has], axis=0)
     rhi[has] = np.maximum.reduceat(hi, first[has], axis=0)
     robots = Boxes(rlo, rhi).shapes()
+    robots[~has] = None  # robots with no selected sensor query nothing
     best = np.full(m, np.inf)
 
     segs = scene.segments
@@ -391,6 +409,7 @@ def read_sensors(
     rolled_m: FloatArray,
     z: FloatArray,
     params: SensorParams | None = None,
+    only: BoolArray | None = None,
 ) -> Readings:
     """Computes every sensor of every robot for one tick.
 
@@ -404,6 +423,7 @@ def read_sensors(
         z: This tick's standard normals in :func:`noise_layout` order (from each robot's own
             sensor stream, e.g. a :class:`~iw_zenoh.core.noise.NoiseBank`).
         params: Tick-wide settings.
+        only: (N,) robots whose proximity sensors to compute (a shard); others read ``inf``.
 
     Returns:
         The readings.
@@ -422,7 +442,7 @@ def read_sensors(
     z_enc = z[after[:, None] + 4 + nbeac + np.arange(2)[None, :]]
 
     nm, ns = bodies.noise_mean, bodies.noise_std
-    true_d = proximity_distances(scene, bodies, pose)
+    true_d = proximity_distances(scene, bodies, pose, only=only)
     zm = z[m_slot]
     prox = true_d + nm["proximity_m"][own] + ns["proximity_m"][own] * zm
     prox = np.where(np.isfinite(true_d), np.maximum(prox, 0.0), np.inf)

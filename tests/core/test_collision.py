@@ -124,3 +124,20 @@ def test_ciberrato_flags_only_the_robot_moving_towards_the_other() -> None:
     assert c.collided.tolist() == [True, False]
     backing = check_collisions_ciberrato(scene, now, nxt, np.array([-0.1, 0.0]))
     assert backing.collided.tolist() == [False, False]
+
+
+def test_doors_pass_walls_but_still_hit_robots(small_scene: Scene) -> None:
+    b = _bodies(2)
+    now = np.array([[4.45, 2.5, 0.0], [2.0, 5.0, 0.0]])
+    nxt = np.array([[4.55, 2.5, 0.0], [2.0, 5.0, 0.0]])
+    free = check_collisions(small_scene, b.outline, now, nxt, ignore_walls=np.array([True, False]))
+    assert not free.collided.any()
+    on_robot = np.array([[2.9, 5.0, 0.0], [2.0, 5.0, 0.0]])
+    hit = check_collisions(
+        small_scene,
+        b.outline,
+        np.array([[2.5, 5.0, 0.0], [1.0, 5.0, 0.0]]),
+        on_robot,
+        ignore_walls=np.array([True, False]),
+    )
+    assert hit.hit_robot.tolist() == [True, True]

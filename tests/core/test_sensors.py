@@ -296,3 +296,15 @@ def test_a_sensor_inside_a_wall_or_another_body_reads_zero() -> None:
     )
     d = proximity_distances(scene, b, np.array([[10.0, 10.0, 0.0], [3.0, 3.0, 0.0], [3.2, 3.0, 1.0]]))
     assert d[:2].tolist() == [0.0, 0.0]
+
+
+@settings(max_examples=20)
+@given(st.integers(0, 2**32 - 1))
+def test_a_shard_reads_what_the_whole_reads_for_its_robots(seed: int) -> None:
+    scene, bodies, pose = _random_world(seed)
+    whole = proximity_distances(scene, bodies, pose)
+    only = np.arange(bodies.n) % 2 == 0
+    part = proximity_distances(scene, bodies, pose, only=only)
+    mine = only[bodies.ir_owner]
+    np.testing.assert_array_equal(part[mine], whole[mine])
+    assert np.isinf(part[~mine]).all()
