@@ -1,0 +1,192 @@
+"""``iwz agent waypoint``: drives through waypoints from its GPS pose, avoiding obstacles its
+proximity sensors see.
+
+Steering: point at the next waypoint; when something is nearer than the safety distance ahead,
+slow down and bias the heading towards the freer side. A waypoint counts as reached within the
+tolerance; at the last one the chair stops and stays stopped.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from iw_zenoh.agent import Command
+from iw_zenoh.core.spec import IrSensorSpec, NoiseSpec, RobotSpec, SensorNoise
+from iw_zenoh.messages import Heard, SensorReading
+
+__all__ = ["PROTOTYPE_SENSORS", "WaypointDriver", "add_arguments", "make", "parse_points"]
+
+MAX_POWER = 0.15
+STOP_M = 0.25  # stop when something is this near ahead
+SIDE_M = 0.2  # keep this far off things beside
+TURN_POWER = 0.04  # power difference at full turn
+BACK_TICKS = 5  # after a collision, back off this many ticks
+BACK_POWER = 0.05
+PROTOTYPE_SENSORS = tuple(
+    IrSensorSpec(i, x, y, a, 60.0, 3.0)
+    for i, (x, y, a) in enumerate(
+        [
+            (0.72, 0.24, 0),
+            (0.72, -0.24, 0),
+            (0.54, 0.24, 90),
+            (0.54, -0.24, -90),
+            (0.05, 0.28, 90),
+            (0.05, -0.28, -90),
+            (-0.03, 0.28, 180),
+            (-0.03, -0.28, 180),
+        ]
+    )
+)
+FINE_GPS = SensorNoise(gps_m=NoiseSpec(0.0, 0.02), gps_heading_deg=NoiseSpec(0.0, 0.5))
+
+
+def prototype_chair(name: str, **kw: object) -> RobotSpec:
+    """The LIACC prototype chair (section 5.4.4) with a fine GPS (a localised chair)."""
+    args: dict[str, object] = {
+        "width_m": 1.04,
+        "height_m": 0.66,
+        "com": 0.81,
+        "max_speed_mps": 0.5,
+        "acceleration_curve": 0.2,
+        "ir_sensors": PROTOTYPE_SENSORS,
+        "noise": FINE_GPS,
+    }
+    args.update(kw)
+    return RobotSpec(name, **args)  # type: ignore[arg-type]
+
+
+class WaypointDriver:
+    """Follows waypoints with reactive obstacle avoidance.
+
+    Args:
+        spec: The robot.
+        waypoints: (x, y) points in order, metres.
+        tolerance_m: A waypoint is reached this near.
+        safety_m: Avoid what is nearer than this ahead.
+        speed: Cruise power in (0, 0.15].
+    """
+
+    def __init__(
+        self,
+        spec: RobotSpec,
+        waypoints: list[tuple[float, float]],
+        *,
+        tolerance_m: float = 0.3,
+        safety_m: float = 0.45,
+        speed: float = 0.1,
+    ) -> None:
+        self._spec = spec
+        self.waypoints = list(waypoints)
+        self.tolerance_m = tolerance_m
+        self.safety_m = safety_m
+        self.speed = speed
+        self.index = 0
+        self.backing = 0
+        self._angles = {s.id: s.angle_deg for s in spec.sensors}
+        self._lateral = {s.id: s.y_m for s in spec.sensors}
+
+    def spec(self) -> RobotSpec:
+        """The robot to register."""
+        return self._spec
+
+    @property
+    def done(self) -> bool:
+        """Whether the last waypoint was reached."""
+        return self.index >= len(self.waypoints)
+
+    def on_sensors(self, reading: SensorReading, heard: list[Heard]) -> Command:
+        """Steer to the next waypoint; slow and swerve for what is in the way."""
+        x, y, hdg = reading.gps
+        while (
+            not self.done
+            and math.hypot(self.waypoints[self.index][0] - x, self.waypoints[self.index][1] - y) < self.tolerance_m
+        ):
+            self.index += 1
+        if self.done:
+            return Command(0.0, 0.0)
+        if reading.collision:
+            self.backing = BACK_TICKS
+        if self.backing > 0:
+            self.backing -= 1
+            return Command(-BACK_POWER, -BACK_POWER)
+        tx, ty = self.waypoints[self.index]
+        err = math.remainder(math.degrees(math.atan2(ty - y, tx - x)) - hdg, 360.0)
+        ahead_l = self._nearest(-35, 35, reading, side=1)
+        ahead_r = self._nearest(-35, 35, reading, side=-1)
+        ahead = min(ahead_l, ahead_r)
+        left = self._nearest(35, 135, reading)
+        right = self._nearest(-135, -35, reading)
+        # cones are wide: a wall beside the path reads about half a metre when driving along it,
+        # so brake between STOP and safety only, and swerve away from the nearer front corner
+        speed = self.speed * min(1.0, max(0.0, (ahead - STOP_M) / (self.safety_m - STOP_M)))
+        if ahead < self.safety_m and abs(err) < 15.0:
+            err += -20.0 if ahead_l < ahead_r else 20.0
+        if left < SIDE_M:
+            err -= 10.0
+        if right < SIDE_M:
+            err += 10.0
+        turn = max(-1.0, min(1.0, err / 30.0))
+        if abs(err) > 20.0:
+            speed = 0.0  # turn on the spot first
+        left_p = speed - TURN_POWER * turn
+        right_p = speed + TURN_POWER * turn
+        return Command(max(-MAX_POWER, min(MAX_POWER, left_p)), max(-MAX_POWER, min(MAX_POWER, right_p)))
+
+    def _nearest(self, lo: float, hi: float, reading: SensorReading, side: int = 0) -> float:
+        """Nearest reading of the sensors looking between ``lo`` and ``hi`` degrees (and mounted
+        on the left, side 1, or right, side -1, of the axis when asked)."""
+        ds = [
+            d
+            for i, d in zip(reading.proximity_ids, reading.proximity_m, strict=True)
+            if d is not None
+            and lo <= self._angles.get(i, 0.0) <= hi
+            and (side == 0 or (self._lateral.get(i, 0.0) >= 0.0) == (side > 0))
+        ]
+        return min(ds, default=math.inf)
+
+
+def parse_points(text: str) -> list[tuple[float, float]]:
+    """Parses ``x,y;x,y;...``.
+
+    Raises:
+        ValueError: Saying what the form is.
+    """
+    out: list[tuple[float, float]] = []
+    for part in text.split(";"):
+        if not part.strip():
+            continue
+        xs = part.split(",")
+        if len(xs) != 2:
+            raise ValueError(f"waypoints are x,y;x,y;... got {part!r}")
+        out.append((float(xs[0]), float(xs[1])))
+    if not out:
+        raise ValueError("give at least one waypoint, e.g. --waypoints '20,6.1'")
+    return out
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """Options of ``iwz agent waypoint``."""
+    p.add_argument("--waypoints", required=True, help="x,y;x,y;... in metres")
+    p.add_argument("--robot-name", default="chair", help="robot name (default chair)")
+    p.add_argument("--id", type=int, default=0, help="robot id to ask for (default: first free grid slot)")
+    p.add_argument("--start", default="", help="start pose x,y,dir_deg (default: the grid position of its id)")
+    p.add_argument("--tolerance", type=float, default=0.3, help="a waypoint is reached this near, m (default 0.3)")
+    p.add_argument(
+        "--safety", type=float, default=0.45, help="slow down for what is nearer than this ahead, m (default 0.45)"
+    )
+    p.add_argument("--speed", type=float, default=0.1, help="cruise power, at most 0.15 (default 0.1)")
+
+
+def make(args: argparse.Namespace) -> list[WaypointDriver]:
+    """The agent the arguments ask for."""
+    kw: dict[str, object] = {"id": args.id}
+    if args.start:
+        x, y, d = (float(v) for v in args.start.split(","))
+        kw.update(x_m=x, y_m=y, dir_deg=d)
+    spec = prototype_chair(args.robot_name, **kw)
+    return [
+        WaypointDriver(
+            spec, parse_points(args.waypoints), tolerance_m=args.tolerance, safety_m=args.safety, speed=args.speed
+        )
+    ]

@@ -1,0 +1,230 @@
+"""Writing an agent: a policy from readings to commands, and the host that runs many of them.
+
+An agent is any object with ``spec()`` and ``on_sensors(reading, heard)``::
+
+    class Forward:
+        def spec(self) -> RobotSpec:
+            return RobotSpec("fwd")
+        def on_sensors(self, reading: SensorReading, heard: list[Heard]) -> Command:
+            return Command(0.1, 0.1)
+
+An :class:`AgentHost` registers every agent's robot with the world, hands each one its readings
+(and what its robot heard on the radio) every tick, and publishes its actions and messages. One
+process may host any number of agents; in lock-step the host answers a tick once every robot's
+readings (and the radio's batch) for it have arrived.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+from typing import Protocol
+
+from iw_zenoh import keys
+from iw_zenoh.bus import Bus
+from iw_zenoh.core.spec import RobotSpec
+from iw_zenoh.errors import IwError
+from iw_zenoh.messages import (
+    Actions,
+    Heard,
+    PoseReport,
+    RadioBatch,
+    RegisterReply,
+    RegisterRequest,
+    Say,
+    SensorReading,
+    Tick,
+    decode,
+    encode,
+    spec_from_msg,
+    spec_to_msg,
+)
+from iw_zenoh.nodes.base import NodeIO
+
+__all__ = ["Agent", "AgentHost", "Command", "RegistrationRefused"]
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Command:
+    """What an agent does this tick.
+
+    Attributes:
+        left: Left motor power, [-0.15, 0.15] (the world clamps).
+        right: Right motor power.
+        say: A radio message (at most 100 bytes), or None.
+        end_led: Ciber-Rato's end LED (and the other two).
+        pose: For Real robots: the pose (x, y, dir_deg) from the robot's own odometry.
+    """
+
+    left: float = 0.0
+    right: float = 0.0
+    say: str | None = None
+    end_led: bool = False
+    returning_led: bool = False
+    visiting_led: bool = False
+    pose: tuple[float, float, float] | None = None
+
+
+class Agent(Protocol):
+    """A robot's controller."""
+
+    def spec(self) -> RobotSpec:
+        """The robot to register."""
+
+    def on_sensors(self, reading: SensorReading, heard: list[Heard]) -> Command:
+        """This tick's command, from this tick's readings and what was heard."""
+
+
+class RegistrationRefused(IwError):
+    """The world refused a robot; the message says why."""
+
+
+@dataclass
+class _Hosted:
+    agent: Agent
+    robot_id: int
+    spec: RobotSpec
+    reading: SensorReading | None = None
+    answered: int = -1
+    extra: dict[str, object] = field(default_factory=dict)
+
+
+class AgentHost:
+    """Runs agents on the bus.
+
+    Args:
+        bus: The bus.
+        sim: Simulation name.
+        name: This process's agent name (its liveliness token; the world stops its robots when
+            the token goes).
+    """
+
+    def __init__(self, bus: Bus, sim: str, name: str) -> None:
+        self.io = NodeIO(bus, sim, "agent", name)
+        self.sim = sim
+        self.name = name
+        self.hosted: dict[int, _Hosted] = {}
+        self.readings = self.io.inbox(keys.all_sensors(sim))
+        self.radio = self.io.inbox(keys.radio(sim))
+        self.ticks = self.io.inbox(keys.tick(sim), maxlen=1)
+        self.radio_alive: set[str] = set()
+        self._heard: dict[int, dict[int, list[Heard]]] = {}
+        self.lockstep = False
+        bus.watch_alive(keys.all_alive(sim), self._on_alive)
+        self.io.alive()
+
+    def _on_alive(self, key: str, alive: bool) -> None:
+        parts = keys.alive_parts(key)
+        if parts and parts[0] == "radio":
+            (self.radio_alive.add if alive else self.radio_alive.discard)(parts[1])
+
+    def add(self, agent: Agent, *, timeout_s: float = 15.0) -> int:
+        """Registers an agent's robot; returns its id.
+
+        Raises:
+            RegistrationRefused: With the world's reason, or when no world answers.
+        """
+        req = RegisterRequest(spec=spec_to_msg(agent.spec()), agent=self.name)
+        deadline = time.monotonic() + timeout_s
+        answers: list[bytes] = []
+        while not answers and time.monotonic() < deadline and not self.io.stop.is_set():
+            # the world may still be starting: ask again until it answers
+            answers = self.io.bus.query(keys.register(self.sim), encode(req), timeout_s=min(1.0, timeout_s))
+            if not answers:
+                self.io.stop.wait(0.2)
+        if not answers:
+            raise RegistrationRefused(
+                f"no world answered on {keys.register(self.sim)} within {timeout_s:g} s; "
+                f"is `iwz world` running with --sim {self.sim}?"
+            )
+        reply = decode(answers[0], RegisterReply)
+        if not reply.ok or reply.spec is None:
+            raise RegistrationRefused(reply.reason)
+        spec = spec_from_msg(reply.spec)
+        self.hosted[reply.robot_id] = _Hosted(agent, reply.robot_id, spec)
+        on_reg = getattr(agent, "on_registered", None)
+        if callable(on_reg):
+            on_reg(reply.robot_id, spec)
+        return reply.robot_id
+
+    def _collect(self) -> None:
+        for d in self.ticks.drain():
+            t = self.io.decode(d, Tick)
+            if t is not None:
+                self.lockstep = t.mode == "lockstep"
+        for d in self.radio.drain():
+            b = self.io.decode(d, RadioBatch)
+            if b is not None:
+                self._heard[b.tick] = {h.robot_id: h.messages for h in b.hear}
+        for d in self.readings.drain():
+            rid = keys.robot_id_of(d[0])
+            h = self.hosted.get(rid) if rid is not None else None
+            if h is None:
+                continue
+            r = self.io.decode(d, SensorReading)
+            if r is not None and r.robot_id == rid and (h.reading is None or r.tick > h.reading.tick):
+                h.reading = r
+
+    def _ready(self) -> int | None:
+        """The tick to answer now, or None."""
+        fresh = [h.reading.tick for h in self.hosted.values() if h.reading is not None and h.reading.tick > h.answered]
+        if not fresh:
+            return None
+        n = max(fresh)
+        if self.lockstep:
+            if any(h.reading is None or h.reading.tick < n for h in self.hosted.values()):
+                return None  # wait for every robot's readings of tick n
+            if self.radio_alive and n not in self._heard:
+                return None  # and for the radio's batch, so heard messages are the same every run
+        return n
+
+    def step(self, timeout_s: float = 0.2) -> bool:
+        """Answers the newest tick if ready; waits up to ``timeout_s`` for input otherwise."""
+        self._collect()
+        n = self._ready()
+        if n is None:
+            self.io.wait(timeout_s)
+            self._collect()
+            n = self._ready()
+            if n is None:
+                return False
+        heard_now = self._heard.get(n, {})
+        for h in self.hosted.values():
+            r = h.reading
+            if r is None or r.tick <= h.answered:
+                continue
+            cmd = h.agent.on_sensors(r, heard_now.get(h.robot_id, []))
+            if cmd.say is not None:
+                self.io.send(
+                    keys.say(self.sim, h.robot_id),
+                    Say(tick=r.tick, sim_time_ns=r.sim_time_ns, robot_id=h.robot_id, text=cmd.say),
+                )
+            if cmd.pose is not None:
+                x, y, d = cmd.pose
+                self.io.send(
+                    keys.pose_report(self.sim, h.robot_id),
+                    PoseReport(tick=r.tick, sim_time_ns=r.sim_time_ns, robot_id=h.robot_id, x=x, y=y, dir_deg=d),
+                )
+            act = Actions(
+                tick=r.tick,
+                sim_time_ns=r.sim_time_ns,
+                robot_id=h.robot_id,
+                left=cmd.left,
+                right=cmd.right,
+                end_led=cmd.end_led,
+                returning_led=cmd.returning_led,
+                visiting_led=cmd.visiting_led,
+            )
+            self.io.send(keys.actions(self.sim, h.robot_id), act)
+            h.answered = r.tick
+        for t in [t for t in self._heard if t <= n]:
+            del self._heard[t]
+        return True
+
+    def run(self) -> None:
+        """Answers ticks until stopped."""
+        while not self.io.stop.is_set():
+            self.step()

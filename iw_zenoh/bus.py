@@ -1,0 +1,228 @@
+"""The message bus every node talks through: a small protocol, and its Zenoh implementation.
+
+Nodes never call Zenoh directly. Subscriptions deliver ``(key, payload, receive_ns)`` into an
+:class:`Inbox` (a thread-safe queue the node drains in its own loop: Zenoh's callbacks only
+append). Queries to a queryable land in a :class:`QueryInbox` the node answers from its loop.
+Everything is published with congestion control BLOCK: nothing that must arrive is dropped.
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+import threading
+import time
+from collections.abc import Callable
+from typing import Protocol
+
+import zenoh
+
+from iw_zenoh.net import NetConfig, zenoh_config
+
+__all__ = ["Bus", "Delivery", "Handle", "Inbox", "PendingQuery", "QueryInbox", "ZenohBus"]
+
+logger = logging.getLogger(__name__)
+
+Delivery = tuple[str, bytes, int]  # key, payload, receive time (ns, wall clock)
+
+
+class Handle(Protocol):
+    """Something declared on the bus that can be undeclared."""
+
+    def undeclare(self) -> None:
+        """Stops it."""
+
+
+class Inbox:
+    """A thread-safe FIFO of deliveries, filled by the bus, drained by one node loop.
+
+    Args:
+        maxlen: Keep only the newest ``maxlen`` deliveries (``None``: keep all).
+        wake: An event set on every delivery (one node loop waits on one event for all inboxes).
+    """
+
+    def __init__(self, maxlen: int | None = None, wake: threading.Event | None = None) -> None:
+        self._q: collections.deque[Delivery] = collections.deque(maxlen=maxlen)
+        self._cv = threading.Condition()
+        self._wake = wake
+        self.received = 0
+
+    def put(self, item: Delivery) -> None:
+        """Adds a delivery (called from the bus's thread)."""
+        with self._cv:
+            self._q.append(item)
+            self.received += 1
+            self._cv.notify_all()
+        if self._wake is not None:
+            self._wake.set()
+
+    def get(self, timeout_s: float | None = None) -> Delivery | None:
+        """The oldest delivery, waiting up to ``timeout_s`` (``None``: forever); ``None`` on timeout."""
+        with self._cv:
+            if not self._q and not self._cv.wait_for(lambda: bool(self._q), timeout=timeout_s):
+                return None
+            return self._q.popleft()
+
+    def drain(self) -> list[Delivery]:
+        """Every delivery waiting now, oldest first."""
+        with self._cv:
+            out = list(self._q)
+            self._q.clear()
+            return out
+
+    def wait(self, timeout_s: float) -> bool:
+        """Waits until something is waiting; False on timeout."""
+        with self._cv:
+            return self._cv.wait_for(lambda: bool(self._q), timeout=timeout_s)
+
+    def __len__(self) -> int:
+        with self._cv:
+            return len(self._q)
+
+
+class PendingQuery:
+    """A query waiting for its answer."""
+
+    def __init__(self, key: str, payload: bytes, reply: Callable[[bytes], None]) -> None:
+        self.key = key
+        self.payload = payload
+        self._reply = reply
+
+    def reply(self, data: bytes) -> None:
+        """Answers the query (once)."""
+        self._reply(data)
+
+
+class QueryInbox(Protocol):
+    """Queries to one queryable, answered from the node's loop."""
+
+    def poll(self) -> list[PendingQuery]:
+        """Every query waiting now."""
+
+    def undeclare(self) -> None:
+        """Stops serving."""
+
+
+class Bus(Protocol):
+    """What a node needs from the network."""
+
+    def publish(self, key: str, data: bytes) -> None:
+        """Publishes one payload on a key (never dropped)."""
+
+    def subscribe(self, key_expr: str, inbox: Inbox) -> Handle:
+        """Delivers every payload matching ``key_expr`` into ``inbox``."""
+
+    def serve(self, key: str) -> QueryInbox:
+        """Declares a queryable on ``key``."""
+
+    def query(self, key: str, payload: bytes = b"", timeout_s: float = 2.0) -> list[bytes]:
+        """Asks every queryable matching ``key``; their answers (possibly none)."""
+
+    def token(self, key: str) -> Handle:
+        """Declares a liveliness token that lives as long as the process."""
+
+    def watch_alive(self, key_expr: str, on_change: Callable[[str, bool], None]) -> Handle:
+        """Calls ``on_change(key, alive)`` for every token matching (current ones first)."""
+
+    def close(self) -> None:
+        """Closes everything."""
+
+
+class _ZenohQueryInbox:
+    def __init__(self, session: zenoh.Session, key: str) -> None:
+        self._key = key
+        self._q = session.declare_queryable(key, zenoh.handlers.FifoChannel(256))
+
+    def poll(self) -> list[PendingQuery]:
+        out: list[PendingQuery] = []
+        while True:
+            q = self._q.try_recv()
+            if q is None:
+                return out
+            payload = q.payload.to_bytes() if q.payload is not None else b""
+
+            def reply(data: bytes, q: zenoh.Query = q) -> None:
+                try:
+                    q.reply(self._key, data)
+                finally:
+                    q.drop()  # type: ignore[no-untyped-call]
+
+            out.append(PendingQuery(str(q.key_expr), payload, reply))
+
+    def undeclare(self) -> None:
+        self._q.undeclare()  # type: ignore[no-untyped-call]
+
+
+class ZenohBus:
+    """The bus over a real Zenoh session.
+
+    Args:
+        net: How to join (default: client of the local router).
+    """
+
+    def __init__(self, net: NetConfig | None = None) -> None:
+        self.net = net or NetConfig()
+        self.session = zenoh.open(zenoh_config(self.net))
+        self._pubs: dict[str, zenoh.Publisher] = {}
+        self._lock = threading.Lock()
+        self._handles: list[Handle] = []
+
+    def publish(self, key: str, data: bytes) -> None:
+        pub = self._pubs.get(key)
+        if pub is None:
+            with self._lock:
+                pub = self._pubs.get(key)
+                if pub is None:
+                    pub = self.session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK)
+                    self._pubs[key] = pub
+        pub.put(data)
+
+    def subscribe(self, key_expr: str, inbox: Inbox) -> Handle:
+        def on_sample(sample: zenoh.Sample) -> None:
+            inbox.put((str(sample.key_expr), sample.payload.to_bytes(), time.time_ns()))
+
+        sub = self.session.declare_subscriber(key_expr, on_sample)
+        self._handles.append(sub)
+        return sub
+
+    def serve(self, key: str) -> QueryInbox:
+        q = _ZenohQueryInbox(self.session, key)
+        self._handles.append(q)
+        return q
+
+    def query(self, key: str, payload: bytes = b"", timeout_s: float = 2.0) -> list[bytes]:
+        out: list[bytes] = []
+        for reply in self.session.get(key, payload=payload, timeout=timeout_s):
+            if reply.ok is not None:
+                out.append(reply.ok.payload.to_bytes())
+        return out
+
+    def token(self, key: str) -> Handle:
+        tok = self.session.liveliness().declare_token(key)
+        self._handles.append(tok)
+        return tok
+
+    def watch_alive(self, key_expr: str, on_change: Callable[[str, bool], None]) -> Handle:
+        def on_sample(sample: zenoh.Sample) -> None:
+            on_change(str(sample.key_expr), sample.kind == zenoh.SampleKind.PUT)
+
+        sub = self.session.liveliness().declare_subscriber(key_expr, on_sample, history=True)
+        self._handles.append(sub)
+        return sub
+
+    def close(self) -> None:
+        for h in reversed(self._handles):
+            try:
+                h.undeclare()
+            except Exception:  # already gone with a closing session
+                logger.debug("undeclare failed", exc_info=True)
+        self._handles.clear()
+        self._pubs.clear()
+        if not self.session.is_closed():
+            self.session.close()  # type: ignore[no-untyped-call]
+
+    def __enter__(self) -> ZenohBus:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

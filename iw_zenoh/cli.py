@@ -1,0 +1,65 @@
+"""The ``iwz`` command: one subcommand per process role and per tool.
+
+iwz run maps/demo.toml        the whole simulation, every role its own process
+iwz router | world MAP | collision | sensors | radio | agent NAME
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from collections.abc import Sequence
+
+__all__ = ["COMMANDS", "main"]
+
+COMMANDS: dict[str, tuple[str, str]] = {
+    "run": (
+        "iw_zenoh.nodes.launcher",
+        "start a scenario: router, world, collision, sensors, radio and agents, supervised",
+    ),
+    "router": ("iw_zenoh.nodes.router", "the Zenoh router the other processes connect to"),
+    "world": ("iw_zenoh.nodes.world", "the world: clock, motors, kinematics, registration"),
+    "collision": ("iw_zenoh.nodes.collision", "collision verdicts on every tick's proposed poses"),
+    "sensors": ("iw_zenoh.nodes.sensors", "every robot's sensors each tick (shardable)"),
+    "radio": ("iw_zenoh.nodes.radio", "robot-to-robot messages within range"),
+    "agent": ("iw_zenoh.nodes.agents", "run agent programs (wanderer, waypoint, ...)"),
+}
+
+
+def usage() -> str:
+    """The top-level help."""
+    width = max(len(c) for c in COMMANDS)
+    lines = [
+        "usage: iwz COMMAND [options]",
+        "",
+        "iw-zenoh: an intelligent-wheelchair simulator whose every part is its own process on Eclipse Zenoh.",
+        "",
+        "commands:",
+    ]
+    lines += [f"  {c:<{width}}  {h}" for c, (_, h) in COMMANDS.items()]
+    lines += ["", "Each command has --help. Start here: iwz run maps/demo.toml"]
+    return "\n".join(lines)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Dispatches to a subcommand's ``main``."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    if not args or args[0] in ("-h", "--help", "help"):
+        print(usage())
+        return 0 if args else 2
+    if args[0] in ("-V", "--version"):
+        from iw_zenoh import __version__
+
+        print(f"iwz {__version__}")
+        return 0
+    entry = COMMANDS.get(args[0])
+    if entry is None:
+        print(f"iwz: unknown command {args[0]!r}\n\n{usage()}")
+        return 2
+    module = importlib.import_module(entry[0])
+    code: int = module.main(args[1:])
+    return code
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

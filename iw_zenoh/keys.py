@@ -1,0 +1,232 @@
+"""Every Zenoh key expression of iw-zenoh, and nowhere else.
+
+All keys live under ``iw/{sim}/`` so several simulations (and a replay beside a live run) share
+one network::
+
+    iw/{sim}/world/info              queryable: map, parameters, robots (for late joiners)
+    iw/{sim}/world/register          queryable: RegisterRequest in, RegisterReply out
+    iw/{sim}/world/tick              clock
+    iw/{sim}/world/proposed          next poses of all robots (batched)
+    iw/{sim}/world/verdict           collision verdicts (batched)
+    iw/{sim}/world/state             committed poses (batched)
+    iw/{sim}/world/control           start, pause, step, stop, remove robot, obstacles
+    iw/{sim}/world/radio             everything the radio delivered in a tick (batched)
+    iw/{sim}/events/{kind}           what happened, for people and tools
+    iw/{sim}/robot/{id}/spec         the accepted spec
+    iw/{sim}/robot/{id}/actions      motor powers, leds
+    iw/{sim}/robot/{id}/pose_report  a Real robot's own pose
+    iw/{sim}/robot/{id}/sensors      readings of one tick
+    iw/{sim}/robot/{id}/say          a radio message to send
+    iw/{sim}/robot/{id}/hear         radio messages heard this tick
+    iw/{sim}/alive/{role}/{name}     liveliness tokens
+"""
+
+from __future__ import annotations
+
+import re
+
+__all__ = [
+    "ROLES",
+    "actions",
+    "alive",
+    "all_actions",
+    "all_alive",
+    "all_events",
+    "all_hear",
+    "all_pose_reports",
+    "alive_parts",
+    "all_say",
+    "all_sensors",
+    "chunk",
+    "control",
+    "event",
+    "everything",
+    "hear",
+    "info",
+    "pose_report",
+    "proposed",
+    "radio",
+    "register",
+    "robot_id_of",
+    "say",
+    "sensors",
+    "spec",
+    "state",
+    "tick",
+    "verdict",
+]
+
+ROLES = (
+    "router",
+    "world",
+    "collision",
+    "sensors",
+    "radio",
+    "recorder",
+    "replay",
+    "viewer",
+    "bridge",
+    "agent",
+    "launcher",
+)
+_FORBIDDEN = re.compile(r"[/*$?#\s]")
+_ROBOT_KEY = re.compile(r"^iw/[^/]+/robot/(\d+)/[a-z_]+$")
+
+
+def chunk(name: str) -> str:
+    """Validates one key chunk (a sim name, a role, an instance name).
+
+    Args:
+        name: The chunk.
+
+    Returns:
+        The same chunk.
+
+    Raises:
+        ValueError: When it is empty or holds ``/ * $ ? #`` or white space.
+    """
+    if not name or _FORBIDDEN.search(name):
+        raise ValueError(f"{name!r} is not a valid key chunk: it must be non-empty and free of / * $ ? # and spaces")
+    return name
+
+
+def _rid(robot_id: int) -> int:
+    if isinstance(robot_id, bool) or not isinstance(robot_id, int) or robot_id < 0:
+        raise ValueError(f"robot id must be a non-negative integer, got {robot_id!r}")
+    return robot_id
+
+
+def everything(sim: str) -> str:
+    """Every key of a simulation (what the recorder subscribes to)."""
+    return f"iw/{chunk(sim)}/**"
+
+
+def info(sim: str) -> str:
+    """The world's information queryable."""
+    return f"iw/{chunk(sim)}/world/info"
+
+
+def register(sim: str) -> str:
+    """The registration queryable."""
+    return f"iw/{chunk(sim)}/world/register"
+
+
+def tick(sim: str) -> str:
+    """The clock."""
+    return f"iw/{chunk(sim)}/world/tick"
+
+
+def proposed(sim: str) -> str:
+    """Proposed poses (world to collision)."""
+    return f"iw/{chunk(sim)}/world/proposed"
+
+
+def verdict(sim: str) -> str:
+    """Collision verdicts (collision to world)."""
+    return f"iw/{chunk(sim)}/world/verdict"
+
+
+def state(sim: str) -> str:
+    """Committed state (world to everyone)."""
+    return f"iw/{chunk(sim)}/world/state"
+
+
+def control(sim: str) -> str:
+    """Control commands to the world."""
+    return f"iw/{chunk(sim)}/world/control"
+
+
+def radio(sim: str) -> str:
+    """Everything the radio delivered in a tick (batched, for agent hosts)."""
+    return f"iw/{chunk(sim)}/world/radio"
+
+
+def event(sim: str, kind: str) -> str:
+    """Events of one kind."""
+    return f"iw/{chunk(sim)}/events/{chunk(kind)}"
+
+
+def all_events(sim: str) -> str:
+    """Events of every kind."""
+    return f"iw/{chunk(sim)}/events/*"
+
+
+def spec(sim: str, robot_id: int) -> str:
+    """A robot's accepted spec."""
+    return f"iw/{chunk(sim)}/robot/{_rid(robot_id)}/spec"
+
+
+def actions(sim: str, robot_id: int) -> str:
+    """A robot's actions."""
+    return f"iw/{chunk(sim)}/robot/{_rid(robot_id)}/actions"
+
+
+def all_actions(sim: str) -> str:
+    """Every robot's actions."""
+    return f"iw/{chunk(sim)}/robot/*/actions"
+
+
+def pose_report(sim: str, robot_id: int) -> str:
+    """A Real robot's pose report."""
+    return f"iw/{chunk(sim)}/robot/{_rid(robot_id)}/pose_report"
+
+
+def all_pose_reports(sim: str) -> str:
+    """Every Real robot's pose reports."""
+    return f"iw/{chunk(sim)}/robot/*/pose_report"
+
+
+def sensors(sim: str, robot_id: int) -> str:
+    """A robot's sensor readings."""
+    return f"iw/{chunk(sim)}/robot/{_rid(robot_id)}/sensors"
+
+
+def all_sensors(sim: str) -> str:
+    """Every robot's sensor readings."""
+    return f"iw/{chunk(sim)}/robot/*/sensors"
+
+
+def say(sim: str, robot_id: int) -> str:
+    """A robot's outgoing radio message."""
+    return f"iw/{chunk(sim)}/robot/{_rid(robot_id)}/say"
+
+
+def all_say(sim: str) -> str:
+    """Every robot's outgoing radio messages."""
+    return f"iw/{chunk(sim)}/robot/*/say"
+
+
+def hear(sim: str, robot_id: int) -> str:
+    """Radio messages a robot heard."""
+    return f"iw/{chunk(sim)}/robot/{_rid(robot_id)}/hear"
+
+
+def all_hear(sim: str) -> str:
+    """Radio messages every robot heard."""
+    return f"iw/{chunk(sim)}/robot/*/hear"
+
+
+def alive(sim: str, role: str, name: str) -> str:
+    """A process's liveliness token."""
+    if role not in ROLES:
+        raise ValueError(f"unknown role {role!r}; one of {', '.join(ROLES)}")
+    return f"iw/{chunk(sim)}/alive/{role}/{chunk(name)}"
+
+
+def all_alive(sim: str) -> str:
+    """Every liveliness token of a simulation."""
+    return f"iw/{chunk(sim)}/alive/**"
+
+
+def robot_id_of(key: str) -> int | None:
+    """The robot id in a per-robot key, or ``None`` for any other key."""
+    m = _ROBOT_KEY.match(str(key))
+    return int(m.group(1)) if m else None
+
+
+def alive_parts(key: str) -> tuple[str, str] | None:
+    """``(role, name)`` of a liveliness key, or ``None``."""
+    parts = str(key).split("/")
+    if len(parts) == 5 and parts[0] == "iw" and parts[2] == "alive":
+        return parts[3], parts[4]
+    return None

@@ -1,0 +1,556 @@
+"""Every wire message of iw-zenoh, with the one ``encode`` and the one ``decode``.
+
+UTF-8 JSON on the wire (readable in any MCAP viewer or raw subscriber), one ``msgspec.Struct``
+per message; msgspec validates types on decode and writes each message's JSON Schema. Every
+message carries ``tick`` and ``sim_time_ns``; robot-scoped ones carry ``robot_id``. Batched
+messages (proposed, verdict, state) carry arrays, so a tick costs a handful of messages however
+many robots there are. ``revision`` counts changes of the roster and of the obstacles: a node
+that sees one it does not know asks ``world/info`` again.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any, ClassVar, Literal, TypeVar
+
+import msgspec
+
+from iw_zenoh.core.lab import Beacon, Grid, GridPosition, Lab, Target, Wall
+from iw_zenoh.core.spec import (
+    BodyShape,
+    BumperSpec,
+    EncoderSpec,
+    IrSensorSpec,
+    NoiseSpec,
+    RobotSpec,
+    RobotType,
+    SensorNoise,
+)
+from iw_zenoh.errors import DecodeError, SpecError
+
+__all__ = [
+    "MESSAGE_TYPES",
+    "Actions",
+    "Control",
+    "Event",
+    "Heard",
+    "Hear",
+    "Hit",
+    "LabMsg",
+    "Message",
+    "Obstacle",
+    "PoseReport",
+    "Proposed",
+    "RadioBatch",
+    "RegisterReply",
+    "RegisterRequest",
+    "RobotSpecMsg",
+    "Say",
+    "SensorReading",
+    "Tick",
+    "Verdict",
+    "WorldInfo",
+    "WorldState",
+    "decode",
+    "encode",
+    "grid_from_msg",
+    "grid_to_msg",
+    "json_schema",
+    "lab_from_msg",
+    "lab_to_msg",
+    "spec_from_msg",
+    "spec_to_msg",
+]
+
+T = TypeVar("T", bound="Message")
+
+Finite = Annotated[float, msgspec.Meta(description="a finite number")]
+NonNeg = Annotated[int, msgspec.Meta(ge=0)]
+RobotId = Annotated[int, msgspec.Meta(ge=0)]
+SAY_MAX_BYTES = 100  # Ciber-Rato DCOSS: at most 100 bytes a message
+
+
+class Message(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """Base of every wire message."""
+
+    schema: ClassVar[str] = "iw.Message/1"
+    tick: NonNeg = 0
+    sim_time_ns: NonNeg = 0
+
+
+# --- registration and world description -----------------------------------------------------
+
+
+class IrSensorMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """A proximity sensor (Table 4.4)."""
+
+    id: NonNeg
+    x: float = 0.0
+    y: float = 0.0
+    angle_deg: float = 0.0
+    cone_deg: float = 60.0
+    range_m: float = 4.0
+
+
+class NoiseMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """Gaussian noise on one sensor."""
+
+    mean: float = 0.0
+    std: float = 0.0
+    enabled: bool = True
+
+
+class SensorNoiseMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """Noise of every sensor of a robot; a missing field keeps the default."""
+
+    proximity_m: NoiseMsg | None = None
+    proximity_legacy: NoiseMsg | None = None
+    compass_deg: NoiseMsg | None = None
+    beacon_deg: NoiseMsg | None = None
+    gps_m: NoiseMsg | None = None
+    gps_heading_deg: NoiseMsg | None = None
+    encoder_slip: NoiseMsg | None = None
+    motion: NoiseMsg | None = None
+
+
+class BumperMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """A contact sensor polygon in the robot frame."""
+
+    id: NonNeg
+    corners: list[tuple[float, float]]
+
+
+class RobotSpecMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """A robot registration (Tables 4.3-4.5); ranges are checked when it becomes a RobotSpec."""
+
+    name: str
+    id: NonNeg = 0
+    type: Literal["Simulated", "Real", "Door"] = "Simulated"
+    shape: Literal["rect", "circle"] = "rect"
+    width: float = 1.0
+    height: float = 1.0
+    com: float = 0.5
+    x: float | None = None
+    y: float | None = None
+    dir: float | None = None
+    max_speed: float = 0.5
+    acceleration_curve: float = 0.5
+    ir_sensors: list[IrSensorMsg] = []
+    bumpers: list[BumperMsg] = []
+    ticks_per_m: float = 2000.0
+    noise: SensorNoiseMsg | None = None
+    legacy: bool = False
+
+
+class RegisterRequest(Message, frozen=True, kw_only=True):
+    """Asks the world for a robot (``world/register`` query payload)."""
+
+    schema: ClassVar[str] = "iw.RegisterRequest/1"
+    spec: RobotSpecMsg
+    agent: str = ""  # the liveliness name of the agent process that drives it
+
+
+class RegisterReply(Message, frozen=True, kw_only=True):
+    """The world's answer: the accepted spec with id and start pose, or a refusal and why."""
+
+    schema: ClassVar[str] = "iw.RegisterReply/1"
+    ok: bool
+    robot_id: RobotId = 0
+    spec: RobotSpecMsg | None = None
+    reason: str = ""
+
+
+class WallMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """A wall polygon."""
+
+    corners: list[tuple[float, float]]
+    height: float = 4.0
+
+
+class LabMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """A lab: size, walls, beacons (x, y, height) and targets (x, y, radius)."""
+
+    name: str
+    width: float
+    height: float
+    walls: list[WallMsg] = []
+    beacons: list[tuple[float, float, float]] = []
+    targets: list[tuple[float, float, float]] = []
+
+
+class Obstacle(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """A rectangular obstacle added at run time, by name."""
+
+    name: str
+    x0: float
+    y0: float
+    x1: float
+    y1: float
+    height: float = 1.0
+
+
+class WorldInfo(Message, frozen=True, kw_only=True):
+    """Everything a late joiner needs (the ``world/info`` queryable's answer)."""
+
+    schema: ClassVar[str] = "iw.WorldInfo/1"
+    revision: NonNeg
+    lab: LabMsg
+    grid: list[tuple[float, float, float]] = []
+    profile: Literal["native", "ciberrato"] = "native"
+    mode: Literal["realtime", "lockstep"] = "realtime"
+    period_ns: NonNeg
+    seed: int = 0
+    robots: list[RobotSpecMsg] = []
+    obstacles: list[Obstacle] = []
+    sim: str = "default"
+
+
+# --- the tick ---------------------------------------------------------------------------------
+
+
+class Tick(Message, frozen=True, kw_only=True):
+    """The clock."""
+
+    schema: ClassVar[str] = "iw.Tick/1"
+    period_ns: NonNeg
+    mode: Literal["realtime", "lockstep"] = "realtime"
+    running: bool = True
+    revision: NonNeg = 0
+
+
+class Proposed(Message, frozen=True, kw_only=True):
+    """Current and proposed poses of every robot for tick n (world to collision)."""
+
+    schema: ClassVar[str] = "iw.Proposed/1"
+    revision: NonNeg
+    ids: list[RobotId]
+    x: list[float]
+    y: list[float]
+    heading: list[float]
+    next_x: list[float]
+    next_y: list[float]
+    next_heading: list[float]
+    linear: list[float]
+    active: list[bool]
+
+
+class Hit(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """One collision: a robot and a wall (index; the lab's wall count is the border) or robot."""
+
+    robot_id: RobotId
+    wall: int = -1
+    other: int = -1
+
+
+class Verdict(Message, frozen=True, kw_only=True):
+    """Collision verdict on tick n's proposal (collision to world)."""
+
+    schema: ClassVar[str] = "iw.Verdict/1"
+    revision: NonNeg
+    ids: list[RobotId]
+    collided: list[bool]
+    hits: list[Hit] = []
+
+
+class WorldState(Message, frozen=True, kw_only=True):
+    """Committed state of every robot after tick n."""
+
+    schema: ClassVar[str] = "iw.WorldState/1"
+    revision: NonNeg
+    ids: list[RobotId]
+    x: list[float]
+    y: list[float]
+    heading: list[float]
+    collided: list[bool]
+    rolled_left: list[float]
+    rolled_right: list[float]
+    speed: list[float]
+    held: bool = False
+    held_reason: str = ""
+
+
+# --- per robot ------------------------------------------------------------------------------
+
+
+class Actions(Message, frozen=True, kw_only=True):
+    """Motor powers (clamped to +-0.15 by the world) and LEDs; ``tick`` is the sensors' tick it answers."""
+
+    schema: ClassVar[str] = "iw.Actions/1"
+    robot_id: RobotId
+    left: float = 0.0
+    right: float = 0.0
+    end_led: bool = False
+    returning_led: bool = False
+    visiting_led: bool = False
+
+
+class PoseReport(Message, frozen=True, kw_only=True):
+    """A Real robot's own pose from its odometry (augmented reality)."""
+
+    schema: ClassVar[str] = "iw.PoseReport/1"
+    robot_id: RobotId
+    x: float
+    y: float
+    dir_deg: float
+
+
+class SensorReading(Message, frozen=True, kw_only=True):
+    """Every reading of tick n for one robot. ``None`` proximity means nothing within range,
+    ``None`` beacon means not visible."""
+
+    schema: ClassVar[str] = "iw.SensorReading/1"
+    robot_id: RobotId
+    proximity_ids: list[int]
+    proximity_m: list[float | None]
+    proximity_legacy: list[float]
+    compass_deg: float
+    beacons_deg: list[float | None] = []
+    gps: tuple[float, float, float]
+    ground: int = -1
+    collision: bool = False
+    encoders: tuple[int, int] = (0, 0)
+    bumpers: list[bool] = []
+
+
+class Say(Message, frozen=True, kw_only=True):
+    """A radio message to send (at most 100 bytes of UTF-8; longer ones are dropped and counted)."""
+
+    schema: ClassVar[str] = "iw.Say/1"
+    robot_id: RobotId
+    text: str
+
+
+class Heard(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """One message heard: who said it, from how far, and what."""
+
+    sender: RobotId
+    distance_m: float
+    text: str
+
+
+class Hear(Message, frozen=True, kw_only=True):
+    """Messages one robot heard in tick n, in sender order."""
+
+    schema: ClassVar[str] = "iw.Hear/1"
+    robot_id: RobotId
+    messages: list[Heard] = []
+
+
+class RadioBatch(Message, frozen=True, kw_only=True):
+    """Everything the radio delivered in tick n (for agent hosts: one message, then no race)."""
+
+    schema: ClassVar[str] = "iw.RadioBatch/1"
+    hear: list[Hear] = []
+
+
+# --- control and events -----------------------------------------------------------------------
+
+
+class Control(Message, frozen=True, kw_only=True):
+    """A command to the world."""
+
+    schema: ClassVar[str] = "iw.Control/1"
+    command: Literal["start", "pause", "step", "stop", "remove", "add_obstacle", "move_obstacle", "remove_obstacle"]
+    robot_id: RobotId = 0
+    obstacle: Obstacle | None = None
+    steps: Annotated[int, msgspec.Meta(ge=1)] = 1
+
+
+class Event(Message, frozen=True, kw_only=True):
+    """Something happened: a collision, a registration or refusal, a timeout, a lost process..."""
+
+    schema: ClassVar[str] = "iw.Event/1"
+    kind: str
+    reason: str = ""
+    robot_id: int = -1
+    key: str = ""
+    source: str = ""
+    data: dict[str, Any] = {}
+
+
+MESSAGE_TYPES: tuple[type[Message], ...] = (
+    RegisterRequest,
+    RegisterReply,
+    WorldInfo,
+    Tick,
+    Proposed,
+    Verdict,
+    WorldState,
+    Actions,
+    PoseReport,
+    SensorReading,
+    Say,
+    Hear,
+    RadioBatch,
+    Control,
+    Event,
+)
+
+_ENCODER = msgspec.json.Encoder()
+_DECODERS: dict[type[Any], msgspec.json.Decoder[Any]] = {}
+
+
+def encode(msg: Message) -> bytes:
+    """Encodes any message as UTF-8 JSON.
+
+    Raises:
+        ValueError: When a float field holds NaN or infinity (JSON has none; use ``None``).
+    """
+    return _ENCODER.encode(msg)
+
+
+def decode(data: bytes, kind: type[T]) -> T:
+    """Decodes and validates a message of a known type.
+
+    Args:
+        data: The payload.
+        kind: The message class expected on this key.
+
+    Returns:
+        The message.
+
+    Raises:
+        DecodeError: Naming the field and the reason; never a half-filled object.
+    """
+    dec = _DECODERS.get(kind)
+    if dec is None:
+        dec = _DECODERS[kind] = msgspec.json.Decoder(kind)
+    try:
+        msg: T = dec.decode(data)
+    except msgspec.ValidationError as e:
+        raise DecodeError(f"{kind.schema}: {e}") from None
+    except msgspec.DecodeError as e:
+        raise DecodeError(f"{kind.schema}: not JSON: {e}") from None
+    return msg
+
+
+def json_schema(kind: type[Message]) -> dict[str, Any]:
+    """The JSON Schema of a message class (what the recorder writes per channel)."""
+    schema: dict[str, Any] = msgspec.json.schema(kind)
+    return schema
+
+
+# --- conversions between core data and wire shapes -------------------------------------------
+
+
+def _noise(m: NoiseMsg | None, default: NoiseSpec) -> NoiseSpec:
+    return default if m is None else NoiseSpec(m.mean, m.std, m.enabled)
+
+
+def spec_from_msg(m: RobotSpecMsg) -> RobotSpec:
+    """Turns a wire spec into a checked core spec.
+
+    Raises:
+        SpecError: Naming the field that is out of range.
+    """
+    d = SensorNoise()
+    n = m.noise
+    noise = d
+    if n is not None:
+        noise = SensorNoise(
+            _noise(n.proximity_m, d.proximity_m),
+            _noise(n.proximity_legacy, d.proximity_legacy),
+            _noise(n.compass_deg, d.compass_deg),
+            _noise(n.beacon_deg, d.beacon_deg),
+            _noise(n.gps_m, d.gps_m),
+            _noise(n.gps_heading_deg, d.gps_heading_deg),
+            _noise(n.encoder_slip, d.encoder_slip),
+            _noise(n.motion, d.motion),
+        )
+    for name in ("width", "height", "com", "max_speed", "acceleration_curve", "ticks_per_m"):
+        v = getattr(m, name)
+        if not math.isfinite(v):
+            raise SpecError(name, f"must be a finite number, got {v!r}")
+    return RobotSpec(
+        name=m.name,
+        id=m.id,
+        type=RobotType(m.type),
+        shape=BodyShape(m.shape),
+        width_m=m.width,
+        height_m=m.height,
+        com=m.com,
+        x_m=m.x,
+        y_m=m.y,
+        dir_deg=m.dir,
+        max_speed_mps=m.max_speed,
+        acceleration_curve=m.acceleration_curve,
+        ir_sensors=tuple(IrSensorSpec(s.id, s.x, s.y, s.angle_deg, s.cone_deg, s.range_m) for s in m.ir_sensors),
+        bumpers=tuple(BumperSpec(b.id, tuple(b.corners)) for b in m.bumpers),
+        encoder=EncoderSpec(m.ticks_per_m),
+        noise=noise,
+        legacy=m.legacy,
+    )
+
+
+def _noise_msg(n: NoiseSpec) -> NoiseMsg:
+    return NoiseMsg(mean=n.mean, std=n.std, enabled=n.enabled)
+
+
+def spec_to_msg(s: RobotSpec) -> RobotSpecMsg:
+    """Turns a core spec into its wire shape (sensors listed explicitly)."""
+    n = s.noise
+    return RobotSpecMsg(
+        name=s.name,
+        id=s.id,
+        type=s.type.value,
+        shape=s.shape.value,
+        width=s.width_m,
+        height=s.height_m,
+        com=s.com,
+        x=s.x_m,
+        y=s.y_m,
+        dir=s.dir_deg,
+        max_speed=s.max_speed_mps,
+        acceleration_curve=s.acceleration_curve,
+        ir_sensors=[
+            IrSensorMsg(id=i.id, x=i.x_m, y=i.y_m, angle_deg=i.angle_deg, cone_deg=i.cone_deg, range_m=i.range_m)
+            for i in s.sensors
+        ],
+        bumpers=[BumperMsg(id=b.id, corners=list(b.corners)) for b in s.bumpers],
+        ticks_per_m=s.encoder.ticks_per_m,
+        noise=SensorNoiseMsg(
+            proximity_m=_noise_msg(n.proximity_m),
+            proximity_legacy=_noise_msg(n.proximity_legacy),
+            compass_deg=_noise_msg(n.compass_deg),
+            beacon_deg=_noise_msg(n.beacon_deg),
+            gps_m=_noise_msg(n.gps_m),
+            gps_heading_deg=_noise_msg(n.gps_heading_deg),
+            encoder_slip=_noise_msg(n.encoder_slip),
+            motion=_noise_msg(n.motion),
+        ),
+        legacy=s.legacy,
+    )
+
+
+def lab_to_msg(lab: Lab) -> LabMsg:
+    """The wire shape of a lab."""
+    return LabMsg(
+        name=lab.name,
+        width=lab.width_m,
+        height=lab.height_m,
+        walls=[WallMsg(corners=list(w.corners), height=w.height_m) for w in lab.walls],
+        beacons=[(b.x, b.y, b.height_m) for b in lab.beacons],
+        targets=[(t.x, t.y, t.radius_m) for t in lab.targets],
+    )
+
+
+def lab_from_msg(m: LabMsg) -> Lab:
+    """A lab from its wire shape."""
+    return Lab(
+        m.name,
+        m.width,
+        m.height,
+        tuple(Wall(tuple(w.corners), w.height) for w in m.walls),
+        tuple(Beacon(*b) for b in m.beacons),
+        tuple(Target(*t) for t in m.targets),
+    )
+
+
+def grid_to_msg(grid: Grid) -> list[tuple[float, float, float]]:
+    """The wire shape of a grid: (x, y, dir_deg) rows."""
+    return [(p.x, p.y, p.dir_deg) for p in grid.positions]
+
+
+def grid_from_msg(rows: list[tuple[float, float, float]]) -> Grid:
+    """A grid from its wire shape."""
+    return Grid(tuple(GridPosition(*r) for r in rows))

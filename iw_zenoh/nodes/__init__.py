@@ -1,0 +1,1 @@
+"""One module per process role: logic class, ``run(bus, ...)`` wiring, ``main(argv)``."""

@@ -1,0 +1,68 @@
+"""``iwz agent NAME [options]``: runs agents of the program NAME (a module of ``iw_zenoh.agents``
+with ``add_arguments(parser)`` and ``make(args) -> list[Agent]``) in one process."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import os
+import pkgutil
+from collections.abc import Sequence
+
+from iw_zenoh import keys
+from iw_zenoh.agent import AgentHost, RegistrationRefused
+from iw_zenoh.bus import ZenohBus
+from iw_zenoh.cliargs import add_common_arguments, net_from_args
+from iw_zenoh.errors import IwError
+from iw_zenoh.nodes.base import install_stop_signals, setup_logging
+
+__all__ = ["available", "main"]
+
+logger = logging.getLogger(__name__)
+
+
+def available() -> list[str]:
+    """Names of the agent programs that ship."""
+    package = importlib.import_module("iw_zenoh.agents")
+    return sorted(m.name for m in pkgutil.iter_modules(package.__path__) if not m.name.startswith("_"))
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Runs ``iwz agent NAME``."""
+    argv = list(argv or [])
+    names = available()
+    if not argv or argv[0] in ("-h", "--help"):
+        print("usage: iwz agent NAME [options]\n\nRuns agent programs over Zenoh. Programs: " + ", ".join(names))
+        print("Options of one program: iwz agent NAME --help")
+        return 0 if argv else 2
+    name, rest = argv[0], argv[1:]
+    if name not in names:
+        print(f"iwz agent: no agent program {name!r}; choose one of {', '.join(names)}")
+        return 2
+    module = importlib.import_module(f"iw_zenoh.agents.{name}")
+    p = argparse.ArgumentParser(prog=f"iwz agent {name}", description=(module.__doc__ or "").strip().splitlines()[0])
+    module.add_arguments(p)
+    p.add_argument("--name", default="", help="agent process name (liveliness; default NAME-PID)")
+    add_common_arguments(p)
+    args = p.parse_args(rest)
+    setup_logging(args.verbose, f"agent {name}")
+    try:
+        agents = module.make(args)
+        bus = ZenohBus(net_from_args(args))
+    except (IwError, ValueError) as e:
+        print(f"iwz agent {name}: {e}")
+        return 2
+    host = AgentHost(bus, keys.chunk(args.sim), keys.chunk(args.name or f"{name}-{os.getpid()}"))
+    install_stop_signals(host.io.stop, host.io.wake.set)
+    try:
+        for a in agents:
+            rid = host.add(a)
+            logger.info("robot %d registered for %s", rid, a.spec().name)
+        host.run()
+    except RegistrationRefused as e:
+        print(f"iwz agent {name}: registration refused: {e}")
+        return 3
+    finally:
+        bus.close()
+    return 0

@@ -1,0 +1,99 @@
+"""``iwz collision``: verdicts on each tick's proposed poses (robot-robot and robot-wall, on the
+next pose, exact polygons; or the Ciber-Rato rule in the legacy profile)."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from collections.abc import Sequence
+
+import numpy as np
+
+from iw_zenoh import keys
+from iw_zenoh.bus import Bus, ZenohBus
+from iw_zenoh.cliargs import add_common_arguments, net_from_args
+from iw_zenoh.core.collision import check_collisions, check_collisions_ciberrato
+from iw_zenoh.core.spec import RobotType
+from iw_zenoh.errors import IwError
+from iw_zenoh.messages import Hit, Proposed, Verdict
+from iw_zenoh.nodes.base import NodeIO, install_stop_signals, setup_logging
+from iw_zenoh.nodes.info import InfoCache, WorldView
+
+__all__ = ["CollisionNode", "main", "run"]
+
+logger = logging.getLogger(__name__)
+
+
+class CollisionNode:
+    """Turns a proposal into a verdict (logic only)."""
+
+    def on_proposed(self, msg: Proposed, view: WorldView) -> Verdict:
+        """The verdict on one proposal."""
+        ids = msg.ids
+        now = np.column_stack([msg.x, msg.y, msg.heading]) if ids else np.zeros((0, 3))
+        nxt = np.column_stack([msg.next_x, msg.next_y, msg.next_heading]) if ids else np.zeros((0, 3))
+        active = np.asarray(msg.active, dtype=bool)
+        bodies = view.bodies_for(ids)
+        if view.info.profile == "ciberrato":
+            col = check_collisions_ciberrato(view.scene, now, nxt, np.asarray(msg.linear), active=active)
+            hits = [Hit(robot_id=ids[i], other=ids[j]) for i, j in col.robot_pairs]
+        else:
+            doors = np.asarray([t == RobotType.DOOR for t in bodies.types], dtype=bool)
+            col = check_collisions(view.scene, bodies.outline, now, nxt, active=active, ignore_walls=doors)
+            hits = [Hit(robot_id=ids[i], other=ids[j]) for i, j in col.robot_pairs]
+            hits += [Hit(robot_id=ids[j], other=ids[i]) for i, j in col.robot_pairs]
+        hits += [Hit(robot_id=ids[i], wall=int(w)) for i, w in col.wall_pairs]
+        return Verdict(
+            tick=msg.tick,
+            sim_time_ns=msg.sim_time_ns,
+            revision=msg.revision,
+            ids=list(ids),
+            collided=col.collided.tolist(),
+            hits=hits,
+        )
+
+
+def run(bus: Bus, sim: str, *, name: str = "collision", io: NodeIO | None = None) -> None:
+    """Answers every proposal with a verdict until stopped."""
+    io = io or NodeIO(bus, sim, "collision", name)
+    inbox = io.inbox(keys.proposed(sim))
+    cache = InfoCache(bus, sim)
+    node = CollisionNode()
+    io.alive()
+    while not io.stop.is_set():
+        pending = inbox.drain()
+        if not pending:
+            io.wait(0.2)
+            continue
+        # only the newest proposal matters: an older one's tick is already decided
+        msg = io.decode(pending[-1], Proposed)
+        if msg is None:
+            continue
+        view = cache.get(msg.revision)
+        if view is None or any(i not in view.specs for i in msg.ids):
+            logger.warning(
+                "tick %d: no world info for revision %d; no verdict (the world holds robots)", msg.tick, msg.revision
+            )
+            continue
+        io.send(keys.verdict(sim), node.on_proposed(msg, view))
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Runs ``iwz collision``."""
+    p = argparse.ArgumentParser(prog="iwz collision", description="Collision verdicts on every tick's proposed poses.")
+    p.add_argument("--name", default="collision", help="instance name (liveliness)")
+    add_common_arguments(p)
+    args = p.parse_args(argv)
+    setup_logging(args.verbose, "collision")
+    try:
+        bus = ZenohBus(net_from_args(args))
+    except (IwError, ValueError) as e:
+        print(f"iwz collision: {e}")
+        return 2
+    io = NodeIO(bus, keys.chunk(args.sim), "collision", args.name)
+    install_stop_signals(io.stop, io.wake.set)
+    try:
+        run(bus, args.sim, io=io)
+    finally:
+        bus.close()
+    return 0

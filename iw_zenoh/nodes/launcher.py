@@ -1,0 +1,430 @@
+"""``iwz run SCENARIO.toml``: the router and every role as a child process on this machine,
+supervised, with a live status line, a summary, and an exit code from the scenario's criteria.
+
+Exit codes: 0 every criterion met; 1 a criterion failed; 2 the scenario or arguments are
+refused; 3 a role could not start; 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import math
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from iw_zenoh import keys
+from iw_zenoh.bus import Inbox, ZenohBus
+from iw_zenoh.config import Scenario, load_scenario
+from iw_zenoh.errors import IwError
+from iw_zenoh.messages import Control, Event, WorldState, decode, encode
+from iw_zenoh.net import DEFAULT_PORT, NetConfig, free_port, port_in_use
+from iw_zenoh.nodes.base import setup_logging
+
+__all__ = ["Child", "Launcher", "main"]
+
+logger = logging.getLogger(__name__)
+
+RESTARTABLE = ("collision", "sensors", "radio")
+MAX_RESTARTS = 3
+
+
+@dataclass
+class Child:
+    """One supervised process."""
+
+    role: str
+    name: str
+    argv: list[str]
+    log: Path
+    proc: subprocess.Popen[bytes] | None = None
+    restarts: int = 0
+    expected_exit: bool = False
+
+    def start(self, env: dict[str, str]) -> None:
+        """Starts (or restarts) the process, its output to its log file."""
+        with self.log.open("ab") as f:
+            self.proc = subprocess.Popen(
+                self.argv, stdout=f, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, env=env, start_new_session=True
+            )
+
+    def alive(self) -> bool:
+        """Whether it is running."""
+        return self.proc is not None and self.proc.poll() is None
+
+    def stop(self) -> None:
+        """Asks it to stop (SIGTERM)."""
+        self.expected_exit = True
+        if self.alive():
+            assert self.proc is not None
+            self.proc.send_signal(signal.SIGTERM)
+
+    def tail(self, lines: int = 8) -> str:
+        """The last lines of its log."""
+        try:
+            return "\n".join(self.log.read_text(errors="replace").splitlines()[-lines:])
+        except OSError:
+            return ""
+
+
+@dataclass
+class Tally:
+    """What the launcher saw of the run."""
+
+    tick: int = 0
+    sim_s: float = 0.0
+    robots: int = 0
+    collisions: int = 0
+    positions: dict[int, tuple[float, float]] = field(default_factory=dict)
+    reached: dict[int, float] = field(default_factory=dict)
+    events: dict[str, int] = field(default_factory=dict)
+    holding: str = ""
+    agents_alive: set[str] = field(default_factory=set)
+
+
+class Launcher:
+    """Starts, watches and stops a scenario's processes.
+
+    Args:
+        scenario: The scenario.
+        port: Router port on 127.0.0.1 (0: 7447, or a free one when 7447 is taken).
+        sim: Simulation name.
+        log_dir: Where each role's log goes.
+        status: Print a live status line.
+    """
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        *,
+        port: int = 0,
+        sim: str = "default",
+        log_dir: Path | None = None,
+        status: bool = True,
+    ) -> None:
+        self.sc = scenario
+        self.sim = keys.chunk(sim)
+        if port == 0:
+            port = DEFAULT_PORT if not port_in_use(DEFAULT_PORT) else free_port()
+        self.port = port
+        self.endpoint = f"tcp/127.0.0.1:{port}"
+        self.log_dir = log_dir or Path(tempfile.mkdtemp(prefix=f"iwz-{scenario.name}-"))
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        self.status = status
+        self.children: list[Child] = []
+        self.tally = Tally()
+        self.stop_event = threading.Event()
+        self.env = dict(os.environ, PYTHONUNBUFFERED="1")
+
+    def _cmd(self, *args: str) -> list[str]:
+        return [sys.executable, "-m", "iw_zenoh.cli", *args]
+
+    def _child(self, role: str, name: str, *args: str, client: bool = True) -> Child:
+        common = ["--sim", self.sim, "-e", self.endpoint] if client else ["--sim", self.sim, "--listen", self.endpoint]
+        c = Child(role, name, self._cmd(role, *args, *common), self.log_dir / f"{name}.log")
+        self.children.append(c)
+        return c
+
+    def plan(self) -> None:
+        """Builds the list of processes."""
+        sc = self.sc
+        self._child("router", "router", client=False)
+        world = [
+            "world",
+            str(sc.map),
+            "--period-ms",
+            f"{sc.period_ms:g}",
+            "--seed",
+            str(sc.seed),
+            "--duration",
+            f"{sc.duration_s:g}",
+            "--expect",
+            str(sc.robots),
+            "--profile",
+            sc.profile,
+        ]
+        if sc.grid:
+            world += ["--grid", str(sc.grid)]
+        if sc.mode == "lockstep":
+            world.append("--lockstep")
+        for o in sc.obstacles:
+            world += ["--obstacle", f"{o.name}:{o.x0:g},{o.y0:g},{o.x1:g},{o.y1:g},{o.height:g}"]
+        world += list(sc.world_args)
+        self._child(*world[:1], "world", *world[1:])
+        self._child("collision", "collision")
+        for k in range(1, sc.sensors_shards + 1):
+            self._child("sensors", f"sensors-{k}", "--shard", f"{k}/{sc.sensors_shards}")
+        if sc.radio:
+            self._child("radio", "radio")
+        for i, a in enumerate(sc.agents):
+            name = a.name or f"agent-{i + 1}-{a.program}"
+            self._child("agent", name, a.program, *a.args, "--name", name)
+
+    def _wait_router(self, timeout_s: float = 15.0) -> bool:
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            if port_in_use(self.port):
+                return True
+            if not self.children[0].alive():
+                return False
+            time.sleep(0.05)
+        return False
+
+    def start(self) -> None:
+        """Starts the router, waits for it, then every other role.
+
+        Raises:
+            IwError: When the router does not come up.
+        """
+        self.plan()
+        router = self.children[0]
+        router.start(self.env)
+        if not self._wait_router():
+            raise IwError(f"the router did not start on {self.endpoint}:\n{router.tail()}")
+        for c in self.children[1:]:
+            c.start(self.env)
+
+    def observe(self, bus: ZenohBus) -> tuple[Inbox, Inbox]:
+        """Subscribes to state and events, and watches agents' liveliness."""
+        states = Inbox(maxlen=1)
+        events = Inbox()
+        bus.subscribe(keys.state(self.sim), states)
+        bus.subscribe(keys.all_events(self.sim), events)
+
+        def on_alive(key: str, alive: bool) -> None:
+            parts = keys.alive_parts(key)
+            if parts and parts[0] == "agent":
+                (self.tally.agents_alive.add if alive else self.tally.agents_alive.discard)(parts[1])
+
+        bus.watch_alive(keys.all_alive(self.sim), on_alive)
+        return states, events
+
+    def _update(self, states: Inbox, events: Inbox) -> None:
+        t = self.tally
+        for _, data, _ in events.drain():
+            try:
+                ev = decode(data, Event)
+            except IwError:
+                continue
+            t.events[ev.kind] = t.events.get(ev.kind, 0) + 1
+            if ev.kind == "collision":
+                t.collisions += 1
+            if ev.kind == "holding":
+                t.holding = ev.reason
+            if ev.kind == "resumed":
+                t.holding = ""
+        for _, data, _ in states.drain():
+            try:
+                st = decode(data, WorldState)
+            except IwError:
+                continue
+            t.tick, t.sim_s, t.robots = st.tick, st.sim_time_ns / 1e9, len(st.ids)
+            for rid, x, y in zip(st.ids, st.x, st.y, strict=True):
+                t.positions[rid] = (x, y)
+            for r in self.sc.criteria.reach:
+                p = t.positions.get(r.robot)
+                if p is not None and r.robot not in t.reached and math.hypot(p[0] - r.x, p[1] - r.y) <= r.within:
+                    t.reached[r.robot] = t.sim_s
+
+    def supervise(self, bus: ZenohBus) -> int:
+        """Watches the run until the world ends it, a criterion stops it, or Ctrl-C."""
+        states, events = self.observe(bus)
+        started = time.monotonic()
+        last_print = 0.0
+        world = next(c for c in self.children if c.role == "world")
+        agents = [c for c in self.children if c.role == "agent"]
+        limit = self.sc.duration_s * (1.0 if self.sc.mode == "realtime" else 5.0) + 60.0
+        interrupted = False
+        try:
+            while not self.stop_event.is_set():
+                self.stop_event.wait(0.1)
+                self._update(states, events)
+                crit = self.sc.criteria
+                if crit.reach and crit.stop_when_reached and all(r.robot in self.tally.reached for r in crit.reach):
+                    self._say("every goal reached: stopping")
+                    bus.publish(keys.control(self.sim), encode(Control(command="stop")))
+                    if world.proc is not None:
+                        try:
+                            world.proc.wait(10)
+                        except subprocess.TimeoutExpired:
+                            self._say("the world did not stop by itself")
+                    break
+                if not world.alive():
+                    code = world.proc.returncode if world.proc else 0
+                    if code:
+                        self._say(f"the world exited with {code}:\n{world.tail()}")
+                        return 3
+                    break
+                for c in self.children:
+                    if c.alive() or c.expected_exit or c.proc is None:
+                        continue
+                    code = c.proc.returncode
+                    if c.role in RESTARTABLE and c.restarts < MAX_RESTARTS:
+                        c.restarts += 1
+                        self._say(f"{c.name} exited with {code}; restarting ({c.restarts}/{MAX_RESTARTS})")
+                        c.start(self.env)
+                    else:
+                        c.expected_exit = True
+                        self._say(f"{c.name} exited with {code}:\n{c.tail()}")
+                        if c.role == "router":
+                            return 3
+                if time.monotonic() - started > limit:
+                    self._say(f"wall-clock limit of {limit:.0f} s reached: stopping")
+                    break
+                now = time.monotonic()
+                if self.status and now - last_print >= (1.0 if sys.stdout.isatty() else 5.0):
+                    last_print = now
+                    self._status_line(now - started, agents)
+        except KeyboardInterrupt:
+            interrupted = True
+        if sys.stdout.isatty() and self.status:
+            print()
+        return 130 if interrupted else 0
+
+    def _status_line(self, wall_s: float, agents: list[Child]) -> None:
+        t = self.tally
+        rtf = t.sim_s / wall_s if wall_s > 0 else 0.0
+        alive = sum(1 for c in agents if c.alive())
+        line = (
+            f"t={t.sim_s:7.1f} s  tick {t.tick:6d}  RTF {rtf:5.2f}x  robots {t.robots}  "
+            f"collisions {t.collisions}  agents {alive}/{len(agents)}"
+        )
+        if t.holding:
+            line += f"  HOLDING: {t.holding}"
+        if sys.stdout.isatty():
+            print("\r" + line.ljust(110), end="", flush=True)
+        else:
+            print(line, flush=True)
+
+    def _say(self, text: str) -> None:
+        if sys.stdout.isatty():
+            print()
+        print(f"iwz run: {text}", flush=True)
+
+    def shutdown(self, timeout_s: float = 8.0) -> None:
+        """Stops every child: agents first, the router last; SIGKILL after ``timeout_s``."""
+        order = sorted(
+            self.children,
+            key=lambda c: {"agent": 0, "radio": 1, "sensors": 1, "collision": 1, "world": 2, "router": 3}.get(
+                c.role, 1
+            ),
+        )
+        for group in (0, 1, 2, 3):
+            members = [c for c in order if {"agent": 0, "world": 2, "router": 3}.get(c.role, 1) == group]
+            for c in members:
+                c.stop()
+            deadline = time.monotonic() + timeout_s
+            for c in members:
+                if c.proc is None:
+                    continue
+                try:
+                    c.proc.wait(max(0.1, deadline - time.monotonic()))
+                except subprocess.TimeoutExpired:
+                    logger.warning("%s did not stop: killing it", c.name)
+                    c.proc.kill()
+                    c.proc.wait(5)
+
+    def verdict(self) -> tuple[bool, list[str]]:
+        """Whether the criteria are met, and a line per criterion."""
+        lines: list[str] = []
+        ok = True
+        crit = self.sc.criteria
+        t = self.tally
+        if crit.max_collisions is not None:
+            good = t.collisions <= crit.max_collisions
+            ok &= good
+            lines.append(f"{'PASS' if good else 'FAIL'} collisions {t.collisions} (at most {crit.max_collisions})")
+        for r in crit.reach:
+            when = t.reached.get(r.robot)
+            good = when is not None
+            ok &= good
+            at = t.positions.get(r.robot)
+            where = f"last at ({at[0]:.2f}, {at[1]:.2f})" if at else "never seen"
+            lines.append(
+                f"{'PASS' if good else 'FAIL'} robot {r.robot} within {r.within:g} m of ({r.x:g}, {r.y:g})"
+                + (f" at t={when:.1f} s" if good else f": {where}")
+            )
+        return ok, lines
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The arguments of ``iwz run``."""
+    p = argparse.ArgumentParser(
+        prog="iwz run",
+        description=(
+            "Start a whole simulation from a scenario file: the router, world, collision, sensors, "
+            "radio and every agent, each its own process on this machine."
+        ),
+        epilog="Example: iwz run maps/demo.toml    (Ctrl-C stops everything cleanly)",
+    )
+    p.add_argument("scenario", help="scenario TOML file (see docs/scenarios.md)")
+    p.add_argument(
+        "--port", type=int, default=0, help="router port on 127.0.0.1 (default 7447, or a free port if taken)"
+    )
+    p.add_argument("--sim", default="default", help="simulation name (default: default)")
+    p.add_argument("--log-dir", help="where each process's log goes (default: a new temporary folder)")
+    p.add_argument("--no-status", action="store_true", help="no live status line")
+    p.add_argument("-v", "--verbose", action="count", default=0, help="log more")
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Runs ``iwz run``."""
+    args = build_parser().parse_args(argv)
+    setup_logging(args.verbose, "run")
+    try:
+        sc = load_scenario(args.scenario)
+        launcher = Launcher(
+            sc,
+            port=args.port,
+            sim=args.sim,
+            log_dir=Path(args.log_dir) if args.log_dir else None,
+            status=not args.no_status,
+        )
+    except (IwError, ValueError) as e:
+        print(f"iwz run: {e}")
+        return 2
+    print(
+        f"iwz run: scenario {sc.name!r} on {sc.map.name}, {sc.mode}, {sc.robots} robots, "
+        f"router {launcher.endpoint}, logs in {launcher.log_dir}",
+        flush=True,
+    )
+
+    def on_term(signum: int, _frame: object) -> None:
+        launcher.stop_event.set()
+
+    signal.signal(signal.SIGTERM, on_term)
+    code = 0
+    bus: ZenohBus | None = None
+    try:
+        launcher.start()
+        bus = ZenohBus(NetConfig(connect=(launcher.endpoint,)))
+        code = launcher.supervise(bus)
+    except IwError as e:
+        print(f"iwz run: {e}")
+        code = 3
+    except KeyboardInterrupt:
+        code = 130
+    finally:
+        if bus is not None:
+            bus.close()
+        launcher.shutdown()
+    ok, lines = launcher.verdict()
+    t = launcher.tally
+    print(
+        f"iwz run: ended at t={t.sim_s:.1f} s (tick {t.tick}), {t.robots} robots, {t.collisions} collisions, "
+        f"events {dict(sorted(t.events.items()))}"
+    )
+    for line in lines:
+        print(f"  {line}")
+    if code:
+        return code
+    return 0 if ok else 1

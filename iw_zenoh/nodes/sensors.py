@@ -1,0 +1,191 @@
+"""``iwz sensors [--shard K/N]``: every robot's readings each tick.
+
+With ``--shard K/N`` this process computes the robots whose id is K modulo N (K from 1), so
+several sensor processes, on several hosts, split the robots; every robot is still an obstacle
+to every sensor. Noise comes from each robot's own seeded stream, so a robot's readings are the
+same whichever shard computes them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from collections.abc import Sequence
+
+import numpy as np
+
+from iw_zenoh import keys
+from iw_zenoh.bus import Bus, ZenohBus
+from iw_zenoh.cliargs import add_common_arguments, net_from_args
+from iw_zenoh.core.bodies import Bodies
+from iw_zenoh.core.noise import Stream, rng_for
+from iw_zenoh.core.sensors import SensorParams, noise_layout, read_sensors
+from iw_zenoh.errors import IwError
+from iw_zenoh.messages import SensorReading, WorldState
+from iw_zenoh.nodes.base import NodeIO, Outgoing, install_stop_signals, setup_logging
+from iw_zenoh.nodes.info import InfoCache, WorldView
+
+__all__ = ["SensorsNode", "main", "parse_shard", "run"]
+
+logger = logging.getLogger(__name__)
+
+
+def parse_shard(text: str) -> tuple[int, int]:
+    """Parses ``K/N`` (1 <= K <= N).
+
+    Raises:
+        ValueError: Saying what a shard looks like.
+    """
+    k, sep, n = text.partition("/")
+    try:
+        kk, nn = int(k), int(n)
+    except ValueError:
+        kk = nn = 0
+    if not sep or nn < 1 or not 1 <= kk <= nn:
+        raise ValueError(f"--shard takes K/N with 1 <= K <= N (e.g. 2/3), got {text!r}")
+    return kk, nn
+
+
+class SensorsNode:
+    """Computes the readings of one shard's robots from a committed state (logic only).
+
+    Args:
+        sim: Simulation name.
+        seed: The run's seed (each robot's sensor stream derives from it).
+        shard: ``(K, N)``.
+    """
+
+    def __init__(self, sim: str, seed: int = 0, shard: tuple[int, int] = (1, 1)) -> None:
+        self.sim = sim
+        self.seed = seed
+        self.shard = shard
+        self._rngs: dict[int, np.random.Generator] = {}
+        self._encoders: dict[int, np.ndarray] = {}
+        self._bodies_key: tuple[int, tuple[int, ...]] | None = None
+        self._bodies: Bodies | None = None
+
+    def mine(self, robot_id: int) -> bool:
+        """Whether this shard computes ``robot_id``."""
+        k, n = self.shard
+        return robot_id % n == k % n
+
+    def on_state(self, msg: WorldState, view: WorldView) -> list[Outgoing]:
+        """Every reading of this shard's robots for tick n."""
+        ids = list(msg.ids)
+        if not ids:
+            return []
+        key = (view.info.revision, tuple(ids))
+        if key != self._bodies_key or self._bodies is None:
+            self._bodies = view.bodies_for(ids)
+            self._bodies_key = key
+        bodies = self._bodies
+        pose = np.column_stack([msg.x, msg.y, msg.heading])
+        only = np.asarray([self.mine(i) for i in ids], dtype=bool)
+        nb = len(view.scene.lab.beacons)
+        counts, starts = noise_layout(bodies, nb)
+        z = np.zeros(int(counts.sum()))
+        enc = np.zeros((len(ids), 2))
+        for i, rid in enumerate(ids):
+            if only[i]:
+                g = self._rngs.setdefault(rid, rng_for(self.seed, rid, Stream.SENSORS))
+                z[starts[i] : starts[i] + counts[i]] = g.standard_normal(int(counts[i]))
+                enc[i] = self._encoders.get(rid, np.zeros(2))
+        params = SensorParams()
+        r = read_sensors(
+            view.scene,
+            bodies,
+            pose,
+            collided=np.asarray(msg.collided, dtype=bool),
+            encoder_acc=enc,
+            rolled_m=np.column_stack([msg.rolled_left, msg.rolled_right]),
+            z=z,
+            params=params,
+            only=only,
+        )
+        out: list[Outgoing] = []
+        ticks = r.encoder_ticks
+        for i, rid in enumerate(ids):
+            if not only[i]:
+                continue
+            self._encoders[rid] = r.encoder_acc[i]
+            sel = bodies.ir_owner == i
+            prox = r.proximity_m[sel]
+            out.append(
+                (
+                    keys.sensors(self.sim, rid),
+                    SensorReading(
+                        tick=msg.tick,
+                        sim_time_ns=msg.sim_time_ns,
+                        robot_id=rid,
+                        proximity_ids=bodies.ir_id[sel].tolist(),
+                        proximity_m=[None if not np.isfinite(v) else float(v) for v in prox],
+                        proximity_legacy=r.proximity_legacy[sel].tolist(),
+                        compass_deg=float(r.compass_deg[i]),
+                        beacons_deg=[None if np.isnan(v) else float(v) for v in r.beacon_deg[i]],
+                        gps=(float(r.gps[i, 0]), float(r.gps[i, 1]), float(r.gps[i, 2])),
+                        ground=int(r.ground[i]),
+                        collision=bool(r.collision[i]),
+                        encoders=(int(ticks[i, 0]), int(ticks[i, 1])),
+                        bumpers=r.bumpers[bodies.bumper_owner == i].tolist(),
+                    ),
+                )
+            )
+        return out
+
+
+def run(
+    bus: Bus, sim: str, *, shard: tuple[int, int] = (1, 1), name: str = "sensors", io: NodeIO | None = None
+) -> None:
+    """Computes readings for every committed state until stopped."""
+    io = io or NodeIO(bus, sim, "sensors", name)
+    inbox = io.inbox(keys.state(sim))
+    cache = InfoCache(bus, sim)
+    node: SensorsNode | None = None
+    io.alive()
+    while not io.stop.is_set():
+        pending = inbox.drain()
+        if not pending:
+            io.wait(0.2)
+            continue
+        for d in pending[-1:]:  # a stale state is worth nothing: agents act on the newest
+            msg = io.decode(d, WorldState)
+            if msg is None:
+                continue
+            view = cache.get(msg.revision)
+            if view is None or any(i not in view.specs for i in msg.ids):
+                logger.warning("tick %d: no world info for revision %d", msg.tick, msg.revision)
+                continue
+            if node is None:
+                node = SensorsNode(sim, view.info.seed, shard)
+            io.send_all(node.on_state(msg, view))
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Runs ``iwz sensors``."""
+    p = argparse.ArgumentParser(
+        prog="iwz sensors",
+        description=(
+            "Computes every robot's sensors each tick (proximity cones, compass, beacons, GPS, "
+            "ground, collision, encoders, bumpers)."
+        ),
+        epilog="Split the robots between processes or hosts: iwz sensors --shard 1/2 on one, --shard 2/2 on another.",
+    )
+    p.add_argument("--shard", default="1/1", help="K/N: compute the robots whose id is K modulo N (default 1/1, all)")
+    p.add_argument("--name", default="", help="instance name (liveliness; default sensors-K-N)")
+    add_common_arguments(p)
+    args = p.parse_args(argv)
+    setup_logging(args.verbose, "sensors")
+    try:
+        shard = parse_shard(args.shard)
+        bus = ZenohBus(net_from_args(args))
+    except (IwError, ValueError) as e:
+        print(f"iwz sensors: {e}")
+        return 2
+    name = args.name or f"sensors-{shard[0]}-{shard[1]}"
+    io = NodeIO(bus, keys.chunk(args.sim), "sensors", name)
+    install_stop_signals(io.stop, io.wake.set)
+    try:
+        run(bus, args.sim, shard=shard, io=io)
+    finally:
+        bus.close()
+    return 0
