@@ -17,6 +17,7 @@ from typing import Protocol
 
 import zenoh
 
+from iw_zenoh.errors import IwError
 from iw_zenoh.net import NetConfig, zenoh_config
 
 __all__ = ["Bus", "Delivery", "Handle", "Inbox", "PendingQuery", "QueryInbox", "ZenohBus"]
@@ -162,7 +163,14 @@ class ZenohBus:
 
     def __init__(self, net: NetConfig | None = None) -> None:
         self.net = net or NetConfig()
-        self.session = zenoh.open(zenoh_config(self.net))
+        try:
+            self.session = zenoh.open(zenoh_config(self.net))
+        except zenoh.ZError as e:
+            where = ", ".join(self.net.connect or self.net.listen) or "the default router"
+            raise IwError(
+                f"cannot join the bus ({self.net.mode} of {where}): {e}. "
+                "Is `iwz router` running there (or use `iwz run`)? Is the port free, for a router?"
+            ) from None
         self._pubs: dict[str, zenoh.Publisher] = {}
         self._lock = threading.Lock()
         self._handles: list[Handle] = []

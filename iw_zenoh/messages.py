@@ -393,8 +393,8 @@ _DECODERS: dict[type[Any], msgspec.json.Decoder[Any]] = {}
 def encode(msg: Message) -> bytes:
     """Encodes any message as UTF-8 JSON.
 
-    Raises:
-        ValueError: When a float field holds NaN or infinity (JSON has none; use ``None``).
+    JSON has no NaN or infinity: msgspec writes them as ``null``, which a receiver refuses for a
+    plain float field (fields that may be unknown are ``float | None``).
     """
     return _ENCODER.encode(msg)
 

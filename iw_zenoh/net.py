@@ -20,6 +20,7 @@ __all__ = ["DEFAULT_ENDPOINT", "DEFAULT_PORT", "NetConfig", "free_port", "port_i
 DEFAULT_PORT = 7447
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
 LEASE_MS = 3000  # a process whose link goes silent this long counts as lost
+CONNECT_TIMEOUT_MS = 15000  # a client started before its router keeps trying this long
 
 
 @dataclass(frozen=True)
@@ -67,6 +68,7 @@ def zenoh_config(net: NetConfig) -> zenoh.Config:
         listen = [DEFAULT_ENDPOINT]
     if connect:
         conf.insert_json5("connect/endpoints", json.dumps(connect))
+        conf.insert_json5("connect/timeout_ms", json.dumps({"client": CONNECT_TIMEOUT_MS}))
     if listen:
         conf.insert_json5("listen/endpoints", json.dumps(listen))
     conf.insert_json5("scouting/multicast/enabled", "true" if net.lan else "false")

@@ -61,7 +61,15 @@ class NodeIO:
             self.bus.publish(key, encode(msg))
 
     def event(
-        self, kind: str, reason: str, *, tick: int = 0, sim_time_ns: int = 0, robot_id: int = -1, **data: object
+        self,
+        kind: str,
+        reason: str,
+        *,
+        tick: int = 0,
+        sim_time_ns: int = 0,
+        robot_id: int = -1,
+        key: str = "",
+        **data: object,
     ) -> None:
         """Publishes an event (and logs it)."""
         logger.info("event %s: %s", kind, reason)
@@ -73,6 +81,7 @@ class NodeIO:
                 kind=kind,
                 reason=reason,
                 robot_id=robot_id,
+                key=key,
                 source=f"{self.role}/{self.name}",
                 data=dict(data),
             ),

@@ -65,10 +65,12 @@ def run(bus: Bus, sim: str, *, name: str = "collision", io: NodeIO | None = None
         if not pending:
             io.wait(0.2)
             continue
-        # only the newest proposal matters: an older one's tick is already decided
-        msg = io.decode(pending[-1], Proposed)
-        if msg is None:
+        # only the newest proposal matters (an older one's tick is already decided), but every
+        # message is decoded so a bad one is always reported
+        decoded = [m for m in (io.decode(d, Proposed) for d in pending) if m is not None]
+        if not decoded:
             continue
+        msg = decoded[-1]
         view = cache.get(msg.revision)
         if view is None or any(i not in view.specs for i in msg.ids):
             logger.warning(

@@ -147,10 +147,10 @@ def run(
         if not pending:
             io.wait(0.2)
             continue
-        for d in pending[-1:]:  # a stale state is worth nothing: agents act on the newest
-            msg = io.decode(d, WorldState)
-            if msg is None:
-                continue
+        # a stale state is worth nothing (agents act on the newest), but every message is
+        # decoded so a bad one is always reported
+        decoded = [m for m in (io.decode(d, WorldState) for d in pending) if m is not None]
+        for msg in decoded[-1:]:
             view = cache.get(msg.revision)
             if view is None or any(i not in view.specs for i in msg.ids):
                 logger.warning("tick %d: no world info for revision %d", msg.tick, msg.revision)

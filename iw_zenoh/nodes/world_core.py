@@ -135,13 +135,14 @@ class WorldCore:
         """Simulated time at ``tick`` (default now)."""
         return (self.tick if tick is None else tick) * self.cfg.period_ns
 
-    def _event(self, kind: str, reason: str, robot_id: int = -1, **data: object) -> Outgoing:
+    def _event(self, kind: str, reason: str, robot_id: int = -1, key: str = "", **data: object) -> Outgoing:
         return keys.event(self.cfg.sim, kind), Event(
             tick=self.tick,
             sim_time_ns=self.sim_time_ns(),
             kind=kind,
             reason=reason,
             robot_id=robot_id,
+            key=key,
             source="world",
             data=dict(data),
         )

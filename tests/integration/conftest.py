@@ -1,0 +1,21 @@
+"""Fixtures for tests with real processes on a real Zenoh router (loopback only)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from tests.integration.harness import Net
+
+
+@pytest.fixture
+def net(tmp_path: Path) -> Iterator[Net]:
+    """A router on a free loopback port; every process the test spawns is stopped after it."""
+    n = Net(tmp_path)
+    n.start_router()
+    try:
+        yield n
+    finally:
+        n.close()

@@ -1,0 +1,192 @@
+"""Real processes on a real Zenoh router: spawn roles, talk to them, stop them by pid."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TypeVar
+
+from iw_zenoh import keys
+from iw_zenoh.bus import Inbox, ZenohBus
+from iw_zenoh.messages import Event, Message, RegisterReply, RegisterRequest, RobotSpecMsg, WorldState, decode, encode
+from iw_zenoh.net import NetConfig, free_port, port_in_use
+
+M = TypeVar("M", bound=Message)
+ROOT = Path(__file__).resolve().parents[2]
+MAPS = ROOT / "maps"
+
+
+@dataclass
+class Proc:
+    """A spawned role."""
+
+    name: str
+    popen: subprocess.Popen[bytes]
+    log: Path
+
+    def kill(self, sig: int = signal.SIGKILL) -> None:
+        """Signals it (SIGKILL by default) and reaps it."""
+        if self.popen.poll() is None:
+            self.popen.send_signal(sig)
+            try:
+                self.popen.wait(10)
+            except subprocess.TimeoutExpired:
+                self.popen.kill()
+                self.popen.wait(5)
+
+    def output(self) -> str:
+        """What it printed."""
+        return self.log.read_text(errors="replace") if self.log.exists() else ""
+
+
+@dataclass
+class Net:
+    """A router on a free loopback port and the processes of one test."""
+
+    tmp: Path
+    sim: str = "t"
+    port: int = 0
+    procs: list[Proc] = field(default_factory=list)
+    buses: list[ZenohBus] = field(default_factory=list)
+    prefix: list[str] = field(default_factory=list)
+    endpoint_host: str = "127.0.0.1"
+
+    @property
+    def endpoint(self) -> str:
+        """The router's endpoint."""
+        return f"tcp/{self.endpoint_host}:{self.port}"
+
+    def spawn(
+        self, role: str, *args: str, name: str | None = None, prefix: list[str] | None = None, connect: bool = True
+    ) -> Proc:
+        """Starts ``iwz ROLE ARGS`` as a child process connected to the router."""
+        name = name or f"{role}-{len(self.procs)}"
+        log = self.tmp / f"{name}.log"
+        extra = ["--sim", self.sim, "-e", self.endpoint] if connect else ["--sim", self.sim]
+        argv = [
+            *(prefix if prefix is not None else self.prefix),
+            sys.executable,
+            "-m",
+            "iw_zenoh.cli",
+            role,
+            *args,
+            *extra,
+        ]
+        with log.open("wb") as f:
+            p = subprocess.Popen(
+                argv,
+                stdout=f,
+                stderr=subprocess.STDOUT,
+                stdin=subprocess.DEVNULL,
+                env=dict(os.environ, PYTHONUNBUFFERED="1"),
+            )
+        proc = Proc(name, p, log)
+        self.procs.append(proc)
+        return proc
+
+    def start_router(self, listen: str | None = None, prefix: list[str] | None = None) -> Proc:
+        """Starts the router and waits until it accepts connections."""
+        if not self.port:
+            self.port = free_port()
+        log = self.tmp / "router.log"
+        argv = [
+            *(prefix or []),
+            sys.executable,
+            "-m",
+            "iw_zenoh.cli",
+            "router",
+            "--sim",
+            self.sim,
+            "--listen",
+            listen or self.endpoint,
+        ]
+        with log.open("wb") as f:
+            p = subprocess.Popen(
+                argv,
+                stdout=f,
+                stderr=subprocess.STDOUT,
+                stdin=subprocess.DEVNULL,
+                env=dict(os.environ, PYTHONUNBUFFERED="1"),
+            )
+        proc = Proc("router", p, log)
+        self.procs.append(proc)
+        if prefix is None:
+            deadline = time.monotonic() + 20
+            while not port_in_use(self.port):
+                assert p.poll() is None, f"router died:\n{proc.output()}"
+                assert time.monotonic() < deadline, "router did not listen in 20 s"
+                time.sleep(0.02)  # polling a port: there is no event to wait on
+        return proc
+
+    def client(self) -> ZenohBus:
+        """A Zenoh client session of the test itself."""
+        bus = ZenohBus(NetConfig(connect=(self.endpoint,)))
+        self.buses.append(bus)
+        return bus
+
+    def close(self) -> None:
+        """Stops every process (by pid) and session."""
+        for b in self.buses:
+            b.close()
+        for p in reversed(self.procs):
+            p.kill(signal.SIGTERM)
+
+
+def subscribe(bus: ZenohBus, key_expr: str, maxlen: int | None = None) -> Inbox:
+    """A test inbox on a key expression."""
+    box = Inbox(maxlen=maxlen)
+    bus.subscribe(key_expr, box)
+    return box
+
+
+def wait_msg(box: Inbox, kind: type[M], pred: Callable[[M], bool] = lambda m: True, timeout_s: float = 20.0) -> M:
+    """The first message of ``kind`` in ``box`` satisfying ``pred``, waiting up to ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        left = deadline - time.monotonic()
+        assert left > 0, f"no {kind.__name__} matching within {timeout_s} s"
+        d = box.get(timeout_s=left)
+        if d is None:
+            continue
+        try:
+            m = decode(d[1], kind)
+        except Exception:
+            continue
+        if pred(m):
+            return m
+
+
+def wait_event(
+    box: Inbox,
+    kind: str,
+    timeout_s: float = 20.0,
+    pred: Callable[[Event], bool] = lambda e: True,
+    missing: Callable[[], object] | None = None,
+) -> Event:
+    """The first event of ``kind``; ``missing()`` says what was still awaited if none comes."""
+    try:
+        return wait_msg(box, Event, lambda e: e.kind == kind and pred(e), timeout_s)
+    except AssertionError as e:
+        raise AssertionError(f"{e}; still waiting for {missing()}" if missing else str(e)) from None
+
+
+def register(bus: ZenohBus, sim: str, spec: RobotSpecMsg, agent: str = "", timeout_s: float = 20.0) -> RegisterReply:
+    """Registers a robot from the test, retrying until a world answers."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        got = bus.query(keys.register(sim), encode(RegisterRequest(spec=spec, agent=agent)), timeout_s=1.0)
+        if got:
+            return decode(got[0], RegisterReply)
+    raise AssertionError("no world answered the registration")
+
+
+def state_of(msg: WorldState, robot_id: int) -> tuple[float, float, float, bool]:
+    """x, y, heading, collided of one robot in a state message."""
+    i = msg.ids.index(robot_id)
+    return msg.x[i], msg.y[i], msg.heading[i], msg.collided[i]

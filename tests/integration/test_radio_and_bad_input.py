@@ -1,0 +1,99 @@
+"""Radio range and limits; malformed messages on every subscribed key."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from iw_zenoh import keys
+from iw_zenoh.messages import Event, Hear, RobotSpecMsg, Say, WorldState, decode, encode
+from tests.integration.harness import Net, register, subscribe, wait_event, wait_msg
+
+pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(120)]
+
+OPEN_LAB = '<Lab Name="open" Width="40" Height="10"/>'
+
+
+def test_radio_delivers_within_range_and_enforces_byte_limits(net: Net) -> None:
+    (net.tmp / "lab.xml").write_text(OPEN_LAB)
+    net.spawn("world", str(net.tmp / "lab.xml"))
+    net.spawn("radio")
+    bus = net.client()
+    hear = subscribe(bus, keys.all_hear(net.sim))
+    events = subscribe(bus, keys.event(net.sim, "radio-dropped"))
+    states = subscribe(bus, keys.state(net.sim), maxlen=1)
+    # a at x=2; b 4 m away; c 10 m away; d..g near b, to fill b's 400-byte budget
+    xs = {"a": 2.0, "b": 6.0, "c": 12.0, "d": 7.5, "e": 9.0, "f": 4.0, "g": 3.0}
+    regs = {n: register(bus, net.sim, RobotSpecMsg(name=n, x=x, y=5.0, width=0.5, height=0.5)) for n, x in xs.items()}
+    assert all(r.ok for r in regs.values()), {n: r.reason for n, r in regs.items()}
+    ids = {n: r.robot_id for n, r in regs.items()}
+    wait_msg(states, WorldState, lambda m: len(m.ids) == len(xs))
+
+    bus.publish(keys.say(net.sim, ids["a"]), encode(Say(robot_id=ids["a"], text="hello")))
+    heard = {}
+    while len(heard) < 5:  # a, b, f, g within 8 m of a (and a itself); never c
+        h = wait_msg(hear, Hear, timeout_s=10)
+        assert h.robot_id != ids["c"], "c is 10 m away and must not hear a"
+        heard[h.robot_id] = h
+    assert ids["c"] not in heard
+    assert [m.sender for m in heard[ids["a"]].messages] == [ids["a"]]  # the speaker hears itself
+    assert heard[ids["b"]].messages[0].text == "hello"
+    assert heard[ids["b"]].messages[0].distance_m == pytest.approx(4.0, abs=0.01)
+
+    bus.publish(keys.say(net.sim, ids["b"]), encode(Say(robot_id=ids["b"], text="x" * 101)))
+    dropped = wait_msg(events, Event, timeout_s=10)
+    assert dropped.data == {"too_long": 1}
+
+    for n in ("a", "d", "e", "f", "g"):  # five 100-byte messages, all within 8 m of b
+        bus.publish(keys.say(net.sim, ids[n]), encode(Say(robot_id=ids[n], text=n * 100)))
+    got = wait_msg(
+        hear,
+        Hear,
+        lambda h: h.robot_id == ids["b"] and len(h.messages) >= 1 and len(h.messages[0].text) == 100,
+        timeout_s=10,
+    )
+    assert sum(len(m.text.encode()) for m in got.messages) <= 400
+    over = wait_msg(events, Event, lambda e: "over_budget" in e.data, timeout_s=10)
+    assert over.data["over_budget"] >= 1
+
+
+def test_malformed_messages_are_dropped_with_an_event_and_nothing_else_changes(net: Net, tmp_path: Path) -> None:
+    (net.tmp / "lab.xml").write_text(OPEN_LAB)
+    bus = net.client()
+    events = subscribe(bus, keys.all_events(net.sim))
+    states = subscribe(bus, keys.state(net.sim), maxlen=1)
+    net.spawn("world", str(net.tmp / "lab.xml"))
+    net.spawn("collision")
+    net.spawn("sensors")
+    net.spawn("radio")
+    net.spawn("agent", "waypoint", "--waypoints", "35,5", "--start", "3,5,0", "--name", "driver")
+    first = wait_msg(states, WorldState, lambda m: len(m.ids) == 1 and m.speed[0] > 0.05 and not m.held)
+    rid = first.ids[0]
+    targets = [
+        keys.actions(net.sim, rid),
+        keys.pose_report(net.sim, rid),
+        keys.control(net.sim),
+        keys.verdict(net.sim),
+        keys.proposed(net.sim),
+        keys.state(net.sim),
+        keys.say(net.sim, rid),
+        keys.sensors(net.sim, rid),
+        keys.radio(net.sim),
+    ]
+    for key in targets:
+        bus.publish(key, b"{this is not json")
+        bus.publish(key, b'{"robot_id": "seven"}')
+    seen: set[str] = set()
+    while not set(targets) <= seen:
+        ev = wait_event(events, "bad-message", timeout_s=15, missing=lambda: set(targets) - seen)
+        assert ev.reason
+        seen.add(ev.key)
+    later = wait_msg(states, WorldState, lambda m: m.tick > first.tick + 10)
+    assert later.ids == [rid]
+    assert not later.held
+    assert later.x[0] > first.x[0]  # the chair kept driving
+    kinds: list[str] = []
+    while (d := events.get(timeout_s=0.2)) is not None:
+        kinds.append(decode(d[1], Event).kind)
+    assert not {"holding", "watchdog", "agent-lost", "removed"} & set(kinds)

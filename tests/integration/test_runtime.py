@@ -1,0 +1,190 @@
+"""The simulation as separate processes on a real Zenoh router."""
+
+from __future__ import annotations
+
+import math
+import signal
+from pathlib import Path
+
+import pytest
+
+from iw_zenoh import keys
+from iw_zenoh.messages import Actions, RobotSpecMsg, WorldState, encode
+from tests.integration.harness import MAPS, Net, register, state_of, subscribe, wait_event, wait_msg
+
+pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(120)]
+
+LAB = """<Lab Name="test" Width="20" Height="10">
+  <Wall Height="2"><Corner X="9" Y="0"/><Corner X="10" Y="0"/><Corner X="10" Y="3"/><Corner X="9" Y="3"/></Wall>
+</Lab>"""
+GRID = (
+    """<Grid><Position X="2" Y="5" Dir="0"/><Position X="5" Y="5" Dir="0"/><Position X="8" Y="8" Dir="180"/></Grid>"""
+)
+
+
+def _maps(tmp: Path) -> tuple[str, str]:
+    (tmp / "lab.xml").write_text(LAB)
+    (tmp / "grid.xml").write_text(GRID)
+    return str(tmp / "lab.xml"), str(tmp / "grid.xml")
+
+
+def test_registration_is_accepted_or_refused_with_its_reason(net: Net) -> None:
+    lab, grid = _maps(net.tmp)
+    net.spawn("world", lab, "--grid", grid)
+    bus = net.client()
+    ok = register(bus, net.sim, RobotSpecMsg(name="a"))
+    assert ok.ok
+    assert (ok.robot_id, ok.spec.x, ok.spec.y) == (1, 2.0, 5.0)  # type: ignore[union-attr]
+    dup = register(bus, net.sim, RobotSpecMsg(name="b", id=1))
+    assert not dup.ok
+    assert "id 1 is taken" in dup.reason
+    bad = register(bus, net.sim, RobotSpecMsg(name="c", com=1.5))
+    assert not bad.ok
+    assert "com" in bad.reason
+    on_wall = register(bus, net.sim, RobotSpecMsg(name="d", x=9.5, y=1.0))
+    assert not on_wall.ok
+    assert "wall" in on_wall.reason
+    assert register(bus, net.sim, RobotSpecMsg(name="e")).ok
+    assert register(bus, net.sim, RobotSpecMsg(name="f")).ok
+    full = register(bus, net.sim, RobotSpecMsg(name="g"))
+    assert not full.ok
+    assert "grid is full" in full.reason
+
+
+def _lockstep_run(net: Net, seed: int) -> list[tuple[int, tuple[float, ...]]]:
+    lab, grid = _maps(net.tmp)
+    bus = net.client()
+    states = subscribe(bus, keys.state(net.sim))
+    world = net.spawn(
+        "world",
+        lab,
+        "--grid",
+        grid,
+        "--lockstep",
+        "--expect",
+        "2",
+        "--duration",
+        "3",
+        "--seed",
+        str(seed),
+        name=f"world-{seed}",
+    )
+    net.spawn("collision", name=f"collision-{seed}")
+    net.spawn("sensors", name=f"sensors-{seed}")
+    net.spawn("agent", "wanderer", "--count", "2", "--seed", str(seed), "--name", f"w{seed}", name=f"agent-{seed}")
+    assert world.popen.wait(90) == 0, world.output()
+    out = []
+    while (d := states.get(timeout_s=0.5)) is not None:
+        from iw_zenoh.messages import decode
+
+        m = decode(d[1], WorldState)
+        out.append((m.tick, tuple(m.x + m.y + m.heading)))
+    return out
+
+
+def test_lockstep_runs_with_one_seed_give_identical_state_streams(tmp_path: Path) -> None:
+    runs = []
+    for i in range(2):
+        n = Net(tmp_path / f"run{i}")
+        n.tmp.mkdir()
+        n.start_router()
+        try:
+            runs.append(_lockstep_run(n, seed=11))
+        finally:
+            n.close()
+    assert [t for t, _ in runs[0]] == list(range(1, 31))  # 3 s of 100 ms ticks, none skipped
+    assert runs[0] == runs[1]
+    moved = runs[0][-1][1] != runs[0][0][1]
+    assert moved
+
+
+def test_a_killed_agent_stops_its_chair(net: Net) -> None:
+    lab, grid = _maps(net.tmp)
+    bus = net.client()
+    events = subscribe(bus, keys.all_events(net.sim))
+    states = subscribe(bus, keys.state(net.sim), maxlen=1)
+    net.spawn("world", lab, "--grid", grid)
+    net.spawn("collision")
+    net.spawn("sensors")
+    agent = net.spawn("agent", "waypoint", "--waypoints", "8,5", "--id", "1", "--name", "driver")
+    wait_msg(states, WorldState, lambda m: 1 in m.ids and m.speed[m.ids.index(1)] > 0.1)
+    agent.kill(signal.SIGKILL)
+    lost = wait_event(events, "agent-lost", timeout_s=10)  # the only agent: no earlier one
+    assert lost.robot_id == 1
+    stopped = wait_msg(
+        states, WorldState, lambda m: m.tick > lost.tick and abs(m.speed[m.ids.index(1)]) < 1e-3, timeout_s=5
+    )
+    x = state_of(stopped, 1)[0]
+    later = wait_msg(states, WorldState, lambda m: m.tick >= stopped.tick + 5)
+    assert state_of(later, 1)[0] == pytest.approx(x, abs=1e-3)  # the motors wind down on their curve
+    wait_event(events, "removed", timeout_s=15, pred=lambda e: e.robot_id == 1)
+
+
+def test_silent_controller_trips_the_watchdog(net: Net) -> None:
+    lab, grid = _maps(net.tmp)
+    bus = net.client()
+    events = subscribe(bus, keys.all_events(net.sim))
+    states = subscribe(bus, keys.state(net.sim), maxlen=1)
+    net.spawn("world", lab, "--grid", grid, "--action-timeout-ms", "300")
+    net.spawn("collision")
+    rid = register(bus, net.sim, RobotSpecMsg(name="raw")).robot_id
+    bus.publish(keys.actions(net.sim, rid), encode(Actions(robot_id=rid, left=0.1, right=0.1)))
+    wait_msg(states, WorldState, lambda m: rid in m.ids and m.speed[m.ids.index(rid)] > 0.05)
+    ev = wait_event(events, "watchdog", timeout_s=5)
+    assert ev.robot_id == rid
+    wait_msg(states, WorldState, lambda m: m.tick > ev.tick and abs(m.speed[m.ids.index(rid)]) < 1e-3, timeout_s=5)
+
+
+def test_without_collision_process_every_chair_is_held_until_it_returns(net: Net) -> None:
+    lab, grid = _maps(net.tmp)
+    bus = net.client()
+    events = subscribe(bus, keys.all_events(net.sim))
+    states = subscribe(bus, keys.state(net.sim), maxlen=1)
+    net.spawn("world", lab, "--grid", grid)
+    collision = net.spawn("collision")
+    net.spawn("sensors")
+    net.spawn("agent", "waypoint", "--waypoints", "18,5", "--id", "1", "--name", "driver")
+    running = wait_msg(states, WorldState, lambda m: 1 in m.ids and m.speed[m.ids.index(1)] > 0.1 and not m.held)
+    collision.kill(signal.SIGKILL)
+    hold = wait_event(events, "holding", timeout_s=10, pred=lambda e: e.tick >= running.tick)
+    held = wait_msg(states, WorldState, lambda m: m.held and m.tick > hold.tick)
+    later = wait_msg(states, WorldState, lambda m: m.tick >= held.tick + 5)
+    assert later.held
+    assert state_of(later, 1)[:2] == state_of(held, 1)[:2]
+    net.spawn("collision", name="collision-again")
+    back = wait_event(events, "resumed", timeout_s=20, pred=lambda e: e.tick > hold.tick)
+    moving = wait_msg(states, WorldState, lambda m: m.tick > back.tick + 3)
+    assert not moving.held
+    assert state_of(moving, 1)[0] > state_of(held, 1)[0]
+
+
+def test_demo_scenario_runs_and_meets_its_criteria(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    from iw_zenoh.net import free_port
+
+    port = free_port()
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "iw_zenoh.cli",
+            "run",
+            str(MAPS / "demo.toml"),
+            "--port",
+            str(port),
+            "--no-status",
+            "--sim",
+            "demo",
+            "--log-dir",
+            str(tmp_path),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=110,
+    )
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "PASS robot 1 within 0.5 m of (20, 6.1)" in r.stdout
+    assert "PASS collisions 0" in r.stdout
+    assert math.isfinite(1.0)

@@ -1,0 +1,52 @@
+from __future__ import annotations
+
+from iw_zenoh.messages import Event, Hear, RadioBatch, Say, WorldState
+from iw_zenoh.nodes.radio import RadioConfig, RadioNode
+
+
+def _state(xs: list[float]) -> WorldState:
+    n = len(xs)
+    return WorldState(
+        tick=1,
+        revision=1,
+        ids=list(range(1, n + 1)),
+        x=xs,
+        y=[0.0] * n,
+        heading=[0.0] * n,
+        collided=[False] * n,
+        rolled_left=[0.0] * n,
+        rolled_right=[0.0] * n,
+        speed=[0.0] * n,
+    )
+
+
+def _heard(out: list[tuple[str, object]]) -> dict[int, list[str]]:
+    batch = next(m for _, m in out if isinstance(m, RadioBatch))
+    return {h.robot_id: [x.text for x in h.messages] for h in batch.hear}
+
+
+def test_messages_reach_only_robots_strictly_within_range_speaker_included() -> None:
+    node = RadioNode("s", RadioConfig(range_m=8.0))
+    node.on_say(Say(robot_id=1, text="hi"))
+    out = node.on_state(_state([0.0, 7.99, 8.0, 20.0]))
+    assert _heard(out) == {1: ["hi"], 2: ["hi"]}
+    assert all(isinstance(m, Hear | RadioBatch) for _, m in out)
+
+
+def test_long_messages_and_budget_overflows_are_dropped_and_counted() -> None:
+    node = RadioNode("s", RadioConfig(max_message_bytes=100, max_heard_bytes=250))
+    node.on_say(Say(robot_id=1, text="é" * 51))  # 102 bytes
+    for rid in (1, 2, 3):
+        node.on_say(Say(robot_id=rid, text=str(rid) * 100))
+    out = node.on_state(_state([0.0, 1.0, 2.0]))
+    heard = _heard(out)
+    assert heard[1] == ["1" * 100, "2" * 100]  # sender order; the third would pass 250 bytes
+    ev = next(m for _, m in out if isinstance(m, Event))
+    assert ev.data == {"too_long": 1, "over_budget": 3}
+
+
+def test_a_message_is_delivered_once() -> None:
+    node = RadioNode("s")
+    node.on_say(Say(robot_id=1, text="once"))
+    assert _heard(node.on_state(_state([0.0])))[1] == ["once"]
+    assert _heard(node.on_state(_state([0.0]))) == {}

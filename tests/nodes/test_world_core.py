@@ -1,0 +1,164 @@
+from __future__ import annotations
+
+import pytest
+
+from iw_zenoh.core.lab import Grid, GridPosition, Lab
+from iw_zenoh.messages import (
+    Actions,
+    Control,
+    Event,
+    Obstacle,
+    Proposed,
+    RegisterRequest,
+    RobotSpecMsg,
+    Verdict,
+    WorldState,
+)
+from iw_zenoh.nodes.world_core import MS, WorldConfig, WorldCore
+from tests.conftest import box_wall
+
+
+def _core(**kw: object) -> WorldCore:
+    lab = Lab("t", 20.0, 10.0, (box_wall(9.0, 0.0, 10.0, 3.0),))
+    grid = Grid((GridPosition(2, 5, 0), GridPosition(5, 5, 0)))
+    return WorldCore(WorldConfig(sim="t", **kw), lab, grid)  # type: ignore[arg-type]
+
+
+def _kinds(out: list[tuple[str, object]]) -> list[str]:
+    return [m.kind for _, m in out if isinstance(m, Event)]
+
+
+def _tick(core: WorldCore, now_ns: int, verdict: bool = True) -> WorldState:
+    out = core.begin_tick(now_ns)
+    prop = next(m for _, m in out if isinstance(m, Proposed))
+    v = (
+        Verdict(tick=prop.tick, revision=prop.revision, ids=prop.ids, collided=[False] * len(prop.ids))
+        if verdict
+        else None
+    )
+    done = core.finish_tick(v)
+    return next(m for _, m in done if isinstance(m, WorldState))
+
+
+def test_registration_takes_the_first_free_grid_slot_and_announces_it() -> None:
+    core = _core()
+    reply, out = core.register(RegisterRequest(spec=RobotSpecMsg(name="a")), 0)
+    assert reply.ok
+    assert reply.robot_id == 1
+    assert (reply.spec.x, reply.spec.y) == (2.0, 5.0)  # type: ignore[union-attr]
+    assert "registered" in _kinds(out)
+
+
+@pytest.mark.parametrize(
+    ("spec", "reason"),
+    [
+        (RobotSpecMsg(name="b", id=1), "id 1 is taken"),
+        (RobotSpecMsg(name="c", id=3), "beyond the grid"),
+        (RobotSpecMsg(name="d", x=9.5, y=1.0), "wall"),
+        (RobotSpecMsg(name="e", x=2.5, y=5.0), "robot 1"),
+        (RobotSpecMsg(name="f", x=25.0, y=5.0), "outside the lab"),
+        (RobotSpecMsg(name="g", max_speed=-1.0), "max_speed"),
+    ],
+)
+def test_refusals_say_why(spec: RobotSpecMsg, reason: str) -> None:
+    core = _core()
+    core.register(RegisterRequest(spec=RobotSpecMsg(name="a")), 0)
+    reply, out = core.register(RegisterRequest(spec=spec), 0)
+    assert not reply.ok
+    assert reason in reply.reason
+    assert "refused" in _kinds(out)
+
+
+def test_actions_move_the_chair_at_the_next_tick_and_stale_ones_trip_the_watchdog() -> None:
+    core = _core(action_timeout_ms=500.0)
+    core.collision_alive.add("c")
+    core.register(RegisterRequest(spec=RobotSpecMsg(name="a")), 0)
+    core.on_actions(Actions(robot_id=1, left=0.15, right=0.15), 0)
+    s = _tick(core, 100 * MS)
+    assert s.x[0] > 2.0
+    out = core.begin_tick(700 * MS)  # 700 ms after the last actions
+    assert "watchdog" in _kinds(out)
+    assert core.state.cmd.tolist() == [[0.0, 0.0]]
+
+
+def test_a_lost_agent_zeroes_its_robots_at_once_and_removes_them_after_the_grace() -> None:
+    core = _core(grace_ms=1000.0)
+    core.register(RegisterRequest(spec=RobotSpecMsg(name="a"), agent="ag"), 0)
+    core.on_alive("agent", "ag", True, 0)
+    core.on_actions(Actions(robot_id=1, left=0.1, right=0.1), 0)
+    assert "agent-lost" in _kinds(core.on_alive("agent", "ag", False, 10 * MS))
+    core.begin_tick(20 * MS)
+    assert core.state.cmd.tolist() == [[0.0, 0.0]]
+    out = core.begin_tick(1200 * MS)
+    assert "removed" in _kinds(out)
+    assert core.registry.ids == []
+
+
+def test_without_a_verdict_every_robot_is_held_and_the_world_says_why() -> None:
+    core = _core()
+    core.register(RegisterRequest(spec=RobotSpecMsg(name="a")), 0)
+    core.on_actions(Actions(robot_id=1, left=0.15, right=0.15), 0)
+    core.begin_tick(0)
+    out = core.finish_tick(None)
+    assert "holding" in _kinds(out)
+    st = next(m for _, m in out if isinstance(m, WorldState))
+    assert st.held
+    assert st.x == [2.0]
+    core.collision_alive.add("c")
+    core.begin_tick(MS)
+    out = core.finish_tick(Verdict(tick=2, revision=core.revision, ids=[1], collided=[False]))
+    assert "resumed" in _kinds(out)
+
+
+def test_a_verdict_for_another_tick_or_roster_is_not_taken() -> None:
+    core = _core()
+    core.register(RegisterRequest(spec=RobotSpecMsg(name="a")), 0)
+    core.begin_tick(0)
+    assert not core.verdict_ok(Verdict(tick=5, revision=core.revision, ids=[1], collided=[False]))
+    assert not core.verdict_ok(Verdict(tick=1, revision=core.revision + 1, ids=[1], collided=[False]))
+    assert core.verdict_ok(Verdict(tick=1, revision=core.revision, ids=[1], collided=[False]))
+
+
+def test_lockstep_waits_only_for_live_agents_that_have_not_answered() -> None:
+    core = _core(mode="lockstep")
+    core.register(RegisterRequest(spec=RobotSpecMsg(name="a"), agent="ag"), 0)
+    core.register(RegisterRequest(spec=RobotSpecMsg(name="b"), agent="gone"), 0)
+    core.on_alive("agent", "ag", True, 0)
+    assert core.expected(1) == [1]
+    core.on_actions(Actions(tick=1, robot_id=1), 0)
+    assert core.expected(1) == []
+
+
+def test_obstacles_are_added_moved_and_refused_outside_the_lab() -> None:
+    core = _core()
+    rev = core.revision
+    out = core.on_control(Control(command="add_obstacle", obstacle=Obstacle(name="A", x0=12, y0=4, x1=13, y1=5)))
+    assert "obstacle" in _kinds(out)
+    assert core.revision == rev + 1
+    assert len(core.scene.lab.walls) == 2
+    out = core.on_control(Control(command="add_obstacle", obstacle=Obstacle(name="B", x0=19, y0=4, x1=23, y1=5)))
+    assert "bad-control" in _kinds(out)
+    core.on_control(Control(command="remove_obstacle", obstacle=Obstacle(name="A", x0=0, y0=0, x1=0, y1=0)))
+    assert len(core.scene.lab.walls) == 1
+
+
+def test_pause_step_and_start() -> None:
+    core = _core(expect=0)
+    core.on_control(Control(command="pause"))
+    assert not core.due()
+    core.on_control(Control(command="step", steps=2))
+    assert core.due()
+    core.collision_alive.add("c")
+    _tick(core, 0)
+    _tick(core, MS)
+    assert not core.due()
+    core.on_control(Control(command="start"))
+    assert core.due()
+
+
+def test_the_first_tick_waits_for_the_expected_roster() -> None:
+    core = _core(expect=2)
+    core.register(RegisterRequest(spec=RobotSpecMsg(name="a")), 0)
+    assert not core.due()
+    core.register(RegisterRequest(spec=RobotSpecMsg(name="b")), 0)
+    assert core.due()

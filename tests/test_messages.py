@@ -1,0 +1,119 @@
+from __future__ import annotations
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from iw_zenoh.core.spec import IrSensorSpec, RobotSpec
+from iw_zenoh.errors import DecodeError, SpecError
+from iw_zenoh.messages import (
+    MESSAGE_TYPES,
+    Actions,
+    Event,
+    Hear,
+    Heard,
+    RobotSpecMsg,
+    SensorReading,
+    WorldState,
+    decode,
+    encode,
+    json_schema,
+    spec_from_msg,
+    spec_to_msg,
+)
+
+finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
+
+
+@given(
+    st.builds(
+        Actions,
+        tick=st.integers(0, 2**40),
+        sim_time_ns=st.integers(0, 2**62),
+        robot_id=st.integers(0, 10**6),
+        left=finite,
+        right=finite,
+        end_led=st.booleans(),
+    )
+)
+def test_actions_round_trip(m: Actions) -> None:
+    assert decode(encode(m), Actions) == m
+
+
+@given(
+    st.builds(
+        Hear,
+        robot_id=st.integers(0, 1000),
+        messages=st.lists(
+            st.builds(Heard, sender=st.integers(0, 1000), distance_m=finite, text=st.text(max_size=100)), max_size=5
+        ),
+    )
+)
+def test_hear_round_trips(m: Hear) -> None:
+    assert decode(encode(m), Hear) == m
+
+
+def test_every_message_type_round_trips_and_has_a_schema() -> None:
+    samples = {
+        WorldState: WorldState(
+            revision=1,
+            ids=[1],
+            x=[1.0],
+            y=[2.0],
+            heading=[0.5],
+            collided=[False],
+            rolled_left=[0.0],
+            rolled_right=[0.0],
+            speed=[0.1],
+        ),
+        SensorReading: SensorReading(
+            robot_id=1,
+            proximity_ids=[0],
+            proximity_m=[None],
+            proximity_legacy=[100.0],
+            compass_deg=3.0,
+            gps=(1.0, 2.0, 3.0),
+        ),
+        Event: Event(kind="collision", reason="r", data={"x": 1.5}),
+    }
+    for kind, msg in samples.items():
+        assert decode(encode(msg), kind) == msg
+    for kind in MESSAGE_TYPES:
+        schema = json_schema(kind)
+        assert "$defs" in schema or "properties" in schema
+        assert kind.schema.endswith("/1")
+
+
+@pytest.mark.parametrize(
+    ("data", "why"),
+    [
+        (b"{nope", "not JSON"),
+        (b'{"robot_id": "x"}', "$.robot_id"),
+        (b'{"robot_id": 1, "extra": 2}', "unknown field"),
+        (b'{"robot_id": -4}', "$.robot_id"),
+        (b"[]", "Expected `object`"),
+    ],
+)
+def test_bad_payloads_raise_decode_errors_naming_the_problem(data: bytes, why: str) -> None:
+    with pytest.raises(DecodeError, match=__import__("re").escape(why)):
+        decode(data, Actions)
+
+
+def test_specs_convert_both_ways() -> None:
+    spec = RobotSpec(
+        "chair", id=3, width_m=1.04, height_m=0.66, com=0.81, ir_sensors=(IrSensorSpec(0, 0.72, 0.24, 0.0, 60.0),)
+    )
+    back = spec_from_msg(spec_to_msg(spec))
+    assert back == spec
+
+
+def test_a_wire_spec_out_of_range_is_refused_naming_the_field() -> None:
+    with pytest.raises(SpecError) as e:
+        spec_from_msg(RobotSpecMsg(name="x", acceleration_curve=2.0))
+    assert e.value.field == "acceleration_curve"
+
+
+def test_a_nan_is_refused_by_the_receiver_never_read_as_a_number() -> None:
+    data = encode(Actions(robot_id=1, left=float("nan")))
+    with pytest.raises(DecodeError, match="left"):
+        decode(data, Actions)
