@@ -77,8 +77,26 @@ def crowded_floor(n: int, seed: int = 1) -> tuple[Scene, Bodies, np.ndarray]:
     polys = shapely.polygons(bodies_all.world_outline(pose_all))
     free = ~np.isin(np.arange(len(pts)), scene.solid_tree.query(polys, predicate="intersects")[0])
     candidates = np.flatnonzero(free)
-    if len(candidates) < n:
-        raise ValueError(f"only {len(candidates)} free places for {n} chairs")
-    pick = np.sort(g.choice(candidates, size=n, replace=False))
+    g.shuffle(candidates)
+    # greedy: keep a candidate unless it overlaps one already kept
+    hits = shapely.STRtree(polys[candidates]).query(polys[candidates], predicate="intersects")
+    neighbours: dict[int, list[int]] = {}
+    for a, b in zip(hits[0], hits[1], strict=True):
+        if a != b:
+            neighbours.setdefault(int(a), []).append(int(b))
+    kept: list[int] = []
+    taken = np.zeros(len(candidates), dtype=bool)
+    for k in range(len(candidates)):
+        if taken[k]:
+            continue
+        kept.append(int(candidates[k]))
+        taken[k] = True
+        for j in neighbours.get(k, []):
+            taken[j] = True
+        if len(kept) == n:
+            break
+    if len(kept) < n:
+        raise ValueError(f"only {len(kept)} free places for {n} chairs")
+    pick = np.sort(np.asarray(kept))
     bodies = Bodies.from_specs([chair(i + 1) for i in range(n)])
     return scene, bodies, pose_all[pick]

@@ -17,12 +17,13 @@ readings (and the radio's batch) for it have arrived.
 from __future__ import annotations
 
 import logging
+import os
 import time
 from dataclasses import dataclass, field
 from typing import Protocol
 
 from iw_zenoh import keys
-from iw_zenoh.bus import Bus
+from iw_zenoh.bus import Bus, Inbox
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import (
@@ -34,7 +35,7 @@ from iw_zenoh.messages import (
     RegisterRequest,
     Say,
     SensorReading,
-    Tick,
+    WorldInfo,
     decode,
     encode,
     spec_from_msg,
@@ -107,12 +108,12 @@ class AgentHost:
         self.sim = sim
         self.name = name
         self.hosted: dict[int, _Hosted] = {}
-        self.readings = self.io.inbox(keys.all_sensors(sim))
+        self.readings = Inbox(wake=self.io.wake)  # fed one key per hosted robot
         self.radio = self.io.inbox(keys.radio(sim))
-        self.ticks = self.io.inbox(keys.tick(sim), maxlen=1)
         self.radio_alive: set[str] = set()
         self._heard: dict[int, dict[int, list[Heard]]] = {}
         self.lockstep = False
+        self._requests = 0
         bus.watch_alive(keys.all_alive(sim), self._on_alive)
         self.io.alive()
 
@@ -127,7 +128,10 @@ class AgentHost:
         Raises:
             RegistrationRefused: With the world's reason, or when no world answers.
         """
-        req = RegisterRequest(spec=spec_to_msg(agent.spec()), agent=self.name)
+        self._requests += 1
+        req = RegisterRequest(
+            spec=spec_to_msg(agent.spec()), agent=self.name, request_id=f"{os.getpid()}-{self._requests}"
+        )
         deadline = time.monotonic() + timeout_s
         answers: list[bytes] = []
         while not answers and time.monotonic() < deadline and not self.io.stop.is_set():
@@ -144,17 +148,17 @@ class AgentHost:
         if not reply.ok or reply.spec is None:
             raise RegistrationRefused(reply.reason)
         spec = spec_from_msg(reply.spec)
+        if not self.hosted:  # learn the world's mode once (lock-step changes when we answer)
+            for data in self.io.bus.query(keys.info(self.sim), timeout_s=timeout_s):
+                self.lockstep = decode(data, WorldInfo).mode == "lockstep"
         self.hosted[reply.robot_id] = _Hosted(agent, reply.robot_id, spec)
+        self.io.bus.subscribe(keys.sensors(self.sim, reply.robot_id), self.readings)
         on_reg = getattr(agent, "on_registered", None)
         if callable(on_reg):
             on_reg(reply.robot_id, spec)
         return reply.robot_id
 
     def _collect(self) -> None:
-        for d in self.ticks.drain():
-            t = self.io.decode(d, Tick)
-            if t is not None:
-                self.lockstep = t.mode == "lockstep"
         for d in self.radio.drain():
             b = self.io.decode(d, RadioBatch)
             if b is not None:

@@ -4,7 +4,7 @@ message names a revision this node has not seen (a robot registered or left, an 
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus
@@ -26,10 +26,15 @@ class WorldView:
     info: WorldInfo
     scene: Scene
     specs: dict[int, RobotSpec]
+    _bodies: dict[tuple[int, ...], Bodies] = field(default_factory=dict)
 
     def bodies_for(self, ids: list[int]) -> Bodies:
-        """Body arrays for these robots, in this order."""
-        return Bodies.from_specs([self.specs[i] for i in ids])
+        """Body arrays for these robots, in this order (built once per roster)."""
+        key = tuple(ids)
+        got = self._bodies.get(key)
+        if got is None:
+            got = self._bodies[key] = Bodies.from_specs([self.specs[i] for i in ids])
+        return got
 
 
 class InfoCache:

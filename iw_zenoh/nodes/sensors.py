@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import time
 from collections.abc import Sequence
 
 import numpy as np
@@ -17,7 +18,6 @@ import numpy as np
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus, ZenohBus
 from iw_zenoh.cliargs import add_common_arguments, net_from_args
-from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.noise import Stream, rng_for
 from iw_zenoh.core.sensors import SensorParams, noise_layout, read_sensors
 from iw_zenoh.errors import IwError
@@ -61,8 +61,6 @@ class SensorsNode:
         self.shard = shard
         self._rngs: dict[int, np.random.Generator] = {}
         self._encoders: dict[int, np.ndarray] = {}
-        self._bodies_key: tuple[int, tuple[int, ...]] | None = None
-        self._bodies: Bodies | None = None
 
     def mine(self, robot_id: int) -> bool:
         """Whether this shard computes ``robot_id``."""
@@ -74,11 +72,7 @@ class SensorsNode:
         ids = list(msg.ids)
         if not ids:
             return []
-        key = (view.info.revision, tuple(ids))
-        if key != self._bodies_key or self._bodies is None:
-            self._bodies = view.bodies_for(ids)
-            self._bodies_key = key
-        bodies = self._bodies
+        bodies = view.bodies_for(ids)
         pose = np.column_stack([msg.x, msg.y, msg.heading])
         only = np.asarray([self.mine(i) for i in ids], dtype=bool)
         nb = len(view.scene.lab.beacons)
@@ -103,33 +97,44 @@ class SensorsNode:
             only=only,
         )
         out: list[Outgoing] = []
-        ticks = r.encoder_ticks
+        # whole arrays to Python lists once; each robot's sensors are a contiguous run
+        m_first = np.searchsorted(bodies.ir_owner, np.arange(len(ids)))
+        m_last = np.searchsorted(bodies.ir_owner, np.arange(len(ids)), side="right")
+        b_first = np.searchsorted(bodies.bumper_owner, np.arange(len(ids)))
+        b_last = np.searchsorted(bodies.bumper_owner, np.arange(len(ids)), side="right")
+        prox = np.where(np.isfinite(r.proximity_m), r.proximity_m, np.nan).tolist()
+        prox = [None if v != v else v for v in prox]  # NaN (nothing in range) -> null
+        legacy = r.proximity_legacy.tolist()
+        pids = bodies.ir_id.tolist()
+        beacons = [[None if v != v else v for v in row] for row in r.beacon_deg.tolist()]
+        gps = r.gps.tolist()
+        compass = r.compass_deg.tolist()
+        ground = r.ground.tolist()
+        collision = r.collision.tolist()
+        ticks = r.encoder_ticks.tolist()
+        bumpers = r.bumpers.tolist()
         for i, rid in enumerate(ids):
             if not only[i]:
                 continue
             self._encoders[rid] = r.encoder_acc[i]
-            sel = bodies.ir_owner == i
-            prox = r.proximity_m[sel]
-            out.append(
-                (
-                    keys.sensors(self.sim, rid),
-                    SensorReading(
-                        tick=msg.tick,
-                        sim_time_ns=msg.sim_time_ns,
-                        robot_id=rid,
-                        proximity_ids=bodies.ir_id[sel].tolist(),
-                        proximity_m=[None if not np.isfinite(v) else float(v) for v in prox],
-                        proximity_legacy=r.proximity_legacy[sel].tolist(),
-                        compass_deg=float(r.compass_deg[i]),
-                        beacons_deg=[None if np.isnan(v) else float(v) for v in r.beacon_deg[i]],
-                        gps=(float(r.gps[i, 0]), float(r.gps[i, 1]), float(r.gps[i, 2])),
-                        ground=int(r.ground[i]),
-                        collision=bool(r.collision[i]),
-                        encoders=(int(ticks[i, 0]), int(ticks[i, 1])),
-                        bumpers=r.bumpers[bodies.bumper_owner == i].tolist(),
-                    ),
-                )
+            lo, hi = int(m_first[i]), int(m_last[i])
+            reading = SensorReading(
+                tick=msg.tick,
+                sim_time_ns=msg.sim_time_ns,
+                robot_id=rid,
+                proximity_ids=pids[lo:hi],
+                proximity_m=prox[lo:hi],
+                proximity_legacy=legacy[lo:hi],
+                compass_deg=compass[i],
+                beacons_deg=beacons[i],
+                gps=(gps[i][0], gps[i][1], gps[i][2]),
+                ground=ground[i],
+                collision=collision[i],
+                encoders=(ticks[i][0], ticks[i][1]),
+                bumpers=bumpers[int(b_first[i]) : int(b_last[i])],
+                tick_wall_ns=msg.tick_wall_ns,
             )
+            out.append((keys.sensors(self.sim, rid), reading))
         return out
 
 
@@ -157,7 +162,18 @@ def run(
                 continue
             if node is None:
                 node = SensorsNode(sim, view.info.seed, shard)
-            io.send_all(node.on_state(msg, view))
+            t0 = time.perf_counter()
+            out = node.on_state(msg, view)
+            t1 = time.perf_counter()
+            io.send_all(out)
+            if msg.tick_wall_ns:
+                logger.debug(
+                    "tick %d: state arrived %.2f ms after the tick began, computed in %.2f ms, published in %.2f ms",
+                    msg.tick,
+                    (pending[-1][2] - msg.tick_wall_ns) / 1e6,
+                    (t1 - t0) * 1e3,
+                    (time.perf_counter() - t1) * 1e3,
+                )
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -162,3 +162,13 @@ def test_the_first_tick_waits_for_the_expected_roster() -> None:
     assert not core.due()
     core.register(RegisterRequest(spec=RobotSpecMsg(name="b")), 0)
     assert core.due()
+
+
+def test_a_registration_asked_again_gets_its_first_answer() -> None:
+    core = _core()
+    req = RegisterRequest(spec=RobotSpecMsg(name="a"), agent="ag", request_id="r1")
+    first, _ = core.register(req, 0)
+    again, out = core.register(req, 0)
+    assert again == first
+    assert out == []
+    assert core.registry.ids == [1]

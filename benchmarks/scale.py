@@ -1,0 +1,226 @@
+"""The distributed simulation at scale, every role its own process on this machine.
+
+    python benchmarks/scale.py            # all four measurements (several minutes)
+    python benchmarks/scale.py --json     # the same figures as one JSON object
+    python benchmarks/scale.py --only lockstep10 rt100
+
+Measures, on the core benchmark's floor (hospital wings, chairs about a metre apart, eight
+60-degree cones of 4 m each, 100 ms ticks):
+
+* lockstep10  lock-step real-time factor with 10 agent processes (one chair each)
+* lockstep100 lock-step real-time factor with 100 agent processes
+* lockstep1000 lock-step real-time factor with 1,000 chairs in 4 agent-host processes
+* rt100       real time, 100 chairs: p50 / p99 delay from a tick's start to its sensor message
+              at an agent
+
+Targets: 10 processes >= 50x, 100 >= 5x, 1,000 chairs >= 1x, tick-to-sensors p99 < 10 ms.
+(Anchor: a ROS 2 lock-step swarm simulator runs 10 vehicles at 30x and 100 at 4x.)
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import signal
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks.floor import crowded_floor  # noqa: E402
+from iw_zenoh import keys  # noqa: E402
+from iw_zenoh.bus import Inbox, ZenohBus  # noqa: E402
+from iw_zenoh.core.geometry import wrap_deg  # noqa: E402
+from iw_zenoh.core.lab import Grid, GridPosition  # noqa: E402
+from iw_zenoh.maps import grid_to_xml, lab_to_xml  # noqa: E402
+from iw_zenoh.messages import WorldState, decode  # noqa: E402
+from iw_zenoh.net import NetConfig, free_port, port_in_use  # noqa: E402
+
+TARGETS = {"lockstep10_rtf": 50.0, "lockstep100_rtf": 5.0, "lockstep1000_rtf": 1.0, "rt100_p99_ms": 10.0}
+
+
+class Run:
+    """Processes of one measurement; stopped (by pid) when done."""
+
+    def __init__(self, tmp: Path, n: int) -> None:
+        self.tmp = tmp
+        self.port = free_port()
+        self.endpoint = f"tcp/127.0.0.1:{self.port}"
+        self.procs: list[subprocess.Popen[bytes]] = []
+        scene, _, pose = crowded_floor(n)
+        self.lab = tmp / "floor.xml"
+        self.grid = tmp / "grid.xml"
+        self.lab.write_bytes(lab_to_xml(scene.lab))
+        starts = tuple(GridPosition(float(x), float(y), float(wrap_deg(math.degrees(h)))) for x, y, h in pose)
+        self.grid.write_bytes(grid_to_xml(Grid(starts)))
+
+    def spawn(self, name: str, *args: str, client: bool = True) -> subprocess.Popen[bytes]:
+        net = ["-e", self.endpoint] if client else ["--listen", self.endpoint]
+        log = (self.tmp / f"{name}.log").open("wb")
+        p = subprocess.Popen(
+            [sys.executable, "-m", "iw_zenoh.cli", *args, "--sim", "bench", *net],
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            env=dict(os.environ, PYTHONUNBUFFERED="1"),
+        )
+        self.procs.append(p)
+        return p
+
+    def start(
+        self, *, lockstep: bool, chairs: int, hosts: int, duration_s: float, probe_out: str | None = None
+    ) -> subprocess.Popen[bytes]:
+        self.spawn("router", "router", client=False)
+        deadline = time.monotonic() + 20
+        while not port_in_use(self.port):
+            if time.monotonic() > deadline:
+                raise RuntimeError("router did not start")
+            time.sleep(0.05)
+        world_args = [
+            "world",
+            str(self.lab),
+            *(["-vv"] if os.environ.get("IWZ_BENCH_DEBUG") else []),
+            "--grid",
+            str(self.grid),
+            "--expect",
+            str(chairs),
+            "--duration",
+            f"{duration_s:g}",
+        ]
+        if lockstep:
+            world_args += ["--lockstep", "--lockstep-timeout-ms", "10000"]
+        world = self.spawn("world", *world_args)
+        self.spawn("collision", "collision")
+        self.spawn("sensors", "sensors", *(["-vv"] if os.environ.get("IWZ_BENCH_DEBUG") else []))
+        per = [chairs // hosts + (1 if i < chairs % hosts else 0) for i in range(hosts)]
+        for i, c in enumerate(per):
+            extra = ["--latency-out", f"{probe_out}.{i}"] if probe_out else []
+            self.spawn(
+                f"agent{i}", "agent", "probe", "--count", str(c), "--creep", "0.02", "--name", f"probe{i}", *extra
+            )
+        return world
+
+    def stop(self) -> None:
+        for p in reversed(self.procs):
+            if p.poll() is None:
+                p.send_signal(signal.SIGTERM)
+        for p in reversed(self.procs):
+            try:
+                p.wait(30)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait(5)
+
+
+def measure_lockstep(chairs: int, hosts: int, duration_s: float) -> dict[str, float]:
+    """Lock-step real-time factor, from the first to the last state an observer sees."""
+    with tempfile.TemporaryDirectory(prefix="iwz-scale-") as tmp:
+        run = Run(Path(tmp), chairs)
+        try:
+            world = run.start(lockstep=True, chairs=chairs, hosts=hosts, duration_s=duration_s)
+            bus = ZenohBus(NetConfig(connect=(run.endpoint,)))
+            box = Inbox()
+            bus.subscribe(keys.state("bench"), box)
+            first = last = None
+            ticks = 0
+            deadline = time.monotonic() + 600 + duration_s * 20
+            while time.monotonic() < deadline:
+                d = box.get(timeout_s=5)
+                if d is None:
+                    if world.poll() is not None:
+                        break
+                    continue
+                st = decode(d[1], WorldState)
+                if first is None:
+                    first = (d[2], st.tick)
+                last = (d[2], st.tick)
+                ticks += 1
+            bus.close()
+            if first is None or last is None or last[1] == first[1]:
+                raise RuntimeError(f"no progress; see {tmp}")
+            wall = (last[0] - first[0]) / 1e9
+            sim = (last[1] - first[1]) * 0.1
+            return {
+                "chairs": chairs,
+                "agent_processes": hosts,
+                "ticks": ticks,
+                "rtf": sim / wall,
+                "ms_per_tick": wall * 1000 / (last[1] - first[1]),
+            }
+        finally:
+            run.stop()
+
+
+def measure_rt(chairs: int, hosts: int, duration_s: float) -> dict[str, float]:
+    """Real time: delay from the world's tick start to the sensor message at an agent."""
+    with tempfile.TemporaryDirectory(prefix="iwz-scale-") as tmp:
+        run = Run(Path(tmp), chairs)
+        out = str(Path(tmp) / "latency")
+        try:
+            world = run.start(lockstep=False, chairs=chairs, hosts=hosts, duration_s=duration_s, probe_out=out)
+            world.wait(duration_s * 3 + 120)
+        finally:
+            run.stop()
+        us: list[int] = []
+        for i in range(hosts):
+            p = Path(f"{out}.{i}")
+            if p.exists():
+                us += [int(x) for x in p.read_text().split()]
+        if not us:
+            raise RuntimeError("no latencies recorded")
+        us.sort()
+        skip = len(us) // 10  # the first seconds include start-up
+        us = us[skip:]
+        return {
+            "chairs": chairs,
+            "agent_processes": hosts,
+            "samples": len(us),
+            "p50_ms": statistics.median(us) / 1000,
+            "p99_ms": us[min(len(us) - 1, int(0.99 * len(us)))] / 1000,
+        }
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Runs the measurements and prints figures with their targets."""
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument(
+        "--only", nargs="+", choices=["lockstep10", "lockstep100", "lockstep1000", "rt100"], help="run these only"
+    )
+    ap.add_argument(
+        "--duration", type=float, default=20.0, help="simulated seconds per lock-step measurement (default 20)"
+    )
+    ap.add_argument("--json", action="store_true", help="print one JSON object")
+    args = ap.parse_args(argv)
+    todo = args.only or ["lockstep10", "lockstep100", "lockstep1000", "rt100"]
+    res: dict[str, dict[str, float]] = {}
+    plans = {
+        "lockstep10": lambda: measure_lockstep(10, 10, args.duration),
+        "lockstep100": lambda: measure_lockstep(100, 100, args.duration),
+        "lockstep1000": lambda: measure_lockstep(1000, 4, min(args.duration, 10.0)),
+        "rt100": lambda: measure_rt(100, 4, 20.0),
+    }
+    for name in todo:
+        print(f"  measuring {name} ...", file=sys.stderr, flush=True)
+        try:
+            res[name] = plans[name]()
+        except Exception as e:  # a failed measurement is reported, the others still run
+            res[name] = {"error": str(e)}  # type: ignore[dict-item]
+    if args.json:
+        print(json.dumps({"benchmark": "scale", "targets": TARGETS, "results": res}))
+        return 0
+    for name, r in res.items():
+        print(f"{name:>13}: " + ", ".join(f"{k} {v:.2f}" if isinstance(v, float) else f"{k} {v}" for k, v in r.items()))
+    print(
+        "targets: lock-step 10 processes >= 50x, 100 >= 5x, 1,000 chairs in 4 hosts >= 1x; "
+        "real-time tick-to-sensors p99 < 10 ms"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
