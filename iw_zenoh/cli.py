@@ -12,7 +12,7 @@ from collections.abc import Sequence
 
 __all__ = ["COMMANDS", "main"]
 
-COMMANDS: dict[str, tuple[str, str]] = {
+COMMANDS: dict[str, tuple[str, str] | tuple[str, str, str]] = {
     "run": (
         "iw_zenoh.nodes.launcher",
         "start a scenario: router, world, collision, sensors, radio and agents, supervised",
@@ -23,6 +23,11 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "sensors": ("iw_zenoh.nodes.sensors", "every robot's sensors each tick (shardable)"),
     "radio": ("iw_zenoh.nodes.radio", "robot-to-robot messages within range"),
     "agent": ("iw_zenoh.nodes.agents", "run agent programs (wanderer, waypoint, ...)"),
+    "record": ("iw_zenoh.nodes.recorder", "record every key of a simulation to MCAP"),
+    "replay": ("iw_zenoh.nodes.replay", "play a recording back into Zenoh (rate, window, loop, seek)"),
+    "incidents": ("iw_zenoh.record.incidents", "list a recording's collisions, near misses, stops and losses"),
+    "doctor": ("iw_zenoh.record.tools", "say whether a recording is whole", "doctor_main"),
+    "recover": ("iw_zenoh.record.tools", "rebuild a readable, indexed file from a cut-off recording", "recover_main"),
 }
 
 
@@ -36,7 +41,7 @@ def usage() -> str:
         "",
         "commands:",
     ]
-    lines += [f"  {c:<{width}}  {h}" for c, (_, h) in COMMANDS.items()]
+    lines += [f"  {c:<{width}}  {e[1]}" for c, e in COMMANDS.items()]
     lines += ["", "Each command has --help. Start here: iwz run maps/demo.toml"]
     return "\n".join(lines)
 
@@ -57,7 +62,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"iwz: unknown command {args[0]!r}\n\n{usage()}")
         return 2
     module = importlib.import_module(entry[0])
-    code: int = module.main(args[1:])
+    func = getattr(module, entry[2] if len(entry) > 2 else "main")
+    code: int = func(args[1:])
     return code
 
 

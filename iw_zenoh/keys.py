@@ -52,8 +52,11 @@ __all__ = [
     "sensors",
     "spec",
     "state",
+    "sim_of",
     "tick",
+    "topic_kind",
     "verdict",
+    "with_sim",
 ]
 
 ROLES = (
@@ -222,6 +225,50 @@ def robot_id_of(key: str) -> int | None:
     """The robot id in a per-robot key, or ``None`` for any other key."""
     m = _ROBOT_KEY.match(str(key))
     return int(m.group(1)) if m else None
+
+
+_TOPICS = {
+    ("world", "info"): "info",
+    ("world", "register"): "register",
+    ("world", "tick"): "tick",
+    ("world", "proposed"): "proposed",
+    ("world", "verdict"): "verdict",
+    ("world", "state"): "state",
+    ("world", "control"): "control",
+    ("world", "radio"): "radio",
+}
+
+
+def topic_kind(key: str) -> str | None:
+    """What a key carries: ``state``, ``actions``, ``event``... (``None`` for a foreign key).
+
+    The recorder and the replay use it to pick each channel's message type.
+    """
+    parts = str(key).split("/")
+    if len(parts) < 4 or parts[0] != "iw":
+        return None
+    if len(parts) == 4 and (parts[2], parts[3]) in _TOPICS:
+        return _TOPICS[(parts[2], parts[3])]
+    if len(parts) == 4 and parts[2] == "events":
+        return "event"
+    if len(parts) == 5 and parts[2] == "robot" and parts[3].isdigit():
+        return parts[4] if parts[4] in ("spec", "actions", "pose_report", "sensors", "say", "hear") else None
+    return None
+
+
+def with_sim(key: str, sim: str) -> str:
+    """The same key in another simulation (a replay beside a live run)."""
+    parts = str(key).split("/")
+    if len(parts) < 2 or parts[0] != "iw":
+        raise ValueError(f"{key!r} is not an iw-zenoh key")
+    parts[1] = chunk(sim)
+    return "/".join(parts)
+
+
+def sim_of(key: str) -> str | None:
+    """The simulation a key belongs to."""
+    parts = str(key).split("/")
+    return parts[1] if len(parts) > 2 and parts[0] == "iw" else None
 
 
 def alive_parts(key: str) -> tuple[str, str] | None:

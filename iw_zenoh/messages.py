@@ -47,6 +47,7 @@ __all__ = [
     "RobotSpecMsg",
     "Say",
     "SensorReading",
+    "TOPIC_TYPES",
     "Tick",
     "Verdict",
     "WorldInfo",
@@ -60,6 +61,7 @@ __all__ = [
     "lab_to_msg",
     "spec_from_msg",
     "spec_to_msg",
+    "stamp_of",
 ]
 
 T = TypeVar("T", bound="Message")
@@ -148,6 +150,7 @@ class RegisterRequest(Message, frozen=True, kw_only=True):
     schema: ClassVar[str] = "iw.RegisterRequest/1"
     spec: RobotSpecMsg
     agent: str = ""  # the liveliness name of the agent process that drives it
+    request_id: str = ""  # the same id asked again gets the same answer (retries are safe)
 
 
 class RegisterReply(Message, frozen=True, kw_only=True):
@@ -267,6 +270,7 @@ class WorldState(Message, frozen=True, kw_only=True):
     speed: list[float]
     held: bool = False
     held_reason: str = ""
+    tick_wall_ns: NonNeg = 0  # wall clock when the world began this tick (latency diagnostics)
 
 
 # --- per robot ------------------------------------------------------------------------------
@@ -310,6 +314,7 @@ class SensorReading(Message, frozen=True, kw_only=True):
     collision: bool = False
     encoders: tuple[int, int] = (0, 0)
     bumpers: list[bool] = []
+    tick_wall_ns: NonNeg = 0  # the world's tick start, copied from the state
 
 
 class Say(Message, frozen=True, kw_only=True):
@@ -350,10 +355,13 @@ class Control(Message, frozen=True, kw_only=True):
     """A command to the world."""
 
     schema: ClassVar[str] = "iw.Control/1"
-    command: Literal["start", "pause", "step", "stop", "remove", "add_obstacle", "move_obstacle", "remove_obstacle"]
+    command: Literal[
+        "start", "pause", "step", "stop", "remove", "add_obstacle", "move_obstacle", "remove_obstacle", "seek"
+    ]
     robot_id: RobotId = 0
     obstacle: Obstacle | None = None
     steps: Annotated[int, msgspec.Meta(ge=1)] = 1
+    at_ns: NonNeg = 0  # seek: the simulation time to go to (replays)
 
 
 class Event(Message, frozen=True, kw_only=True):
@@ -385,6 +393,41 @@ MESSAGE_TYPES: tuple[type[Message], ...] = (
     Control,
     Event,
 )
+
+TOPIC_TYPES: dict[str, type[Message]] = {
+    "info": WorldInfo,
+    "tick": Tick,
+    "proposed": Proposed,
+    "verdict": Verdict,
+    "state": WorldState,
+    "control": Control,
+    "radio": RadioBatch,
+    "event": Event,
+    "spec": RegisterReply,
+    "actions": Actions,
+    "pose_report": PoseReport,
+    "sensors": SensorReading,
+    "say": Say,
+    "hear": Hear,
+}  # the message type of each kind of key (see keys.topic_kind)
+
+
+class _Stamp(msgspec.Struct):
+    sim_time_ns: int = 0
+    tick: int = 0
+
+
+_STAMP = msgspec.json.Decoder(_Stamp)
+
+
+def stamp_of(data: bytes) -> tuple[int, int]:
+    """``(tick, sim_time_ns)`` of any message, cheaply; ``(0, 0)`` when it does not say."""
+    try:
+        s = _STAMP.decode(data)
+    except (msgspec.DecodeError, msgspec.ValidationError):
+        return 0, 0
+    return max(0, s.tick), max(0, s.sim_time_ns)
+
 
 _ENCODER = msgspec.json.Encoder()
 _DECODERS: dict[type[Any], msgspec.json.Decoder[Any]] = {}

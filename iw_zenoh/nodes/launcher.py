@@ -109,6 +109,7 @@ class Launcher:
         sim: str = "default",
         log_dir: Path | None = None,
         status: bool = True,
+        record: Path | None = None,
     ) -> None:
         self.sc = scenario
         self.sim = keys.chunk(sim)
@@ -119,6 +120,7 @@ class Launcher:
         self.log_dir = log_dir or Path(tempfile.mkdtemp(prefix=f"iwz-{scenario.name}-"))
         self.log_dir.mkdir(parents=True, exist_ok=True)
         self.status = status
+        self.record = record
         self.children: list[Child] = []
         self.tally = Tally()
         self.stop_event = threading.Event()
@@ -137,6 +139,9 @@ class Launcher:
         """Builds the list of processes."""
         sc = self.sc
         self._child("router", "router", client=False)
+        if self.record is not None:
+            meta = ["--meta", f"scenario={sc.name}", "--meta", f"seed={sc.seed}", "--meta", f"map={sc.map}"]
+            self._child("record", "recorder", "-o", str(self.record), "--quiet", *meta)
         world = [
             "world",
             str(sc.map),
@@ -189,8 +194,23 @@ class Launcher:
         router.start(self.env)
         if not self._wait_router():
             raise IwError(f"the router did not start on {self.endpoint}:\n{router.tail()}")
-        for c in self.children[1:]:
+        rest = self.children[1:]
+        if rest and rest[0].role == "record":
+            rest[0].start(self.env)  # first, and heard from, so it misses nothing of the run
+            if not self._wait_alive(keys.alive(self.sim, "recorder", "recorder")):
+                raise IwError(f"the recorder did not start:\n{rest[0].tail()}")
+            rest = rest[1:]
+        for c in rest:
             c.start(self.env)
+
+    def _wait_alive(self, key: str, timeout_s: float = 30.0) -> bool:
+        up = threading.Event()
+        bus = ZenohBus(NetConfig(connect=(self.endpoint,)))
+        try:
+            bus.watch_alive(key, lambda _k, alive: up.set() if alive else None)
+            return up.wait(timeout_s)
+        finally:
+            bus.close()
 
     def observe(self, bus: ZenohBus) -> tuple[Inbox, Inbox]:
         """Subscribes to state and events, and watches agents' liveliness."""
@@ -311,14 +331,9 @@ class Launcher:
 
     def shutdown(self, timeout_s: float = 8.0) -> None:
         """Stops every child: agents first, the router last; SIGKILL after ``timeout_s``."""
-        order = sorted(
-            self.children,
-            key=lambda c: {"agent": 0, "radio": 1, "sensors": 1, "collision": 1, "world": 2, "router": 3}.get(
-                c.role, 1
-            ),
-        )
-        for group in (0, 1, 2, 3):
-            members = [c for c in order if {"agent": 0, "world": 2, "router": 3}.get(c.role, 1) == group]
+        rank = {"agent": 0, "world": 2, "record": 3, "router": 4}
+        for group in (0, 1, 2, 3, 4):
+            members = [c for c in self.children if rank.get(c.role, 1) == group]
             for c in members:
                 c.stop()
             deadline = time.monotonic() + timeout_s
@@ -355,6 +370,11 @@ class Launcher:
         return ok, lines
 
 
+def default_recording(name: str) -> Path:
+    """``recordings/NAME-DATE-TIME.mcap``."""
+    return Path("recordings") / f"{name}-{time.strftime('%Y%m%d-%H%M%S')}.mcap"
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The arguments of ``iwz run``."""
     p = argparse.ArgumentParser(
@@ -372,6 +392,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--sim", default="default", help="simulation name (default: default)")
     p.add_argument("--log-dir", help="where each process's log goes (default: a new temporary folder)")
     p.add_argument("--no-status", action="store_true", help="no live status line")
+    p.add_argument("--record", metavar="FILE", help="record the run here (default recordings/SCENARIO-DATE-TIME.mcap)")
+    p.add_argument("--no-record", action="store_true", help="do not record the run")
     p.add_argument("-v", "--verbose", action="count", default=0, help="log more")
     return p
 
@@ -388,6 +410,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             sim=args.sim,
             log_dir=Path(args.log_dir) if args.log_dir else None,
             status=not args.no_status,
+            record=None if args.no_record else Path(args.record) if args.record else default_recording(sc.name),
         )
     except (IwError, ValueError) as e:
         print(f"iwz run: {e}")
@@ -425,6 +448,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     for line in lines:
         print(f"  {line}")
+    if launcher.record is not None and launcher.record.exists():
+        print(f"iwz run: recorded to {launcher.record} (see iwz replay, iwz incidents, iwz doctor)")
     if code:
         return code
     return 0 if ok else 1

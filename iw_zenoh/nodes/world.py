@@ -52,8 +52,23 @@ class _World:
         self.register_q = bus.serve(keys.register(sim))
         self.info_q = bus.serve(keys.info(sim))
         self.alive_changes: list[tuple[str, bool]] = []
+        self._info_revision = -1
         bus.watch_alive(keys.all_alive(sim), self._on_alive)
         self.io.alive()
+
+    def _answer_info(self) -> None:
+        """Answers late joiners' info queries (also while a tick waits for its verdict)."""
+        pending = self.info_q.poll()
+        if pending:
+            data = encode(self.core.info())
+            for q in pending:
+                q.reply(data)
+
+    def _publish_info(self) -> None:
+        """Publishes the world's description whenever it changed (recorders, replays, viewers)."""
+        if self.core.revision != self._info_revision:
+            self._info_revision = self.core.revision
+            self.io.send(keys.info(self.core.cfg.sim), self.core.info())
 
     def _on_alive(self, key: str, alive: bool) -> None:
         self.alive_changes.append((key, alive))  # list.append is atomic; drained by the loop
@@ -63,6 +78,7 @@ class _World:
         """Handles every input waiting now (not verdicts: the tick takes those)."""
         now = self.clock.now_ns()
         core, io = self.core, self.io
+        self._publish_info()
         while self.alive_changes:
             key, alive = self.alive_changes.pop(0)
             parts = keys.alive_parts(key)
@@ -78,8 +94,7 @@ class _World:
             reply, out = core.register(req, now)
             q.reply(encode(reply))
             io.send_all(out)
-        for q in self.info_q.poll():
-            q.reply(encode(core.info()))
+        self._answer_info()
         for d in self.control.drain():
             msg = io.decode(d, Control)
             if msg is not None:
@@ -118,7 +133,8 @@ class _World:
             left = (deadline_ns - self.clock.now_ns()) / 1e9
             if left <= 0:
                 return None
-            self.verdicts.wait(min(left, 0.05))
+            self._answer_info()  # the collision process may need it to give this very verdict
+            self.verdicts.wait(min(left, 0.01))
 
     def loop(self) -> None:
         core, io, cfg = self.core, self.io, self.core.cfg
@@ -127,16 +143,25 @@ class _World:
         lockstep = cfg.mode == "lockstep"
         while not io.stop.is_set() and not core.stopped:
             self.pump()
+            self._publish_info()
             if not core.due():
                 io.send(keys.tick(cfg.sim), core.tick_msg())
                 self.wait_until(self.clock.now_ns() + period, lambda: core.due() or core.stopped)
                 next_ns = self.clock.now_ns()
                 continue
             start = self.clock.now_ns()
-            io.send_all(core.begin_tick(start))
+            io.send_all(core.begin_tick(start, self.clock.wall_ns()))
             verdict_wait = int(cfg.verdict_timeout_ms * MS) if lockstep else period // 2
             verdict = self.take_verdict(start + verdict_wait)
+            t_verdict = self.clock.now_ns()
             io.send_all(core.finish_tick(verdict))
+            t_state = self.clock.now_ns()
+            logger.debug(
+                "tick %d: propose+verdict %.2f ms, commit+publish %.2f ms",
+                core.tick,
+                (t_verdict - start) / 1e6,
+                (t_state - t_verdict) / 1e6,
+            )
             if lockstep:
                 n = core.tick
                 self.wait_until(
@@ -144,6 +169,14 @@ class _World:
                     lambda n=n: not core.expected(n) or core.stopped or not core.due(),
                 )
                 late = core.expected(n)
+                t_acts = self.clock.now_ns()
+                logger.debug(
+                    "tick %d: propose+verdict %.2f ms, commit+publish %.2f ms, sensors+agents %.2f ms",
+                    n,
+                    (t_verdict - start) / 1e6,
+                    (t_state - t_verdict) / 1e6,
+                    (t_acts - t_state) / 1e6,
+                )
                 if late and core.due():
                     io.event(
                         "laggard",

@@ -122,6 +122,8 @@ class WorldCore:
         self._motion_rngs: dict[int, np.random.Generator] = {}
         self._pending: tuple[int, Proposal] | None = None
         self._ids: list[int] = []
+        self._tick_wall_ns = 0
+        self._answered: dict[tuple[str, str], RegisterReply] = {}
         self.collisions = 0
 
     # --- small helpers ---------------------------------------------------------------------
@@ -175,7 +177,17 @@ class WorldCore:
     # --- inputs ----------------------------------------------------------------------------
 
     def register(self, req: RegisterRequest, now_ns: int) -> tuple[RegisterReply, list[Outgoing]]:
-        """Accepts or refuses a registration."""
+        """Accepts or refuses a registration (a request asked again gets its first answer)."""
+        if req.request_id:
+            seen = self._answered.get((req.agent, req.request_id))
+            if seen is not None:
+                return seen, []
+        reply, out = self._register(req, now_ns)
+        if req.request_id:
+            self._answered[(req.agent, req.request_id)] = reply
+        return reply, out
+
+    def _register(self, req: RegisterRequest, now_ns: int) -> tuple[RegisterReply, list[Outgoing]]:
         try:
             spec = spec_from_msg(req.spec)
         except SpecError as e:
@@ -253,6 +265,8 @@ class WorldCore:
             return [self._event("stopped", "stop requested")]
         if c == "remove":
             return self.remove(msg.robot_id, f"robot {msg.robot_id} removed by control")
+        if c == "seek":
+            return [self._event("bad-control", "seek is for replays; a live world cannot go back in time")]
         return self._obstacle(msg)
 
     def _obstacle(self, msg: Control) -> list[Outgoing]:
@@ -318,7 +332,7 @@ class WorldCore:
             if e.agent and e.agent in self.agents_alive and e.lost_ns is None and e.last_action_tick < tick
         ]
 
-    def begin_tick(self, now_ns: int) -> list[Outgoing]:
+    def begin_tick(self, now_ns: int, wall_ns: int = 0) -> list[Outgoing]:
         """Applies commands and watchdogs, proposes next poses; returns the proposal to publish."""
         out: list[Outgoing] = []
         timeout_ns = int(self.cfg.action_timeout_ms * MS)
@@ -365,6 +379,7 @@ class WorldCore:
         )
         n = self.tick + 1
         self._pending = (n, prop)
+        self._tick_wall_ns = wall_ns
         s = self.state.pose
         msg = Proposed(
             tick=n,
@@ -455,6 +470,7 @@ class WorldCore:
             speed=np.asarray(speed, dtype=float).tolist(),
             held=hold is not None,
             held_reason=self.holding,
+            tick_wall_ns=self._tick_wall_ns,
         )
         out.append((keys.state(self.cfg.sim), msg))
         out.append((keys.tick(self.cfg.sim), self.tick_msg()))

@@ -6,6 +6,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -174,6 +175,13 @@ def wait_event(
         return wait_msg(box, Event, lambda e: e.kind == kind and pred(e), timeout_s)
     except AssertionError as e:
         raise AssertionError(f"{e}; still waiting for {missing()}" if missing else str(e)) from None
+
+
+def wait_alive(bus: ZenohBus, key: str, timeout_s: float = 30.0) -> None:
+    """Waits until a liveliness token matching ``key`` exists."""
+    up = threading.Event()
+    bus.watch_alive(key, lambda _k, alive: up.set() if alive else None)
+    assert up.wait(timeout_s), f"{key} did not come alive within {timeout_s} s"
 
 
 def register(bus: ZenohBus, sim: str, spec: RobotSpecMsg, agent: str = "", timeout_s: float = 20.0) -> RegisterReply:

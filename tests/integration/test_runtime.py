@@ -2,14 +2,17 @@
 
 from __future__ import annotations
 
-import math
 import signal
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
 from iw_zenoh import keys
 from iw_zenoh.messages import Actions, RobotSpecMsg, WorldState, encode
+from iw_zenoh.net import free_port
+from iw_zenoh.record.tools import check
 from tests.integration.harness import MAPS, Net, register, state_of, subscribe, wait_event, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(120)]
@@ -158,33 +161,14 @@ def test_without_collision_process_every_chair_is_held_until_it_returns(net: Net
     assert state_of(moving, 1)[0] > state_of(held, 1)[0]
 
 
-def test_demo_scenario_runs_and_meets_its_criteria(tmp_path: Path) -> None:
-    import subprocess
-    import sys
-
-    from iw_zenoh.net import free_port
-
+def test_demo_scenario_runs_meets_its_criteria_and_is_recorded(tmp_path: Path) -> None:
     port = free_port()
-    r = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "iw_zenoh.cli",
-            "run",
-            str(MAPS / "demo.toml"),
-            "--port",
-            str(port),
-            "--no-status",
-            "--sim",
-            "demo",
-            "--log-dir",
-            str(tmp_path),
-        ],
-        capture_output=True,
-        text=True,
-        timeout=110,
-    )
+    argv = [sys.executable, "-m", "iw_zenoh.cli", "run", str(MAPS / "demo.toml"), "--port", str(port), "--no-status"]
+    argv += ["--sim", "demo", "--log-dir", str(tmp_path), "--record", str(tmp_path / "demo.mcap")]
+    r = subprocess.run(argv, capture_output=True, text=True, timeout=110)
     assert r.returncode == 0, r.stdout + r.stderr
     assert "PASS robot 1 within 0.5 m of (20, 6.1)" in r.stdout
     assert "PASS collisions 0" in r.stdout
-    assert math.isfinite(1.0)
+    health = check(tmp_path / "demo.mcap")  # recorded by default, whole, nothing missing
+    assert health.whole, health.reason
+    assert health.counts_match

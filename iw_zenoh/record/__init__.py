@@ -1,0 +1,1 @@
+"""Recording every key to MCAP, checking and recovering files, replaying them."""

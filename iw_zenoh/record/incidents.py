@@ -1,0 +1,168 @@
+"""``iwz incidents FILE [--json]``: the moments worth looking at in a recording.
+
+Collisions, near misses (two bodies, or a body and a wall, closer than a threshold without
+touching), watchdog stops, agents or processes lost, robots held for want of a collision
+process, refused registrations, dropped radio messages, malformed messages and laggards; each
+with its simulation time, robots and positions, in time order.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Iterator, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import IO
+
+import numpy as np
+import shapely
+from mcap.reader import make_reader
+
+from iw_zenoh import keys
+from iw_zenoh.core.bodies import Bodies
+from iw_zenoh.core.lab import Scene
+from iw_zenoh.errors import IwError
+from iw_zenoh.messages import Event, WorldInfo, WorldState, decode, lab_from_msg, spec_from_msg
+
+__all__ = ["Incident", "find_incidents", "main"]
+
+EVENT_KINDS = {
+    "collision": "collision",
+    "watchdog": "watchdog stop",
+    "agent-lost": "agent lost",
+    "holding": "robots held (no collision verdict)",
+    "refused": "registration refused",
+    "radio-dropped": "radio messages dropped",
+    "bad-message": "malformed message",
+    "laggard": "lock-step laggard",
+    "removed": "robot removed",
+}
+
+
+@dataclass
+class Incident:
+    """One moment to look at."""
+
+    t: float  # simulation time, s
+    kind: str
+    what: str
+    robots: list[int] = field(default_factory=list)
+    where: list[tuple[float, float]] = field(default_factory=list)
+
+
+def _messages(f: IO[bytes]) -> Iterator[tuple[str, bytes]]:
+    for _, ch, msg in make_reader(f).iter_messages():
+        yield ch.topic, msg.data
+
+
+def find_incidents(f: IO[bytes], *, near_m: float = 0.2) -> list[Incident]:
+    """Every incident in a recording, in time order.
+
+    Args:
+        f: The recording.
+        near_m: Clearance under which two bodies (or a body and a wall) count as a near miss.
+    """
+    out: list[Incident] = []
+    view: tuple[Scene, dict[int, object]] | None = None
+    info: WorldInfo | None = None
+    near_now: set[tuple[int, int]] = set()
+    last_pos: dict[int, tuple[float, float]] = {}
+    cache: dict[tuple[int, ...], Bodies] = {}
+    for topic, data in _messages(f):
+        kind = keys.topic_kind(topic)
+        if kind == "info":
+            try:
+                info = decode(data, WorldInfo)
+            except IwError:
+                continue
+            view = (Scene(lab_from_msg(info.lab)), {s.id: spec_from_msg(s) for s in info.robots})
+            cache = {}
+        elif kind == "event":
+            try:
+                ev = decode(data, Event)
+            except IwError:
+                continue
+            label = EVENT_KINDS.get(ev.kind)
+            if label is None:
+                continue
+            who = [ev.robot_id] if ev.robot_id >= 0 else []
+            at = [last_pos[ev.robot_id]] if ev.robot_id in last_pos else []
+            if ev.kind == "collision" and "x" in ev.data:
+                at = [(float(ev.data["x"]), float(ev.data["y"]))]
+            out.append(Incident(ev.sim_time_ns / 1e9, ev.kind, f"{label}: {ev.reason}", who, at))
+        elif kind == "state" and view is not None:
+            try:
+                st = decode(data, WorldState)
+            except IwError:
+                continue
+            for rid, x, y in zip(st.ids, st.x, st.y, strict=True):
+                last_pos[rid] = (x, y)
+            scene, specs = view
+            ids = [i for i in st.ids if i in specs]
+            if not ids:
+                continue
+            idx = [st.ids.index(i) for i in ids]
+            pose = np.column_stack([np.asarray(st.x)[idx], np.asarray(st.y)[idx], np.asarray(st.heading)[idx]])
+            key = tuple(ids)
+            bodies = cache.get(key)
+            if bodies is None:
+                bodies = cache[key] = Bodies.from_specs([specs[i] for i in ids])  # type: ignore[misc]
+            polys = shapely.polygons(bodies.world_outline(pose))
+            collided = {ids[k] for k in range(len(ids)) if st.collided[idx[k]]}
+            pairs: set[tuple[int, int]] = set()
+            a, b = shapely.STRtree(polys).query(polys, predicate="dwithin", distance=near_m)
+            for i, j in zip(a, b, strict=True):
+                if i < j:
+                    pairs.add((ids[i], ids[j]))
+            if len(scene.wall_polygons):
+                ri, wi = scene.wall_tree.query(polys, predicate="dwithin", distance=near_m)
+                for i, w in zip(ri, wi, strict=True):
+                    pairs.add((ids[i], -1 - int(w)))
+            for a_id, b_id in sorted(pairs - near_now):
+                if a_id in collided or (b_id >= 0 and b_id in collided):
+                    continue
+                i = ids.index(a_id)
+                if b_id >= 0:
+                    j = ids.index(b_id)
+                    gap = float(shapely.distance(polys[i], polys[j]))
+                    what = f"near miss: robots {a_id} and {b_id} {gap:.2f} m apart"
+                    members, spots = [a_id, b_id], [pose[i, :2], pose[j, :2]]
+                else:
+                    gap = float(shapely.distance(polys[i], scene.wall_polygons[-1 - b_id]))
+                    what = f"near miss: robot {a_id} {gap:.2f} m from wall {-1 - b_id}"
+                    members, spots = [a_id], [pose[i, :2]]
+                places = [(float(q[0]), float(q[1])) for q in spots]
+                out.append(Incident(st.sim_time_ns / 1e9, "near-miss", what, members, places))
+            near_now = pairs
+    out.sort(key=lambda i: i.t)
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Runs ``iwz incidents``."""
+    p = argparse.ArgumentParser(
+        prog="iwz incidents",
+        description="List the incidents of a recording: collisions, near misses, stops, losses, refusals, drops.",
+    )
+    p.add_argument("file", help="MCAP recording")
+    p.add_argument("--near", type=float, default=0.2, help="near-miss clearance, m (default 0.2)")
+    p.add_argument("--json", action="store_true", help="one JSON array")
+    args = p.parse_args(argv)
+    try:
+        with Path(args.file).open("rb") as f:
+            found = find_incidents(f, near_m=args.near)
+    except OSError as e:
+        print(f"iwz incidents: {e}")
+        return 2
+    except Exception as e:  # not MCAP, or cut off
+        print(f"iwz incidents: cannot read {args.file}: {e}; check it with iwz doctor (and iwz recover)")
+        return 2
+    if args.json:
+        print(json.dumps([asdict(i) for i in found]))
+        return 0
+    for i in found:
+        where = " ".join(f"({x:.2f}, {y:.2f})" for x, y in i.where)
+        print(f"t={i.t:8.2f} s  {i.kind:<14} {i.what}  {where}")
+    print(f"{len(found)} incidents")
+    return 0

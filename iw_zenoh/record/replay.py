@@ -1,0 +1,241 @@
+"""Playing a recording back into Zenoh: original timing or a rate, a time window, loops, key
+filters, another simulation name; paused, resumed, stepped and seeked through the world control
+key of the simulation it plays into, so viewers and agents use a replay as if it were live.
+
+Times given to the player (``start_ns``, ``end_ns``, seek) are simulation times; the recording
+maps them to log times with its sim-time index (or a scan of its states for a recovered file).
+"""
+
+from __future__ import annotations
+
+import bisect
+import logging
+import threading
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from typing import IO
+
+import zenoh
+from mcap.reader import make_reader
+
+from iw_zenoh import keys
+from iw_zenoh.bus import Bus, Inbox
+from iw_zenoh.errors import IwError
+from iw_zenoh.messages import Control, decode, stamp_of
+from iw_zenoh.record.recording import SIM_INDEX
+
+__all__ = ["Player", "ReplayOptions", "sim_index"]
+
+logger = logging.getLogger(__name__)
+
+NEVER_REPLAYED = ("control", "register")  # commands and queries belong to the live session
+
+
+@dataclass
+class ReplayOptions:
+    """How to play.
+
+    Attributes:
+        rate: Speed factor (2.0 twice as fast); 0 means as fast as possible.
+        start_ns: Simulation time to start at (None: the beginning).
+        end_ns: Simulation time to stop at (None: the end).
+        loop: Start again at the end.
+        include: Key expressions to play (empty: every key).
+        exclude: Key expressions not to play.
+        as_sim: Play into this simulation name instead of the recorded one.
+        paused: Start paused (a ``start`` control plays).
+    """
+
+    rate: float = 1.0
+    start_ns: int | None = None
+    end_ns: int | None = None
+    loop: bool = False
+    include: list[str] = field(default_factory=list)
+    exclude: list[str] = field(default_factory=list)
+    as_sim: str | None = None
+    paused: bool = False
+
+
+def sim_index(f: IO[bytes]) -> tuple[list[int], list[int], str | None]:
+    """Sorted (sim times, log times) of the recording's states, and its simulation name.
+
+    Uses the recorder's index when there is one, else scans the state channels.
+    """
+    reader = make_reader(f)
+    sims: list[int] = []
+    logs: list[int] = []
+    sim_name: str | None = None
+    for m in reader.iter_metadata():
+        if m.name == SIM_INDEX:
+            pairs = sorted((int(k), int(v)) for k, v in m.metadata.items())
+            sims = [p[0] for p in pairs]
+            logs = [p[1] for p in pairs]
+    summary = reader.get_summary()
+    if summary is not None:
+        for ch in summary.channels.values():
+            if keys.topic_kind(ch.topic) == "state":
+                sim_name = keys.sim_of(ch.topic)
+    if not sims:
+        f.seek(0)
+        for _, ch, msg in make_reader(f).iter_messages():
+            if keys.topic_kind(ch.topic) == "state":
+                sim_name = keys.sim_of(ch.topic)
+                _, s = stamp_of(msg.data)
+                if not sims or s > sims[-1]:
+                    sims.append(s)
+                    logs.append(msg.log_time)
+    return sims, logs, sim_name
+
+
+class Player:
+    """Plays one recording.
+
+    Args:
+        stream: The recording (seekable).
+        bus: Where to publish.
+        opts: How.
+        now_ns: Monotonic clock (injected for tests).
+    """
+
+    def __init__(
+        self, stream: IO[bytes], bus: Bus, opts: ReplayOptions, now_ns: Callable[[], int] = time.monotonic_ns
+    ) -> None:
+        self.f = stream
+        self.bus = bus
+        self.opts = opts
+        self.now_ns = now_ns
+        self.sims, self.logs, self.sim = sim_index(stream)
+        if self.sim is None:
+            raise IwError("the recording holds no world state: nothing to replay against")
+        self.target = keys.chunk(opts.as_sim or self.sim)
+        self.stop = threading.Event()
+        self.wake = threading.Event()
+        self.control = Inbox(wake=self.wake)
+        bus.subscribe(keys.control(self.target), self.control)
+        self.paused = opts.paused
+        self.steps = 0
+        self.sent = 0
+        self.position_ns = 0  # sim time of the last state played
+        self._seek: int | None = None
+        self._include = [zenoh.KeyExpr(k) for k in opts.include]
+        self._exclude = [zenoh.KeyExpr(k) for k in opts.exclude]
+        self._last_info: bytes | None = None
+        self._base: tuple[int, int] | None = None  # (log ns, wall ns) that timing counts from
+        self._info_q = bus.serve(keys.info(self.target))
+
+    def log_time_at(self, sim_ns: int) -> int:
+        """The log time to start reading at to play from simulation time ``sim_ns``."""
+        if not self.sims:
+            return 0
+        i = bisect.bisect_right(self.sims, sim_ns) - 1
+        return self.logs[max(0, i)]
+
+    def _wanted(self, key: str) -> bool:
+        if keys.topic_kind(key) in NEVER_REPLAYED:
+            return False
+        k = zenoh.KeyExpr(key)
+        if self._include and not any(p.intersects(k) for p in self._include):
+            return False
+        return not any(p.intersects(k) for p in self._exclude)
+
+    def _commands(self) -> None:
+        for _, data, _ in self.control.drain():
+            try:
+                c = decode(data, Control)
+            except IwError as e:
+                logger.warning("control refused: %s", e)
+                continue
+            if c.command == "pause":
+                self.paused = True
+            elif c.command == "start":
+                self.paused, self.steps = False, 0
+            elif c.command == "step":
+                self.paused, self.steps = True, self.steps + c.steps
+            elif c.command == "seek":
+                self._seek = c.at_ns
+            elif c.command == "stop":
+                self.stop.set()
+        for q in self._info_q.poll():
+            if self._last_info is not None:
+                q.reply(self._last_info)
+
+    def _messages(self, from_sim: int | None) -> Iterator[tuple[str, bytes, int, int]]:
+        self.f.seek(0)
+        reader = make_reader(self.f)
+        start_log = self.log_time_at(from_sim) if from_sim is not None else None
+        for _, ch, msg in reader.iter_messages(starting_at=start_log):
+            yield ch.topic, msg.data, msg.log_time, msg.publish_time
+
+    def run(self) -> int:
+        """Plays until the end (or forever with ``loop``), ``stop``, or a stop control."""
+        origin = self.opts.start_ns
+        while not self.stop.is_set():
+            played = self._play(origin)
+            if self._seek is not None:
+                origin, self._seek = self._seek, None
+                continue
+            if not (self.opts.loop and played) or self.stop.is_set():
+                break
+            origin = self.opts.start_ns
+        return self.sent
+
+    def _pace(self, log_ns: int) -> bool:
+        """Waits until ``log_ns`` is due (honouring pause and steps); False to abandon the pass."""
+        while True:
+            while self.paused and self.steps == 0 and not self.stop.is_set() and self._seek is None:
+                self.wake.wait(0.2)
+                self.wake.clear()
+                self._commands()
+                self._base = None  # resume with fresh timing
+            if self.stop.is_set() or self._seek is not None:
+                return False
+            if self._base is None:
+                self._base = (log_ns, self.now_ns())
+            if self.opts.rate <= 0 or (self.paused and self.steps > 0):
+                return True
+            due = self._base[1] + int((log_ns - self._base[0]) / self.opts.rate)
+            interrupted = False
+            while (left := due - self.now_ns()) > 0 and not self.stop.is_set():
+                if self.wake.wait(min(left / 1e9, 0.2)):
+                    self.wake.clear()
+                    self._commands()
+                    if self.paused or self._seek is not None:
+                        interrupted = True
+                        break
+            if not interrupted:
+                return not self.stop.is_set()
+
+    def _play(self, from_sim: int | None) -> bool:
+        self._base = None
+        skipping = from_sim is not None
+        played = False
+        for topic, data, log_ns, pub_ns in self._messages(from_sim):
+            self._commands()
+            if self.stop.is_set() or self._seek is not None:
+                return played
+            kind = keys.topic_kind(topic)
+            if skipping:
+                # start at the first state at or after the requested time (and what follows it)
+                if kind == "state" and from_sim is not None and pub_ns >= from_sim:
+                    skipping = False
+                elif kind == "info":
+                    self._last_info = data
+                    continue
+                else:
+                    continue
+            if self.opts.end_ns is not None and kind == "state" and pub_ns > self.opts.end_ns:
+                return played
+            if not self._pace(log_ns):
+                return played
+            if kind == "info":
+                self._last_info = data
+            if self._wanted(topic):
+                self.bus.publish(keys.with_sim(topic, self.target), data)
+                self.sent += 1
+                played = True
+            if kind == "state":
+                self.position_ns = pub_ns
+                if self.steps > 0:
+                    self.steps -= 1
+        return played
