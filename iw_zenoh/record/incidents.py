@@ -56,6 +56,23 @@ def _messages(f: IO[bytes]) -> Iterator[tuple[str, bytes]]:
         yield ch.topic, msg.data
 
 
+HYSTERESIS = 1.5  # a near miss ends only when the gap grows past 1.5 x the threshold
+
+
+def _close_pairs(scene: Scene, polys: np.ndarray, ids: list[int], dist: float) -> set[tuple[int, int]]:
+    """(robot, robot) and (robot, -1 - wall) pairs closer than ``dist``."""
+    pairs: set[tuple[int, int]] = set()
+    a, b = shapely.STRtree(polys).query(polys, predicate="dwithin", distance=dist)
+    for i, j in zip(a, b, strict=True):
+        if i < j:
+            pairs.add((ids[i], ids[j]))
+    if len(scene.wall_polygons):
+        ri, wi = scene.wall_tree.query(polys, predicate="dwithin", distance=dist)
+        for i, w in zip(ri, wi, strict=True):
+            pairs.add((ids[i], -1 - int(w)))
+    return pairs
+
+
 def find_incidents(f: IO[bytes], *, near_m: float = 0.2) -> list[Incident]:
     """Every incident in a recording, in time order.
 
@@ -110,15 +127,8 @@ def find_incidents(f: IO[bytes], *, near_m: float = 0.2) -> list[Incident]:
                 bodies = cache[key] = Bodies.from_specs([specs[i] for i in ids])  # type: ignore[misc]
             polys = shapely.polygons(bodies.world_outline(pose))
             collided = {ids[k] for k in range(len(ids)) if st.collided[idx[k]]}
-            pairs: set[tuple[int, int]] = set()
-            a, b = shapely.STRtree(polys).query(polys, predicate="dwithin", distance=near_m)
-            for i, j in zip(a, b, strict=True):
-                if i < j:
-                    pairs.add((ids[i], ids[j]))
-            if len(scene.wall_polygons):
-                ri, wi = scene.wall_tree.query(polys, predicate="dwithin", distance=near_m)
-                for i, w in zip(ri, wi, strict=True):
-                    pairs.add((ids[i], -1 - int(w)))
+            pairs = _close_pairs(scene, polys, ids, near_m)
+            still = _close_pairs(scene, polys, ids, near_m * HYSTERESIS)  # an episode ends past this
             for a_id, b_id in sorted(pairs - near_now):
                 if a_id in collided or (b_id >= 0 and b_id in collided):
                     continue
@@ -134,7 +144,7 @@ def find_incidents(f: IO[bytes], *, near_m: float = 0.2) -> list[Incident]:
                     members, spots = [a_id], [pose[i, :2]]
                 places = [(float(q[0]), float(q[1])) for q in spots]
                 out.append(Incident(st.sim_time_ns / 1e9, "near-miss", what, members, places))
-            near_now = pairs
+            near_now = (near_now & still) | pairs
     out.sort(key=lambda i: i.t)
     return out
 
