@@ -20,7 +20,7 @@ import zenoh
 from iw_zenoh.errors import IwError
 from iw_zenoh.net import NetConfig, zenoh_config
 
-__all__ = ["Bus", "Delivery", "Handle", "Inbox", "PendingQuery", "QueryInbox", "ZenohBus"]
+__all__ = ["Bus", "Delivery", "Handle", "Inbox", "PendingQuery", "QueryInbox", "Queue", "ZenohBus"]
 
 logger = logging.getLogger(__name__)
 
@@ -79,6 +79,35 @@ class Inbox:
     def __len__(self) -> int:
         with self._cv:
             return len(self._q)
+
+
+class Queue(Protocol):
+    """A lossless queue filled by the bus without Python in the way (for the recorder): when it
+    is full the network waits, nothing is dropped."""
+
+    def drain(self, limit: int = 100_000) -> list[Delivery]:
+        """Up to ``limit`` deliveries waiting now, oldest first (receive time = when drained)."""
+
+    def undeclare(self) -> None:
+        """Stops it."""
+
+
+class _ZenohQueue:
+    def __init__(self, session: zenoh.Session, key_expr: str, capacity: int) -> None:
+        self._sub = session.declare_subscriber(key_expr, zenoh.handlers.FifoChannel(capacity))
+
+    def drain(self, limit: int = 100_000) -> list[Delivery]:
+        out: list[Delivery] = []
+        now = time.time_ns()
+        while len(out) < limit:
+            s = self._sub.try_recv()
+            if s is None:
+                break
+            out.append((str(s.key_expr), s.payload.to_bytes(), now))
+        return out
+
+    def undeclare(self) -> None:
+        self._sub.undeclare()  # type: ignore[no-untyped-call]
 
 
 class PendingQuery:
@@ -192,6 +221,13 @@ class ZenohBus:
         sub = self.session.declare_subscriber(key_expr, on_sample)
         self._handles.append(sub)
         return sub
+
+    def queue(self, key_expr: str, capacity: int = 200_000) -> Queue:
+        """A lossless queue on ``key_expr``: samples wait in Zenoh's own channel (no Python
+        callback, no GIL on the network path); when full, the sender is held back."""
+        q = _ZenohQueue(self.session, key_expr, capacity)
+        self._handles.append(q)
+        return q
 
     def serve(self, key: str) -> QueryInbox:
         q = _ZenohQueryInbox(self.session, key)

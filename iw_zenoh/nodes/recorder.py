@@ -16,7 +16,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from iw_zenoh import __version__, keys
-from iw_zenoh.bus import Bus, ZenohBus
+from iw_zenoh.bus import ZenohBus
 from iw_zenoh.cliargs import add_common_arguments, net_from_args
 from iw_zenoh.errors import IwError
 from iw_zenoh.nodes.base import NodeIO, install_stop_signals, setup_logging
@@ -27,6 +27,7 @@ __all__ = ["default_path", "main", "record"]
 logger = logging.getLogger(__name__)
 
 FLUSH_S = 1.0  # a kill -9 loses at most this much
+POLL_S = 0.005  # an empty queue is looked at again this soon
 QUIET_S = 0.5  # on stop, keep writing until the bus has been quiet this long...
 DRAIN_MAX_S = 30.0  # ...but no longer than this
 
@@ -37,7 +38,7 @@ def default_path(sim: str) -> Path:
 
 
 def record(
-    bus: Bus,
+    bus: ZenohBus,
     sim: str,
     out: Path,
     *,
@@ -46,7 +47,7 @@ def record(
     status: bool = False,
 ) -> Recorder:
     """Records until ``io.stop`` is set; returns the finished recorder (its counts)."""
-    inbox = io.inbox(keys.everything(sim))
+    inbox = bus.queue(keys.everything(sim))  # lossless: Zenoh holds senders back when it is full
     out.parent.mkdir(parents=True, exist_ok=True)
     with out.open("wb") as f:
         meta = {
@@ -84,13 +85,11 @@ def record(
                     f"{rec.bytes / 1e6:.1f} MB",
                     flush=True,
                 )
-            if stop_at is not None:
-                # what is still in flight towards us is part of the run: write it too
-                if now - last_msg >= QUIET_S or now - stop_at >= DRAIN_MAX_S:
-                    break
-                inbox.wait(0.05)
-                continue
-            io.wait(min(0.2, FLUSH_S))
+            # after a stop, what is still in flight towards us is part of the run: write it too
+            if stop_at is not None and (now - last_msg >= QUIET_S or now - stop_at >= DRAIN_MAX_S):
+                break
+            if not got:
+                io.stop.wait(POLL_S)
         rec.finish({"iw.received": {k: str(v) for k, v in sorted(rec.counts.items())}})
     return rec
 
