@@ -26,6 +26,7 @@ COMMANDS: dict[str, tuple[str, str] | tuple[str, str, str]] = {
     "record": ("iw_zenoh.nodes.recorder", "record every key of a simulation to MCAP"),
     "replay": ("iw_zenoh.nodes.replay", "play a recording back into Zenoh (rate, window, loop, seek)"),
     "incidents": ("iw_zenoh.record.incidents", "list a recording's collisions, near misses, stops and losses"),
+    "render": ("iw_zenoh.record.render", "draw a moment of a recording to PNG (map, bodies, cones, plots)"),
     "resim": ("iw_zenoh.record.resim", "re-run a lock-step recording exactly; swap one robot's agent"),
     "doctor": ("iw_zenoh.record.tools", "say whether a recording is whole", "doctor_main"),
     "recover": ("iw_zenoh.record.tools", "rebuild a readable, indexed file from a cut-off recording", "recover_main"),
