@@ -33,6 +33,17 @@ __all__ = [
     "Actions",
     "Control",
     "Event",
+    "FgColor",
+    "FgCube",
+    "FgEntity",
+    "FgFrameTransform",
+    "FgLine",
+    "FgPose",
+    "FgQuaternion",
+    "FgSceneUpdate",
+    "FgText",
+    "FgTime",
+    "FgVector3",
     "Heard",
     "Hear",
     "Hit",
@@ -376,6 +387,121 @@ class Event(Message, frozen=True, kw_only=True):
     data: dict[str, Any] = {}
 
 
+# --- Foxglove scene: derived channels the recorder adds so a recording opens in a 3D view ----
+# Field names follow Foxglove's published schemas (foxglove.SceneUpdate, foxglove.FrameTransform);
+# the schema names are what Foxglove recognises.
+
+
+class FgTime(msgspec.Struct, frozen=True):
+    """Foxglove time / duration."""
+
+    sec: NonNeg = 0
+    nsec: Annotated[int, msgspec.Meta(ge=0, le=999_999_999)] = 0
+
+
+class FgVector3(msgspec.Struct, frozen=True):
+    """A 3D vector (m)."""
+
+    x: float = 0.0
+    y: float = 0.0
+    z: float = 0.0
+
+
+class FgQuaternion(msgspec.Struct, frozen=True):
+    """A rotation."""
+
+    x: float = 0.0
+    y: float = 0.0
+    z: float = 0.0
+    w: float = 1.0
+
+
+class FgPose(msgspec.Struct, frozen=True):
+    """Position and orientation."""
+
+    position: FgVector3 = FgVector3()
+    orientation: FgQuaternion = FgQuaternion()
+
+
+class FgColor(msgspec.Struct, frozen=True):
+    """RGBA in [0, 1]."""
+
+    r: float = 0.5
+    g: float = 0.5
+    b: float = 0.5
+    a: float = 1.0
+
+
+class FgCube(msgspec.Struct, frozen=True):
+    """foxglove.CubePrimitive."""
+
+    pose: FgPose
+    size: FgVector3
+    color: FgColor
+
+
+class FgLine(msgspec.Struct, frozen=True):
+    """foxglove.LinePrimitive (type 0 strip, 1 loop, 2 list)."""
+
+    type: int
+    pose: FgPose
+    thickness: float
+    scale_invariant: bool
+    points: list[FgVector3]
+    color: FgColor
+    colors: list[FgColor] = []
+    indices: list[int] = []
+
+
+class FgText(msgspec.Struct, frozen=True):
+    """foxglove.TextPrimitive."""
+
+    pose: FgPose
+    billboard: bool
+    font_size: float
+    scale_invariant: bool
+    color: FgColor
+    text: str
+
+
+class FgEntity(msgspec.Struct, frozen=True):
+    """foxglove.SceneEntity."""
+
+    timestamp: FgTime
+    frame_id: str
+    id: str
+    lifetime: FgTime = FgTime()
+    frame_locked: bool = False
+    metadata: list[dict[str, str]] = []
+    arrows: list[dict[str, Any]] = []
+    cubes: list[FgCube] = []
+    spheres: list[dict[str, Any]] = []
+    cylinders: list[dict[str, Any]] = []
+    lines: list[FgLine] = []
+    triangles: list[dict[str, Any]] = []
+    texts: list[FgText] = []
+    models: list[dict[str, Any]] = []
+
+
+class FgSceneUpdate(msgspec.Struct, frozen=True):
+    """foxglove.SceneUpdate."""
+
+    schema: ClassVar[str] = "foxglove.SceneUpdate"
+    deletions: list[dict[str, Any]] = []
+    entities: list[FgEntity] = []
+
+
+class FgFrameTransform(msgspec.Struct, frozen=True):
+    """foxglove.FrameTransform."""
+
+    schema: ClassVar[str] = "foxglove.FrameTransform"
+    timestamp: FgTime
+    parent_frame_id: str
+    child_frame_id: str
+    translation: FgVector3
+    rotation: FgQuaternion
+
+
 MESSAGE_TYPES: tuple[type[Message], ...] = (
     RegisterRequest,
     RegisterReply,
@@ -433,7 +559,7 @@ _ENCODER = msgspec.json.Encoder()
 _DECODERS: dict[type[Any], msgspec.json.Decoder[Any]] = {}
 
 
-def encode(msg: Message) -> bytes:
+def encode(msg: Message | FgSceneUpdate | FgFrameTransform) -> bytes:
     """Encodes any message as UTF-8 JSON.
 
     JSON has no NaN or infinity: msgspec writes them as ``null``, which a receiver refuses for a
@@ -467,7 +593,7 @@ def decode(data: bytes, kind: type[T]) -> T:
     return msg
 
 
-def json_schema(kind: type[Message]) -> dict[str, Any]:
+def json_schema(kind: type[Message] | type[FgSceneUpdate] | type[FgFrameTransform]) -> dict[str, Any]:
     """The JSON Schema of a message class (what the recorder writes per channel)."""
     schema: dict[str, Any] = msgspec.json.schema(kind)
     return schema

@@ -117,3 +117,37 @@ def test_a_nan_is_refused_by_the_receiver_never_read_as_a_number() -> None:
     data = encode(Actions(robot_id=1, left=float("nan")))
     with pytest.raises(DecodeError, match="left"):
         decode(data, Actions)
+
+
+def test_encoded_messages_validate_against_their_published_json_schemas() -> None:
+    import json
+
+    import jsonschema
+
+    samples = [
+        WorldState(
+            revision=1,
+            ids=[1],
+            x=[1.0],
+            y=[2.0],
+            heading=[0.5],
+            collided=[False],
+            rolled_left=[0.0],
+            rolled_right=[0.0],
+            speed=[0.1],
+        ),
+        SensorReading(
+            robot_id=1,
+            proximity_ids=[0, 1],
+            proximity_m=[None, 1.5],
+            proximity_legacy=[100.0, 0.7],
+            compass_deg=3.0,
+            gps=(1.0, 2.0, 3.0),
+        ),
+        Actions(robot_id=2, left=0.1, right=-0.1),
+        Event(kind="collision", reason="r", data={"x": 1.5}),
+    ]
+    for m in samples:
+        jsonschema.validate(json.loads(encode(m)), json_schema(type(m)))
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate({"robot_id": "x"}, json_schema(Actions))

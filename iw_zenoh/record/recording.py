@@ -16,7 +16,9 @@ from typing import IO
 from mcap.writer import CompressionType, Writer
 
 from iw_zenoh import __version__, keys
-from iw_zenoh.messages import TOPIC_TYPES, json_schema, stamp_of
+from iw_zenoh.errors import IwError
+from iw_zenoh.messages import TOPIC_TYPES, SensorReading, WorldInfo, WorldState, decode, encode, json_schema, stamp_of
+from iw_zenoh.record.foxglove import SceneBuilder
 
 __all__ = ["PROFILE", "SIM_INDEX", "Recorder"]
 
@@ -37,7 +39,12 @@ class Recorder:
     """
 
     def __init__(
-        self, stream: IO[bytes], metadata: dict[str, dict[str, str]] | None = None, *, chunk_size: int = 4 * 1024 * 1024
+        self,
+        stream: IO[bytes],
+        metadata: dict[str, dict[str, str]] | None = None,
+        *,
+        chunk_size: int = 4 * 1024 * 1024,
+        scene: bool = True,
     ) -> None:
         self._w = Writer(stream, chunk_size=chunk_size, compression=CompressionType.ZSTD)
         self._w.start(profile=PROFILE, library=f"iw-zenoh {__version__}")
@@ -48,6 +55,7 @@ class Recorder:
         self.bytes = 0
         self._sim_index: list[tuple[int, int]] = []
         self._finished = False
+        self._scene = SceneBuilder() if scene else None
         base = {"iw-zenoh": __version__}
         self._w.add_metadata("iw.versions", base)
         for name, data in (metadata or {}).items():
@@ -88,10 +96,42 @@ class Recorder:
         self._w.add_message(channel_id=cid, log_time=log_time_ns, data=data, publish_time=sim_ns, sequence=seq)
         self.counts[key] = self.counts.get(key, 0) + 1
         self.bytes += len(data)
+        if self._scene is not None:
+            self._derive(key, data, log_time_ns, sim_ns)
         if keys.topic_kind(key) == "state" and (
             not self._sim_index or sim_ns >= self._sim_index[-1][0] + SIM_INDEX_STEP_NS
         ):
             self._sim_index.append((sim_ns, log_time_ns))
+
+    def _derive(self, key: str, data: bytes, log_time_ns: int, sim_ns: int) -> None:
+        """Adds the Foxglove scene messages a world message implies (never fails the recording)."""
+        kind = keys.topic_kind(key)
+        assert self._scene is not None
+        try:
+            if kind == "info":
+                derived = self._scene.on_info(decode(data, WorldInfo))
+            elif kind == "state":
+                derived = self._scene.on_state(decode(data, WorldState))
+            elif kind == "sensors":
+                derived = self._scene.on_sensors(decode(data, SensorReading))
+            else:
+                return
+        except IwError:
+            return  # a malformed message is recorded as received; it just has no picture
+        for topic, msg in derived:
+            cid = self._channels.get(topic)
+            if cid is None:
+                sid = self._schemas.get(msg.schema, 0)
+                if not sid:
+                    sid = self._w.register_schema(
+                        name=msg.schema, encoding="jsonschema", data=json.dumps(json_schema(type(msg))).encode()
+                    )
+                    self._schemas[msg.schema] = sid
+                cid = self._w.register_channel(
+                    topic=topic, message_encoding="json", schema_id=sid, metadata={"derived": "foxglove"}
+                )
+                self._channels[topic] = cid
+            self._w.add_message(channel_id=cid, log_time=log_time_ns, data=encode(msg), publish_time=sim_ns, sequence=0)
 
     def flush(self) -> None:
         """Closes the chunk in progress and writes it out (a crash then loses nothing before)."""

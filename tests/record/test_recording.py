@@ -31,7 +31,7 @@ def _state(tick: int) -> bytes:
 
 def _write(path: Path, ticks: int, *, finish: bool = True) -> Recorder:
     f = path.open("wb")  # closed here, or (a crash) by the test
-    rec = Recorder(f, {"iw.scenario": {"name": "unit"}}, chunk_size=2000)
+    rec = Recorder(f, {"iw.scenario": {"name": "unit"}}, chunk_size=2000, scene=False)
     for t in range(1, ticks + 1):
         rec.add(keys.state("s"), _state(t), 1_000_000_000 + t * 100_000_000)
         rec.add(
@@ -100,3 +100,50 @@ def test_recover_saves_every_flushed_message_of_a_cut_off_file(tmp_path: Path) -
     rebuilt.write_bytes(out.getvalue())
     assert check(rebuilt).whole
     assert sum(rec.counts.values()) - r.messages <= 11  # lost at most what was not yet flushed
+
+
+def test_a_recording_carries_a_foxglove_scene_that_validates_against_its_schema(tmp_path: Path) -> None:
+    import json
+
+    import jsonschema
+
+    from iw_zenoh.core.lab import Lab, Wall
+    from iw_zenoh.core.spec import RobotSpec
+    from iw_zenoh.messages import SensorReading, WorldInfo, lab_to_msg, spec_to_msg
+
+    path = tmp_path / "scene.mcap"
+    lab = Lab("l", 10.0, 10.0, (Wall(((4, 4), (5, 4), (5, 5), (4, 5)), 2.0),))
+    info = WorldInfo(
+        revision=1,
+        lab=lab_to_msg(lab),
+        period_ns=100_000_000,
+        robots=[spec_to_msg(RobotSpec("a", id=1, x_m=1.0, y_m=1.0, dir_deg=0.0))],
+    )
+    with path.open("wb") as f:
+        rec = Recorder(f)
+        rec.add(keys.info("s"), encode(info), 1)
+        rec.add(keys.state("s"), _state(1), 2)
+        reading = SensorReading(
+            tick=1,
+            sim_time_ns=100_000_000,
+            robot_id=1,
+            proximity_ids=[0, 1, 2, 3],
+            proximity_m=[1.0, None, 2.0, 0.5],
+            proximity_legacy=[1.0] * 4,
+            compass_deg=0.0,
+            gps=(1.0, 2.0, 0.0),
+        )
+        rec.add(keys.sensors("s", 1), encode(reading), 3)
+        rec.finish()
+    with path.open("rb") as f:
+        msgs = list(make_reader(f).iter_messages())
+    scene = [(s, m) for s, c, m in msgs if c.topic == "/foxglove/scene"]
+    tf = [(s, m) for s, c, m in msgs if c.topic == "/foxglove/tf"]
+    assert {s.name for s, _ in scene} == {"foxglove.SceneUpdate"}
+    assert {s.name for s, _ in tf} == {"foxglove.FrameTransform"}
+    ids = [e["id"] for _, m in scene for e in json.loads(m.data)["entities"]]
+    assert ids == ["walls", "robot/1", "cones/1"]
+    for s, m in scene + tf:
+        jsonschema.validate(json.loads(m.data), json.loads(s.data))
+    body = next(e for _, m in scene for e in json.loads(m.data)["entities"] if e["id"] == "robot/1")
+    assert body["cubes"][0]["size"]["x"] == 1.0

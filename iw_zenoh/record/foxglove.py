@@ -1,0 +1,146 @@
+"""The Foxglove view of a simulation: a scene channel (walls, bodies, proximity cones, names)
+and frame transforms, derived from the world's own messages while recording, so a recording
+opens in Foxglove's 3D panel."""
+
+from __future__ import annotations
+
+import math
+
+from iw_zenoh.core.spec import RobotSpec
+from iw_zenoh.messages import (
+    FgColor,
+    FgCube,
+    FgEntity,
+    FgFrameTransform,
+    FgLine,
+    FgPose,
+    FgQuaternion,
+    FgSceneUpdate,
+    FgText,
+    FgTime,
+    FgVector3,
+    SensorReading,
+    WorldInfo,
+    WorldState,
+    spec_from_msg,
+)
+
+__all__ = ["SCENE_TOPIC", "TF_TOPIC", "SceneBuilder"]
+
+SCENE_TOPIC = "/foxglove/scene"
+TF_TOPIC = "/foxglove/tf"
+FRAME = "world"
+WALL = FgColor(r=0.35, g=0.35, b=0.38, a=1.0)
+BODY = FgColor(r=0.15, g=0.45, b=0.85, a=0.9)
+HIT = FgColor(r=0.9, g=0.1, b=0.1, a=0.9)
+CONE = FgColor(r=1.0, g=0.6, b=0.0, a=0.6)
+BODY_HEIGHT_M = 1.0  # drawn height of a chair
+ARC_POINTS = 8
+
+
+def _time(ns: int) -> FgTime:
+    return FgTime(sec=ns // 1_000_000_000, nsec=ns % 1_000_000_000)
+
+
+def _yaw(theta: float) -> FgQuaternion:
+    return FgQuaternion(x=0.0, y=0.0, z=math.sin(theta / 2), w=math.cos(theta / 2))
+
+
+class SceneBuilder:
+    """Turns info, state and sensor messages into Foxglove scene updates and transforms."""
+
+    def __init__(self) -> None:
+        self.specs: dict[int, RobotSpec] = {}
+        self.pose: dict[int, tuple[float, float, float]] = {}
+        self._walls_sent_for: int = -1
+
+    def on_info(self, info: WorldInfo) -> list[tuple[str, FgSceneUpdate | FgFrameTransform]]:
+        """Walls (once per revision) and the robots' bodies to come."""
+        self.specs = {s.id: spec_from_msg(s) for s in info.robots}
+        if info.revision == self._walls_sent_for:
+            return []
+        self._walls_sent_for = info.revision
+        lines = []
+        for w in info.lab.walls:
+            for z in (0.0, w.height):
+                pts = [FgVector3(x=x, y=y, z=z) for x, y in w.corners]
+                lines.append(
+                    FgLine(type=1, pose=FgPose(), thickness=0.04, scale_invariant=False, points=pts, color=WALL)
+                )
+        border = [
+            FgVector3(x=x, y=y, z=0.0)
+            for x, y in ((0, 0), (info.lab.width, 0), (info.lab.width, info.lab.height), (0, info.lab.height))
+        ]
+        lines.append(FgLine(type=1, pose=FgPose(), thickness=0.08, scale_invariant=False, points=border, color=WALL))
+        ent = FgEntity(timestamp=_time(info.sim_time_ns), frame_id=FRAME, id="walls", lines=lines)
+        return [(SCENE_TOPIC, FgSceneUpdate(entities=[ent]))]
+
+    def on_state(self, st: WorldState) -> list[tuple[str, FgSceneUpdate | FgFrameTransform]]:
+        """Every body at its committed pose, and a transform per robot."""
+        if not self.specs:
+            return []  # no world description yet: nothing to draw bodies with
+        ts = _time(st.sim_time_ns)
+        entities = []
+        out: list[tuple[str, FgSceneUpdate | FgFrameTransform]] = []
+        for rid, x, y, th, hit in zip(st.ids, st.x, st.y, st.heading, st.collided, strict=True):
+            self.pose[rid] = (x, y, th)
+            spec = self.specs.get(rid)
+            if spec is None:
+                continue
+            off = spec.width_m * (spec.com - 0.5)  # body centre ahead of the wheel axis
+            cx, cy = x - off * math.cos(th), y - off * math.sin(th)
+            cube = FgCube(
+                pose=FgPose(position=FgVector3(x=cx, y=cy, z=BODY_HEIGHT_M / 2), orientation=_yaw(th)),
+                size=FgVector3(x=spec.width_m, y=spec.height_m, z=BODY_HEIGHT_M),
+                color=HIT if hit else BODY,
+            )
+            label = FgText(
+                pose=FgPose(position=FgVector3(x=x, y=y, z=BODY_HEIGHT_M + 0.3)),
+                billboard=True,
+                font_size=14.0,
+                scale_invariant=True,
+                color=FgColor(r=1.0, g=1.0, b=1.0, a=1.0),
+                text=f"{rid} {spec.name}",
+            )
+            entities.append(FgEntity(timestamp=ts, frame_id=FRAME, id=f"robot/{rid}", cubes=[cube], texts=[label]))
+            out.append(
+                (
+                    TF_TOPIC,
+                    FgFrameTransform(
+                        timestamp=ts,
+                        parent_frame_id=FRAME,
+                        child_frame_id=f"robot{rid}",
+                        translation=FgVector3(x=x, y=y),
+                        rotation=_yaw(th),
+                    ),
+                )
+            )
+        out.insert(0, (SCENE_TOPIC, FgSceneUpdate(entities=entities)))
+        return out
+
+    def on_sensors(self, r: SensorReading) -> list[tuple[str, FgSceneUpdate | FgFrameTransform]]:
+        """A robot's proximity cones, drawn to their readings."""
+        spec = self.specs.get(r.robot_id)
+        pose = self.pose.get(r.robot_id)
+        if spec is None or pose is None:
+            return []
+        x, y, th = pose
+        by_id = {s.id: s for s in spec.sensors}
+        lines = []
+        for sid, dist in zip(r.proximity_ids, r.proximity_m, strict=False):
+            s = by_id.get(sid)
+            if s is None:
+                continue
+            ox = x + math.cos(th) * s.x_m - math.sin(th) * s.y_m
+            oy = y + math.sin(th) * s.x_m + math.cos(th) * s.y_m
+            reach = s.range_m if dist is None else dist
+            phi = th + math.radians(s.angle_deg)
+            half = math.radians(s.cone_deg) / 2
+            pts = [FgVector3(x=ox, y=oy, z=0.3)]
+            for k in range(ARC_POINTS + 1):
+                a = phi - half + 2 * half * k / ARC_POINTS
+                pts.append(FgVector3(x=ox + reach * math.cos(a), y=oy + reach * math.sin(a), z=0.3))
+            color = CONE if dist is not None else FgColor(r=0.6, g=0.6, b=0.6, a=0.25)
+            lines.append(FgLine(type=1, pose=FgPose(), thickness=0.02, scale_invariant=False, points=pts, color=color))
+        ent = FgEntity(timestamp=_time(r.sim_time_ns), frame_id=FRAME, id=f"cones/{r.robot_id}", lines=lines)
+        return [(SCENE_TOPIC, FgSceneUpdate(entities=[ent]))]
