@@ -172,3 +172,36 @@ def test_replay_and_doctor_refuse_broken_files_clearly(tmp_path: Path, content: 
         assert "iwz replay:" in p.output()
     finally:
         n.close()
+
+
+def test_replay_window_key_filter_flat_out_and_loop(net: Net) -> None:
+    path = net.tmp / "syn.mcap"
+    _synthetic(path, 50)
+    bus = net.client()
+    got = subscribe(bus, keys.everything("win"))
+    p = net.spawn(
+        "replay",
+        str(path),
+        "--as-sim",
+        "win",
+        "--rate",
+        "0",
+        "--start",
+        "1",
+        "--end",
+        "2",
+        "--keys",
+        "iw/*/world/state",
+    )
+    assert p.popen.wait(60) == 0, p.output()
+    ticks = []
+    while (d := got.get(timeout_s=1.0)) is not None:
+        assert keys.topic_kind(d[0]) == "state", d[0]
+        ticks.append(decode(d[1], WorldState).tick)
+    assert ticks == list(range(10, 21))
+
+    looped = subscribe(bus, keys.state("loop"))
+    net.spawn("replay", str(path), "--as-sim", "loop", "--rate", "0", "--end", "0.3", "--loop")
+    seen = [wait_msg(looped, WorldState, timeout_s=20).tick for _ in range(7)]
+    assert seen[:6] == [1, 2, 3, 1, 2, 3]
+    bus.publish(keys.control("loop"), encode(Control(command="stop")))
