@@ -11,16 +11,13 @@ from __future__ import annotations
 import argparse
 import atexit
 import time
-from dataclasses import replace
 from pathlib import Path
 
-from iw_zenoh.agents.waypoint import PROTOTYPE_SENSORS
-
 from iw_zenoh.agent import Command
-from iw_zenoh.core.spec import RobotSpec
+from iw_zenoh.core.spec import RobotSpec, prototype_sensors
 from iw_zenoh.messages import Heard, SensorReading
 
-CONES_4M = tuple(replace(s, range_m=4.0) for s in PROTOTYPE_SENSORS)  # the core benchmark's chair
+CONES_4M = prototype_sensors(4.0)  # the core benchmark's chair
 
 __all__ = ["Probe", "add_arguments", "make"]
 

@@ -12,10 +12,10 @@ import argparse
 import math
 
 from iw_zenoh.agent import Command
-from iw_zenoh.core.spec import IrSensorSpec, NoiseSpec, RobotSpec, SensorNoise
+from iw_zenoh.core.spec import NoiseSpec, RobotSpec, SensorNoise, prototype_chair, prototype_sensors
 from iw_zenoh.messages import Heard, SensorReading
 
-__all__ = ["PROTOTYPE_SENSORS", "WaypointDriver", "add_arguments", "make", "parse_points"]
+__all__ = ["PROTOTYPE_SENSORS", "WaypointDriver", "fine_chair", "add_arguments", "make", "parse_points"]
 
 MAX_POWER = 0.15
 STOP_M = 0.25  # stop when something is this near ahead
@@ -23,37 +23,13 @@ SIDE_M = 0.2  # keep this far off things beside
 TURN_POWER = 0.04  # power difference at full turn
 BACK_TICKS = 5  # after a collision, back off this many ticks
 BACK_POWER = 0.05
-PROTOTYPE_SENSORS = tuple(
-    IrSensorSpec(i, x, y, a, 60.0, 3.0)
-    for i, (x, y, a) in enumerate(
-        [
-            (0.72, 0.24, 0),
-            (0.72, -0.24, 0),
-            (0.54, 0.24, 90),
-            (0.54, -0.24, -90),
-            (0.05, 0.28, 90),
-            (0.05, -0.28, -90),
-            (-0.03, 0.28, 180),
-            (-0.03, -0.28, 180),
-        ]
-    )
-)
+PROTOTYPE_SENSORS = prototype_sensors(3.0)  # a 3 m sonar range for driving
 FINE_GPS = SensorNoise(gps_m=NoiseSpec(0.0, 0.02), gps_heading_deg=NoiseSpec(0.0, 0.5))
 
 
-def prototype_chair(name: str, **kw: object) -> RobotSpec:
-    """The LIACC prototype chair (section 5.4.4) with a fine GPS (a localised chair)."""
-    args: dict[str, object] = {
-        "width_m": 1.04,
-        "height_m": 0.66,
-        "com": 0.81,
-        "max_speed_mps": 0.5,
-        "acceleration_curve": 0.2,
-        "ir_sensors": PROTOTYPE_SENSORS,
-        "noise": FINE_GPS,
-    }
-    args.update(kw)
-    return RobotSpec(name, **args)  # type: ignore[arg-type]
+def fine_chair(name: str, **kw: object) -> RobotSpec:
+    """The LIACC prototype chair with 3 m sonars and a fine GPS (a localised chair)."""
+    return prototype_chair(name, range_m=3.0, noise=FINE_GPS, **kw)
 
 
 class WaypointDriver:
@@ -184,7 +160,7 @@ def make(args: argparse.Namespace) -> list[WaypointDriver]:
     if args.start:
         x, y, d = (float(v) for v in args.start.split(","))
         kw.update(x_m=x, y_m=y, dir_deg=d)
-    spec = prototype_chair(args.robot_name, **kw)
+    spec = fine_chair(args.robot_name, **kw)
     return [
         WaypointDriver(
             spec, parse_points(args.waypoints), tolerance_m=args.tolerance, safety_m=args.safety, speed=args.speed

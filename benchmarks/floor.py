@@ -15,40 +15,17 @@ import shapely
 
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.lab import Lab, Scene, tile_lab
-from iw_zenoh.core.spec import IrSensorSpec, RobotSpec
+from iw_zenoh.core.spec import RobotSpec, prototype_chair
 from iw_zenoh.maps import load_lab
 
 HOSPITAL = Path(__file__).resolve().parents[1] / "maps" / "hospital.xml"
 CHAIRS_PER_WING = 100  # a wing is 40 x 20 m: one chair per 8 m^2 on average, ~1 m apart in crowds
 LATTICE_M = 1.25  # centre spacing of the lattice chairs stand on
-PROTOTYPE_SENSORS = tuple(
-    IrSensorSpec(i, x, y, a, 60.0, 4.0)
-    for i, (x, y, a) in enumerate(
-        [
-            (0.72, 0.24, 0),
-            (0.72, -0.24, 0),
-            (0.54, 0.24, 90),
-            (0.54, -0.24, -90),
-            (0.05, 0.28, 90),
-            (0.05, -0.28, -90),
-            (-0.03, 0.28, 180),
-            (-0.03, -0.28, 180),
-        ]
-    )
-)
 
 
 def chair(robot_id: int) -> RobotSpec:
     """The LIACC prototype chair of the seed (section 5.4.4) with 4 m cones."""
-    return RobotSpec(
-        f"c{robot_id}",
-        id=robot_id,
-        width_m=1.04,
-        height_m=0.66,
-        com=0.81,
-        acceleration_curve=0.2,
-        ir_sensors=PROTOTYPE_SENSORS,
-    )
+    return prototype_chair(f"c{robot_id}", id=robot_id, range_m=4.0)
 
 
 def crowded_floor(n: int, seed: int = 1) -> tuple[Scene, Bodies, np.ndarray]:

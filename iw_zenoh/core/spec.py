@@ -25,6 +25,8 @@ __all__ = [
     "RobotType",
     "SensorNoise",
     "default_ir_sensors",
+    "prototype_chair",
+    "prototype_sensors",
 ]
 
 NAME_MAX_CHARS = 20  # Table 4.3
@@ -184,6 +186,38 @@ class EncoderSpec:
 
     def __post_init__(self) -> None:
         _positive("encoder.ticks_per_m", self.ticks_per_m)
+
+
+PROTOTYPE_SENSOR_LAYOUT = (
+    (0.72, 0.24, 0.0),
+    (0.72, -0.24, 0.0),
+    (0.54, 0.24, 90.0),
+    (0.54, -0.24, -90.0),
+    (0.05, 0.28, 90.0),
+    (0.05, -0.28, -90.0),
+    (-0.03, 0.28, 180.0),
+    (-0.03, -0.28, 180.0),
+)  # (x, y, angle) of the LIACC prototype's eight sonars, section 5.4.4
+
+
+def prototype_sensors(range_m: float = DEFAULT_IR_RANGE_M) -> tuple[IrSensorSpec, ...]:
+    """The LIACC prototype chair's eight 60-degree sonars (section 5.4.4)."""
+    return tuple(IrSensorSpec(i, x, y, a, 60.0, range_m) for i, (x, y, a) in enumerate(PROTOTYPE_SENSOR_LAYOUT))
+
+
+def prototype_chair(name: str, *, range_m: float = DEFAULT_IR_RANGE_M, **overrides: object) -> RobotSpec:
+    """The prototype chair measured at LIACC: Width 1.04, Height 0.66, COM 0.81, MaxSpeed 0.5,
+    AccelerationCurve 0.2, eight sonars; ``overrides`` replace any field."""
+    args: dict[str, object] = {
+        "width_m": 1.04,
+        "height_m": 0.66,
+        "com": 0.81,
+        "max_speed_mps": 0.5,
+        "acceleration_curve": 0.2,
+        "ir_sensors": prototype_sensors(range_m),
+    }
+    args.update(overrides)
+    return RobotSpec(name, **args)  # type: ignore[arg-type]
 
 
 def default_ir_sensors(width_m: float, height_m: float, com: float) -> tuple[IrSensorSpec, ...]:

@@ -101,3 +101,12 @@ def test_duplicate_sensor_ids_are_refused() -> None:
 def test_a_circle_needs_equal_width_and_height() -> None:
     with pytest.raises(SpecError, match="diameter"):
         RobotSpec("c", shape="circle", width_m=1.0, height_m=0.5)  # type: ignore[arg-type]
+
+
+def test_the_prototype_chair_is_the_one_measured_at_liacc() -> None:
+    from iw_zenoh.core.spec import prototype_chair
+
+    c = prototype_chair("p")
+    assert (c.width_m, c.height_m, c.com, c.max_speed_mps, c.acceleration_curve) == (1.04, 0.66, 0.81, 0.5, 0.2)
+    assert [(s.x_m, s.y_m, s.angle_deg, s.cone_deg) for s in c.sensors][:2] == [(0.72, 0.24, 0.0, 60.0), (0.72, -0.24, 0.0, 60.0)]
+    assert len(c.sensors) == 8
