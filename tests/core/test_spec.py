@@ -108,5 +108,8 @@ def test_the_prototype_chair_is_the_one_measured_at_liacc() -> None:
 
     c = prototype_chair("p")
     assert (c.width_m, c.height_m, c.com, c.max_speed_mps, c.acceleration_curve) == (1.04, 0.66, 0.81, 0.5, 0.2)
-    assert [(s.x_m, s.y_m, s.angle_deg, s.cone_deg) for s in c.sensors][:2] == [(0.72, 0.24, 0.0, 60.0), (0.72, -0.24, 0.0, 60.0)]
+    assert [(s.x_m, s.y_m, s.angle_deg, s.cone_deg) for s in c.sensors][:2] == [
+        (0.72, 0.24, 0.0, 60.0),
+        (0.72, -0.24, 0.0, 60.0),
+    ]
     assert len(c.sensors) == 8

@@ -1,0 +1,458 @@
+"""The Ciber-Rato / Intellwheels wire protocol as pure functions: ``parse_*`` for what clients
+send, ``build_*`` for what the server sends (fact sheet ``ciberrato-protocol.md``).
+
+Framing: every datagram the server sends ends in exactly one NUL (after a newline); what clients
+send may or may not carry one, and anything after the first NUL is ignored. Every input goes
+through one hardened lxml parser; malformed input raises
+:class:`~iw_zenoh.errors.ProtocolError` with the reason, never a half-parsed value.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from lxml import etree
+
+from iw_zenoh.core.params import SimParameters
+from iw_zenoh.core.spec import BodyShape, IrSensorSpec, RobotSpec, RobotType
+from iw_zenoh.errors import ProtocolError, SpecError
+
+__all__ = [
+    "ACTIONS_LIMIT",
+    "REGISTRATION_LIMIT",
+    "VIEWER_LIMIT",
+    "ActionsFrame",
+    "Measures",
+    "Registration",
+    "ViewerCommand",
+    "build_measures",
+    "build_refusal",
+    "build_reply",
+    "build_robot_state",
+    "frame",
+    "parse_actions",
+    "parse_registration",
+    "parse_viewer_command",
+    "registration_spec",
+]
+
+REGISTRATION_LIMIT = 1023  # the legacy server reads at most this much on port 6000
+ACTIONS_LIMIT = 1023  # ... and on a robot's own socket
+VIEWER_LIMIT = 63  # ... and on a viewer's socket
+SAY_MAX_CHARS = 100
+LEGACY_IR_ANGLES = (0.0, 60.0, -60.0, 180.0)  # Ciber-Rato's default IR mounting angles
+CIBER_RADIUS = 0.5
+
+
+def _parser() -> etree.XMLParser:
+    return etree.XMLParser(
+        resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False, remove_comments=True
+    )
+
+
+def frame(datagram: bytes, limit: int) -> bytes:
+    """The XML text of a datagram: refused past ``limit`` bytes, cut at the first NUL.
+
+    Raises:
+        ProtocolError: When it is longer than the legacy server would read, or empty.
+    """
+    if len(datagram) > limit + 1:  # one terminating NUL past the limit is how the C clients send
+        raise ProtocolError(f"datagram of {len(datagram)} bytes is over the {limit}-byte limit")
+    text = datagram.split(b"\x00", 1)[0]
+    if not text.strip():
+        raise ProtocolError("empty datagram")
+    return text
+
+
+def _xml(text: bytes) -> etree._Element:
+    try:
+        root = etree.fromstring(text, _parser())
+    except etree.XMLSyntaxError as e:
+        raise ProtocolError(f"not well-formed XML: {e.msg}") from None
+    tree = root.getroottree()
+    if tree.docinfo.internalDTD is not None or tree.docinfo.doctype:
+        raise ProtocolError("DOCTYPE declarations are refused")
+    return root
+
+
+def _float(el: etree._Element, *names: str) -> float | None:
+    for n in names:
+        raw = el.get(n)
+        if raw is None:
+            continue
+        try:
+            v = float(raw)
+        except ValueError:
+            raise ProtocolError(f"<{el.tag}> {n}={raw!r} is not a number") from None
+        if not math.isfinite(v):
+            raise ProtocolError(f"<{el.tag}> {n}={raw!r} is not a finite number")
+        return v
+    return None
+
+
+@dataclass(frozen=True)
+class Registration:
+    """A registration datagram on port 6000.
+
+    Attributes:
+        kind: ``robot``, ``beacon`` (RobotBeacon), ``view`` or ``panel``.
+        name: Robot name.
+        robot_id: Requested id (0: first free slot; a missing or bad Id counts as 0).
+        beacon_height: A RobotBeacon's height.
+        ir: IR sensors as (id, angle_deg, x, y, cone_deg) with None for what was not given.
+        body: Intellwheels body attributes given (width, height, com, x, y, dir, max_speed,
+            acceleration_curve), by canonical name.
+        type: Intellwheels Type (Simulated, Real, Door), if given.
+    """
+
+    kind: str
+    name: str = ""
+    robot_id: int = 0
+    beacon_height: float | None = None
+    ir: tuple[tuple[int, float, float | None, float | None, float | None], ...] = ()
+    body: dict[str, float] = field(default_factory=dict)
+    type: str | None = None
+
+
+_BODY_ATTRS = {
+    "width": ("Width",),
+    "height": ("Height", "Heigth"),
+    "com": ("COM", "COMass", "CenterOfMovement"),
+    "x": ("X",),
+    "y": ("Y",),
+    "dir": ("DIR", "Dir"),
+    "max_speed": ("MaxSpeed",),
+    "acceleration_curve": ("AccelerationCurve", "AccerelationCurve"),
+}
+
+
+def parse_registration(datagram: bytes) -> Registration:
+    """Reads a datagram sent to port 6000.
+
+    Raises:
+        ProtocolError: Over the size limit, not XML, an unknown root or child element.
+    """
+    root = _xml(frame(datagram, REGISTRATION_LIMIT))
+    tag = root.tag
+    if tag in ("View", "Panel"):
+        if len(root):
+            raise ProtocolError(f"<{tag}> takes no children")
+        return Registration(kind=str(tag).lower())
+    if tag not in ("Robot", "RobotBeacon"):
+        raise ProtocolError(f"unknown registration <{tag}>; expected Robot, RobotBeacon, View or Panel")
+    raw_id = root.get("Id", "0")
+    robot_id = int(raw_id) if raw_id.strip().isdigit() else 0  # legacy: a bad Id means "any"
+    ir: list[tuple[int, float, float | None, float | None, float | None]] = []
+    for child in root:
+        if not isinstance(child.tag, str):
+            continue
+        if child.tag != "IRSensor":
+            raise ProtocolError(f"unknown element <{child.tag}> in <{tag}>")
+        sid, angle = child.get("Id"), child.get("Angle")
+        if sid is None or angle is None or not sid.strip().isdigit():
+            continue  # the legacy server ignores an IRSensor without Id or Angle
+        ir.append(
+            (int(sid), _float(child, "Angle") or 0.0, _float(child, "X"), _float(child, "Y"), _float(child, "Cone"))
+        )
+    body = {k: v for k, names in _BODY_ATTRS.items() if (v := _float(root, *names)) is not None}
+    return Registration(
+        kind="beacon" if tag == "RobotBeacon" else "robot",
+        name=root.get("Name", ""),
+        robot_id=robot_id,
+        beacon_height=_float(root, "Height") if tag == "RobotBeacon" else None,
+        ir=tuple(ir),
+        body=body if tag == "Robot" else {},
+        type=root.get("Type"),
+    )
+
+
+def registration_spec(reg: Registration) -> RobotSpec:
+    """The robot a legacy registration asks for.
+
+    A plain Ciber-Rato registration (no body attributes) is a disc of diameter 1 with four IR
+    sensors on its rim at the given (or default) angles; an Intellwheels one is a rectangle with
+    its fields, sensors where it placed them (Table 4.5's defaults when it placed none).
+
+    Raises:
+        SpecError: A field out of range, naming it.
+    """
+    name = (reg.name or f"robot{reg.robot_id}")[:20]
+    body = reg.body
+    intellwheels = bool(body) or reg.type is not None or any(s[2] is not None for s in reg.ir)
+    if not intellwheels:
+        angles = dict(enumerate(LEGACY_IR_ANGLES))
+        for sid, angle, *_ in reg.ir:
+            if sid < len(LEGACY_IR_ANGLES):
+                angles[sid] = angle
+        sensors = tuple(
+            IrSensorSpec(
+                i, CIBER_RADIUS * math.cos(math.radians(a)), CIBER_RADIUS * math.sin(math.radians(a)), a, 60.0, 1e3
+            )
+            for i, a in sorted(angles.items())
+        )
+        return RobotSpec(name, id=reg.robot_id, shape=BodyShape.CIRCLE, ir_sensors=sensors, legacy=True)
+    try:
+        rtype = RobotType(reg.type) if reg.type else RobotType.SIMULATED
+    except ValueError:
+        raise SpecError("Type", f"must be Simulated, Real or Door, got {reg.type!r}") from None
+    sensors = tuple(
+        IrSensorSpec(sid, x or 0.0, y or 0.0, angle, cone if cone is not None else 60.0)
+        for sid, angle, x, y, cone in reg.ir
+    )
+    return RobotSpec(
+        name,
+        id=reg.robot_id,
+        type=rtype,
+        width_m=body.get("width", 1.0),
+        height_m=body.get("height", 1.0),
+        com=body.get("com", 0.5),
+        x_m=body.get("x"),
+        y_m=body.get("y"),
+        dir_deg=body.get("dir"),
+        max_speed_mps=body.get("max_speed", 0.5),
+        acceleration_curve=body.get("acceleration_curve", 0.5),
+        ir_sensors=sensors,
+        legacy=True,
+    )
+
+
+@dataclass(frozen=True)
+class ActionsFrame:
+    """What one actions datagram says; ``None`` for what it does not mention (motors are sticky).
+
+    Attributes:
+        left: Left motor power as received (the world clamps).
+        right: Right motor power.
+        leds: LEDs mentioned, on only for exactly ``On``.
+        requests: Sensor request names (``IRSensor0``, ``Compass``...), in order, duplicates kept.
+        say: A radio message, or None (longer than 100 characters: dropped, as the legacy server does).
+        pose: (x, y, dir_deg) from a Real robot, or None.
+    """
+
+    left: float | None = None
+    right: float | None = None
+    leds: dict[str, bool] = field(default_factory=dict)
+    requests: tuple[str, ...] = ()
+    say: str | None = None
+    pose: tuple[float, float, float] | None = None
+
+
+def _motor(el: etree._Element, name: str) -> float | None:
+    raw = el.get(name)
+    if raw is None:
+        return None
+    try:
+        v = float(raw)
+    except ValueError:
+        return 0.0  # legacy: a motor value that does not parse counts as 0
+    return v if math.isfinite(v) else 0.0
+
+
+def parse_actions(datagram: bytes) -> ActionsFrame:
+    """Reads a datagram a robot sends to its own socket.
+
+    Raises:
+        ProtocolError: Over the size limit, not XML, or an element other than Actions,
+            SensorRequests or Say (the whole datagram is then ignored, as in the legacy server).
+    """
+    root = _xml(frame(datagram, ACTIONS_LIMIT))
+    allowed = ("Actions", "SensorRequests", "Say")
+    for el in root.iter():
+        if isinstance(el.tag, str) and el.tag not in allowed:
+            raise ProtocolError(f"unknown element <{el.tag}> in actions")
+    leds: dict[str, bool] = {}
+    left = right = None
+    pose = None
+    if root.tag == "Actions":
+        left, right = _motor(root, "LeftMotor"), _motor(root, "RightMotor")
+        for led in ("EndLed", "ReturningLed", "VisitingLed"):
+            if root.get(led) is not None:
+                leds[led] = root.get(led) == "On"
+        x, y, d = _float(root, "X"), _float(root, "Y"), _float(root, "DIR", "Dir")
+        if x is not None and y is not None:
+            pose = (x, y, d or 0.0)
+    requests: list[str] = []
+    say: str | None = None
+    for el in root.iter("SensorRequests", "Say"):
+        if el.tag == "SensorRequests":
+            requests += [k for k, v in el.attrib.items() if v == "Yes"]
+        else:
+            text = (el.text or "") + (
+                el.tail if el.tail and not el.tail.strip() else ""
+            )  # legacy quirk: trailing white space
+            if len(text) <= SAY_MAX_CHARS:
+                say = text
+    return ActionsFrame(left, right, leds, tuple(requests), say, pose)
+
+
+@dataclass(frozen=True)
+class ViewerCommand:
+    """A viewer's command: start, stop, labreq, gridreq or remove (with the robot id)."""
+
+    kind: str
+    robot_id: int = 0
+
+
+def parse_viewer_command(datagram: bytes) -> ViewerCommand:
+    """Reads a datagram a viewer sends to its own socket.
+
+    Raises:
+        ProtocolError: Over 63 bytes, not XML, or not one of the documented commands.
+    """
+    root = _xml(frame(datagram, VIEWER_LIMIT))
+    simple = {"Start": "start", "Stop": "stop", "LabReq": "labreq", "GridReq": "gridreq"}
+    if root.tag in simple:
+        return ViewerCommand(simple[str(root.tag)])
+    if root.tag == "Robot" and root.get("Removed") == "Yes" and (root.get("Id") or "").isdigit():
+        return ViewerCommand("remove", int(root.get("Id", "0")))
+    raise ProtocolError(
+        f'unknown viewer command <{root.tag}>; expected Start, Stop, LabReq, GridReq or Robot Id= Removed="Yes"'
+    )
+
+
+def _g(v: float) -> str:
+    return f"{v:g}"
+
+
+def _onoff(v: bool) -> str:
+    return "On" if v else "Off"
+
+
+def _finish(root: etree._Element) -> bytes:
+    etree.indent(root, space="\t")
+    return bytes(etree.tostring(root, encoding="utf-8")) + b"\n\x00"
+
+
+def build_reply(
+    p: SimParameters, *, n_beacons: int, lab_file: str | None = None, grid_file: str | None = None
+) -> bytes:
+    """The ``<Reply Status="Ok">`` every robot, viewer and panel gets (at most 1024 bytes)."""
+    root = etree.Element("Reply", Status="Ok")
+    attrs = {
+        "SimTime": str(p.sim_time),
+        "CycleTime": str(p.cycle_time_ms),
+        "CompassNoise": _g(p.compass_noise),
+        "BeaconNoise": _g(p.beacon_noise),
+        "ObstacleNoise": _g(p.obstacle_noise),
+        "MotorsNoise": _g(p.motors_noise),
+        "KeyTime": str(p.key_time),
+        "GPS": _onoff(p.gps),
+        "GPSLinNoise": _g(p.gps_lin_noise),
+        "GPSDirNoise": _g(p.gps_dir_noise),
+        "BeaconSensor": _onoff(p.beacon_sensor),
+        "CompassSensor": _onoff(p.compass_sensor),
+        "ScoreSensor": _onoff(p.score_sensor),
+        "ShowActions": "True" if p.show_actions else "False",
+        "NBeacons": str(n_beacons),
+        "NRequestsPerCycle": str(p.n_requests_per_cycle),
+        "ObstacleRequestable": _onoff(p.obstacle_requestable),
+        "BeaconRequestable": _onoff(p.beacon_requestable),
+        "GroundRequestable": _onoff(p.ground_requestable),
+        "CompassRequestable": _onoff(p.compass_requestable),
+        "CollisionRequestable": _onoff(p.collision_requestable),
+        "ObstacleLatency": str(p.obstacle_latency),
+        "BeaconLatency": str(p.beacon_latency),
+        "GroundLatency": str(p.ground_latency),
+        "CompassLatency": str(p.compass_latency),
+        "CollisionLatency": str(p.collision_latency),
+        "BeaconAperture": f"{p.beacon_aperture_rad:f}",
+        "ReturnTimePenalty": str(p.return_time_penalty),
+        "ArrivalTimePenalty": str(p.arrival_time_penalty),
+        "CollisionWallPenalty": str(p.collision_wall_penalty),
+        "CollisionRobotPenalty": str(p.collision_robot_penalty),
+        "TargetReward": str(p.target_reward),
+        "HomeReward": str(p.home_reward),
+    }
+    params = etree.SubElement(root, "Parameters")
+    for k, v in attrs.items():
+        params.set(k, v)
+    for k, path in (("Lab", lab_file), ("Grid", grid_file)):
+        if path is not None:
+            params.set(k, path)
+    data = _finish(root)
+    if len(data) > 1024 and (lab_file or grid_file):
+        return build_reply(p, n_beacons=n_beacons)  # long file names would not fit the clients' 1024 bytes
+    return data
+
+
+def build_refusal() -> bytes:
+    """``<Reply Status="Refused"></Reply>`` and its terminator."""
+    root = etree.Element("Reply", Status="Refused")
+    root.text = ""
+    return bytes(etree.tostring(root, encoding="utf-8")) + b"\n\x00"
+
+
+@dataclass(frozen=True)
+class Measures:
+    """One robot's ``<Measures>`` of a cycle; None leaves an element out."""
+
+    time: int
+    collision: bool | None = None
+    compass: float | None = None
+    ground: int | None = None
+    ir: tuple[float, ...] = ()
+    beacons: tuple[float | None, ...] | None = None
+    gps: tuple[float, float] | None = None
+    messages: tuple[tuple[int, str], ...] = ()
+    leds: tuple[bool, bool, bool] = (False, False, False)
+    buttons: tuple[bool, bool] = (False, True)
+
+
+def build_measures(m: Measures) -> bytes:
+    """A ``<Measures>`` datagram (at most 4096 bytes for the Python and C clients)."""
+    root = etree.Element("Measures", Time=str(m.time))
+    s = etree.SubElement(root, "Sensors")
+    if m.collision is not None:
+        s.set("Collision", "Yes" if m.collision else "No")
+    if m.compass is not None:
+        s.set("Compass", _g(m.compass))
+    if m.ground is not None:
+        s.set("Ground", str(m.ground))
+    for i, v in enumerate(m.ir):
+        etree.SubElement(s, "IRSensor", Id=str(i), Value=_g(v))
+    for i, b in enumerate(m.beacons or ()):
+        etree.SubElement(s, "BeaconSensor", Id=str(i), Value="NotVisible" if b is None else _g(b))
+    if m.gps is not None:
+        etree.SubElement(s, "GPS", X=_g(m.gps[0]), Y=_g(m.gps[1]))
+    for sender, text in m.messages:
+        msg = etree.SubElement(s, "Message", From=str(sender))
+        safe = text.encode("latin-1", "replace").decode("latin-1").replace("]]>", "]] >")  # CDATA cannot hold ]]>
+        msg.text = etree.CDATA(safe)
+    end, ret, vis = m.leds
+    etree.SubElement(root, "Leds", EndLed=_onoff(end), ReturningLed=_onoff(ret), VisitingLed=_onoff(vis))
+    start, stop = m.buttons
+    etree.SubElement(root, "Buttons", Start=_onoff(start), Stop=_onoff(stop))
+    return _finish(root)
+
+
+def build_robot_state(
+    *,
+    name: str,
+    robot_id: int,
+    time: int,
+    x: float,
+    y: float,
+    dir_deg: float,
+    collisions: int = 0,
+    collision: bool = False,
+    state: str = "Running",
+    score: int = 0,
+) -> bytes:
+    """The per-cycle ``<Robot>`` datagram for viewers."""
+    root = etree.Element("Robot")
+    for k, v in (
+        ("Name", name[:24]),
+        ("Id", str(robot_id)),
+        ("Time", str(time)),
+        ("Score", str(score & 0xFFFFFFFF)),
+        ("ArrivalTime", str(time)),
+        ("ReturningTime", "0"),
+        ("Collisions", str(collisions)),
+        ("Collision", "True" if collision else "False"),
+        ("VisitedMask", "000"),
+        ("State", state),
+    ):
+        root.set(k, v)
+    etree.SubElement(root, "Position", X=_g(x), Y=_g(y), Dir=_g(dir_deg))
+    return _finish(root)
