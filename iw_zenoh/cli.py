@@ -23,6 +23,10 @@ COMMANDS: dict[str, tuple[str, str] | tuple[str, str, str]] = {
     "sensors": ("iw_zenoh.nodes.sensors", "every robot's sensors each tick (shardable)"),
     "radio": ("iw_zenoh.nodes.radio", "robot-to-robot messages within range"),
     "agent": ("iw_zenoh.nodes.agents", "run agent programs (wanderer, waypoint, ...)"),
+    "bridge": (
+        "iw_zenoh.bridges.ciberrato.node",
+        "bridges: `iwz bridge ciberrato` lets legacy XML/UDP agents and viewers join",
+    ),
     "record": ("iw_zenoh.nodes.recorder", "record every key of a simulation to MCAP"),
     "replay": ("iw_zenoh.nodes.replay", "play a recording back into Zenoh (rate, window, loop, seek)"),
     "incidents": ("iw_zenoh.record.incidents", "list a recording's collisions, near misses, stops and losses"),

@@ -77,6 +77,8 @@ class Scenario:
     obstacles: tuple[ObstacleEntry, ...] = ()
     criteria: Criteria = field(default_factory=Criteria)
     world_args: tuple[str, ...] = ()
+    bridge_port: int | None = None  # a legacy XML/UDP bridge on this UDP port
+    bridge_params: Path | None = None  # the Ciber-Rato parameters file it tells clients
 
     @property
     def robots(self) -> int:
@@ -127,7 +129,7 @@ def parse_scenario(text: str, base: Path, name: str = "scenario") -> Scenario:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(name, f"not valid TOML: {e}") from None
-    _no_extra(doc, {"world", "roles", "agents", "obstacles", "criteria", "name"}, name)
+    _no_extra(doc, {"world", "roles", "agents", "obstacles", "criteria", "name", "bridge"}, name)
     w = _take(doc, "world", dict, name, required=True)
     _no_extra(w, {"map", "grid", "mode", "profile", "period_ms", "seed", "duration_s", "args"}, "world")
     map_path = base / _take(w, "map", str, "world", required=True)
@@ -214,6 +216,19 @@ def parse_scenario(text: str, base: Path, name: str = "scenario") -> Scenario:
     if maxc is not None and maxc < 0:
         raise ConfigError("criteria.max_collisions", f"must be >= 0, got {maxc}")
     criteria = Criteria(maxc, tuple(reach), _take(c, "stop_when_reached", bool, "criteria", True))
+    b = _take(doc, "bridge", dict, name, None)
+    bridge_port: int | None = None
+    bridge_params: Path | None = None
+    if b is not None:
+        _no_extra(b, {"port", "params"}, "bridge")
+        bridge_port = _take(b, "port", int, "bridge", 6000)
+        if not 0 < bridge_port < 65536:
+            raise ConfigError("bridge.port", f"must be a UDP port (1..65535), got {bridge_port}")
+        raw = _take(b, "params", str, "bridge")
+        if raw is not None:
+            bridge_params = base / raw
+            if not bridge_params.is_file():
+                raise ConfigError("bridge.params", f"{bridge_params} does not exist")
     return Scenario(
         name=_take(doc, "name", str, name, name),
         map=map_path,
@@ -229,6 +244,8 @@ def parse_scenario(text: str, base: Path, name: str = "scenario") -> Scenario:
         obstacles=tuple(obstacles),
         criteria=criteria,
         world_args=world_args,
+        bridge_port=bridge_port,
+        bridge_params=bridge_params,
     )
 
 

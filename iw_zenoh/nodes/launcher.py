@@ -33,7 +33,7 @@ __all__ = ["Child", "Launcher", "main"]
 
 logger = logging.getLogger(__name__)
 
-RESTARTABLE = ("collision", "sensors", "radio")
+RESTARTABLE = ("collision", "sensors", "radio", "bridge")
 MAX_RESTARTS = 3
 
 
@@ -169,6 +169,9 @@ class Launcher:
             self._child("sensors", f"sensors-{k}", "--shard", f"{k}/{sc.sensors_shards}")
         if sc.radio:
             self._child("radio", "radio")
+        if sc.bridge_port is not None:
+            extra = ["--param", str(sc.bridge_params)] if sc.bridge_params else []
+            self._child("bridge", "bridge", "ciberrato", "--port", str(sc.bridge_port), *extra)
         for i, a in enumerate(sc.agents):
             name = a.name or f"agent-{i + 1}-{a.program}"
             self._child("agent", name, a.program, *a.args, "--name", name)

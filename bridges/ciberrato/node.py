@@ -1,0 +1,444 @@
+"""``iwz bridge ciberrato``: unmodified Ciber-Rato / Intellwheels agents and viewers join a Zenoh
+simulation over the legacy XML/UDP protocol.
+
+Each legacy client gets a socket of its own (the reply and everything after come from it, as the
+legacy server does); robots become robots of the Zenoh world (registered through the world's
+queryable, driven by their actions, fed Measures from the Zenoh sensor readings every tick, in
+every simulator state); viewers get the reply, the lab and grid on request, and one robot state
+per robot per tick. A bad datagram is answered where the protocol allows (a refusal) or dropped
+with an event naming the peer and the reason; it never stalls another client.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import selectors
+import socket
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+from iw_zenoh import keys
+from iw_zenoh.bus import ZenohBus
+from iw_zenoh.cliargs import add_common_arguments, net_from_args
+from iw_zenoh.core.params import SimParameters
+from iw_zenoh.errors import IwError, ProtocolError
+from iw_zenoh.maps import grid_to_xml, lab_to_xml, load_parameters
+from iw_zenoh.messages import (
+    Actions,
+    Control,
+    Hear,
+    PoseReport,
+    RegisterReply,
+    RegisterRequest,
+    Say,
+    SensorReading,
+    Tick,
+    WorldInfo,
+    WorldState,
+    decode,
+    encode,
+    grid_from_msg,
+    lab_from_msg,
+    spec_to_msg,
+)
+from iw_zenoh.nodes.base import NodeIO, install_stop_signals, setup_logging
+
+from .codec import (
+    Measures,
+    build_measures,
+    build_refusal,
+    build_reply,
+    build_robot_state,
+    parse_actions,
+    parse_registration,
+    parse_viewer_command,
+    registration_spec,
+)
+
+__all__ = ["Bridge", "main"]
+
+logger = logging.getLogger(__name__)
+
+RECV_BYTES = 4096
+FLOOD_PER_S = 400  # datagrams a second one address may send before the rest are dropped
+EVENT_EVERY_S = 1.0  # at most one refusal event a second per peer
+
+
+@dataclass
+class Client:
+    """One legacy client and its own socket."""
+
+    kind: str  # robot, viewer, panel
+    addr: tuple[str, int]
+    sock: socket.socket
+    robot_id: int = 0
+    name: str = ""
+    left: float = 0.0
+    right: float = 0.0
+    leds: dict[str, bool] = field(default_factory=dict)
+    reading: SensorReading | None = None
+    heard: list[tuple[int, str]] = field(default_factory=list)
+    sent_tick: int = -1
+
+
+class Bridge:
+    """The bridge's state and its I/O (UDP on one side, the bus on the other).
+
+    Args:
+        bus: The bus.
+        sim: Simulation name.
+        bind: Address to listen on (loopback by default).
+        port: Registration port (6000 for unmodified clients).
+        params: The legacy parameters clients are told.
+        name: Process name (its liveliness token drives the world's safety rules).
+    """
+
+    def __init__(
+        self,
+        bus: ZenohBus,
+        sim: str,
+        *,
+        bind: str = "127.0.0.1",
+        port: int = 6000,
+        params: SimParameters | None = None,
+        name: str = "ciberrato",
+    ) -> None:
+        self.bus = bus
+        self.sim = sim
+        self.bind = bind
+        self.params = params or SimParameters()
+        self.name = name
+        self.io = NodeIO(bus, sim, "agent", name)  # its robots stop if this process goes
+        self.sel = selectors.DefaultSelector()
+        self.reception = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.reception.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        self.reception.bind((bind, port))
+        self.reception.setblocking(False)
+        self.port = self.reception.getsockname()[1]
+        self.sel.register(self.reception, selectors.EVENT_READ, None)
+        self.clients: dict[tuple[str, int], Client] = {}
+        self.by_robot: dict[int, Client] = {}
+        self.info: WorldInfo | None = None
+        self.running = True
+        self.states = self.io.inbox(keys.state(sim), maxlen=1)
+        self.ticks = self.io.inbox(keys.tick(sim), maxlen=1)
+        self.readings = self.io.inbox(keys.all_sensors(sim))
+        self.hears = self.io.inbox(keys.all_hear(sim))
+        self.infos = self.io.inbox(keys.info(sim), maxlen=1)
+        self._rate: dict[str, tuple[float, int]] = {}
+        self._last_event: dict[tuple[str, str], float] = {}
+        self.io.alive()
+        bus.token(keys.alive(sim, "bridge", name))
+
+    # --- legacy side ---------------------------------------------------------------------
+
+    def _refuse(self, peer: tuple[str, int], reason: str) -> None:
+        logger.warning("refused a datagram from %s:%d: %s", peer[0], peer[1], reason)
+        key = (peer[0], reason[:40])
+        now = time.monotonic()
+        if now - self._last_event.get(key, 0.0) >= EVENT_EVERY_S:
+            self._last_event[key] = now
+            self.io.event("legacy-refused", f"{peer[0]}:{peer[1]}: {reason}", peer=f"{peer[0]}:{peer[1]}")
+
+    def _flooding(self, peer: tuple[str, int]) -> bool:
+        start, n = self._rate.get(peer[0], (time.monotonic(), 0))
+        now = time.monotonic()
+        if now - start >= 1.0:
+            start, n = now, 0
+        self._rate[peer[0]] = (start, n + 1)
+        return n + 1 > FLOOD_PER_S
+
+    def _new_socket(self) -> socket.socket:
+        s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        s.bind((self.bind, 0))
+        s.setblocking(False)
+        return s
+
+    def _world_info(self) -> WorldInfo | None:
+        if self.info is None:
+            for data in self.bus.query(keys.info(self.sim), timeout_s=2.0):
+                try:
+                    self.info = decode(data, WorldInfo)
+                except IwError:
+                    continue
+        return self.info
+
+    def on_registration(self, data: bytes, peer: tuple[str, int]) -> None:
+        """A datagram on the registration port."""
+        if peer in self.clients and self.clients[peer].kind == "robot":
+            self._refuse(peer, "a second registration from a registered address")
+            self.reception.sendto(build_refusal(), peer)
+            return
+        try:
+            reg = parse_registration(data)
+        except ProtocolError as e:
+            self._refuse(peer, str(e))  # the legacy server answers nothing to what does not parse
+            return
+        info = self._world_info()
+        nb = len(info.lab.beacons) if info else 0
+        params = self.params
+        if info is not None:
+            params = SimParameters(**{**params.__dict__, "cycle_time_ms": max(1, info.period_ns // 1_000_000)})
+        if reg.kind in ("view", "panel"):
+            sock = self._new_socket()
+            c = Client("viewer" if reg.kind == "view" else "panel", peer, sock)
+            self.clients[peer] = c
+            self.sel.register(sock, selectors.EVENT_READ, c)
+            sock.sendto(build_reply(params, n_beacons=nb), peer)
+            return
+        try:
+            spec = registration_spec(reg)
+        except IwError as e:
+            self._refuse(peer, str(e))
+            sock = self._new_socket()
+            sock.sendto(build_refusal(), peer)
+            sock.close()
+            return
+        req = RegisterRequest(
+            spec=spec_to_msg(spec),
+            agent=self.name,
+            request_id=f"{os.getpid()}-{peer[0]}-{peer[1]}-{time.monotonic_ns()}",
+        )
+        answers = self.bus.query(keys.register(self.sim), encode(req), timeout_s=2.0)
+        reply = decode(answers[0], RegisterReply) if answers else None
+        sock = self._new_socket()
+        if reply is None or not reply.ok:
+            self._refuse(peer, reply.reason if reply else "no world answered the registration")
+            sock.sendto(build_refusal(), peer)
+            sock.close()
+            return
+        c = Client("robot", peer, sock, robot_id=reply.robot_id, name=spec.name)
+        self.clients[peer] = c
+        self.by_robot[c.robot_id] = c
+        self.sel.register(sock, selectors.EVENT_READ, c)
+        sock.sendto(build_reply(params, n_beacons=nb), peer)
+        logger.info("legacy robot %s from %s:%d is robot %d", spec.name, peer[0], peer[1], c.robot_id)
+
+    def on_client_datagram(self, c: Client, data: bytes, peer: tuple[str, int]) -> None:
+        """A datagram on a client's own socket."""
+        if c.kind == "robot":
+            try:
+                a = parse_actions(data)
+            except ProtocolError as e:
+                self._refuse(peer, str(e))
+                return
+            c.left = a.left if a.left is not None else c.left
+            c.right = a.right if a.right is not None else c.right
+            c.leds.update(a.leds)
+            tick = c.reading.tick if c.reading else 0
+            sim_ns = c.reading.sim_time_ns if c.reading else 0
+            if a.pose is not None:
+                x, y, d = a.pose
+                self.io.send(
+                    keys.pose_report(self.sim, c.robot_id),
+                    PoseReport(tick=tick, sim_time_ns=sim_ns, robot_id=c.robot_id, x=x, y=y, dir_deg=d),
+                )
+            if a.say is not None:
+                self.io.send(
+                    keys.say(self.sim, c.robot_id), Say(tick=tick, sim_time_ns=sim_ns, robot_id=c.robot_id, text=a.say)
+                )
+            act = Actions(
+                tick=tick,
+                sim_time_ns=sim_ns,
+                robot_id=c.robot_id,
+                left=c.left,
+                right=c.right,
+                end_led=c.leds.get("EndLed", False),
+                returning_led=c.leds.get("ReturningLed", False),
+                visiting_led=c.leds.get("VisitingLed", False),
+            )
+            self.io.send(keys.actions(self.sim, c.robot_id), act)
+        elif c.kind == "viewer":
+            try:
+                cmd = parse_viewer_command(data)
+            except ProtocolError as e:
+                self._refuse(peer, str(e))
+                return
+            info = self._world_info()
+            if cmd.kind == "labreq" and info is not None:
+                c.sock.sendto(lab_to_xml(lab_from_msg(info.lab), legacy=True) + b"\x00", peer)
+            elif cmd.kind == "gridreq" and info is not None:
+                c.sock.sendto(grid_to_xml(grid_from_msg(info.grid), legacy=True) + b"\x00", peer)
+            elif cmd.kind in ("start", "stop"):
+                self.io.send(keys.control(self.sim), Control(command="start" if cmd.kind == "start" else "pause"))
+            elif cmd.kind == "remove":
+                self.io.send(keys.control(self.sim), Control(command="remove", robot_id=cmd.robot_id))
+
+    # --- Zenoh side ----------------------------------------------------------------------
+
+    def _measures(self, c: Client, tick: int) -> bytes:
+        r = c.reading
+        p = self.params
+        if r is None:
+            return build_measures(
+                Measures(time=tick, collision=False, ir=(0.0,) * 4, buttons=(self.running, not self.running))
+            )
+        beacons = (
+            tuple(None if b is None else float(int(b + 0.5 if b >= 0 else b - 0.5)) for b in r.beacons_deg)
+            if p.beacon_sensor
+            else None
+        )
+        m = Measures(
+            time=tick,
+            collision=r.collision,
+            compass=float(round(r.compass_deg)) if p.compass_sensor else None,
+            ground=r.ground,
+            ir=tuple(r.proximity_legacy[:4]),
+            beacons=beacons,
+            gps=(round(r.gps[0], 1), round(r.gps[1], 1)) if p.gps else None,
+            messages=tuple(c.heard),
+            leds=(c.leds.get("EndLed", False), c.leds.get("ReturningLed", False), c.leds.get("VisitingLed", False)),
+            buttons=(self.running, not self.running),
+        )
+        return bytes(build_measures(m))
+
+    def pump_bus(self) -> None:
+        """Takes new readings, hear lists, states and ticks; sends Measures and viewer states."""
+        for _, data, _ in self.infos.drain():
+            try:
+                self.info = decode(data, WorldInfo)
+            except IwError:
+                continue
+        for key, data, _ in self.readings.drain():
+            rid = keys.robot_id_of(key)
+            c = self.by_robot.get(rid) if rid is not None else None
+            if c is None:
+                continue
+            try:
+                c.reading = decode(data, SensorReading)
+            except IwError:
+                continue
+            self._send_measures(c, c.reading.tick)
+        for key, data, _ in self.hears.drain():
+            rid = keys.robot_id_of(key)
+            c = self.by_robot.get(rid) if rid is not None else None
+            if c is not None:
+                try:
+                    c.heard = [(h.sender, h.text) for h in decode(data, Hear).messages]
+                except IwError:
+                    continue
+        for _, data, _ in self.ticks.drain():
+            try:
+                t = decode(data, Tick)
+            except IwError:
+                continue
+            self.running = t.running
+            if not t.running:  # stopped: Measures keep coming, as the legacy server sends them
+                for c in list(self.by_robot.values()):
+                    self._send_measures(c, t.tick, force=True)
+        for _, data, _ in self.states.drain():
+            try:
+                st = decode(data, WorldState)
+            except IwError:
+                continue
+            viewers = [c for c in self.clients.values() if c.kind == "viewer"]
+            if not viewers:
+                continue
+            names = {c.robot_id: c.name for c in self.by_robot.values()}
+            specs = {s.id: s.name for s in (self.info.robots if self.info else [])}
+            for rid, x, y, h, hit in zip(st.ids, st.x, st.y, st.heading, st.collided, strict=True):
+                data_out = build_robot_state(
+                    name=names.get(rid) or specs.get(rid, f"robot{rid}"),
+                    robot_id=rid,
+                    time=st.tick,
+                    x=x,
+                    y=y,
+                    dir_deg=h * 57.29577951308232,
+                    collision=hit,
+                    state="Running" if self.running else "Stopped",
+                )
+                for v in viewers:
+                    v.sock.sendto(data_out, v.addr)
+
+    def _send_measures(self, c: Client, tick: int, *, force: bool = False) -> None:
+        if tick == c.sent_tick and not force:
+            return
+        c.sent_tick = tick
+        try:
+            c.sock.sendto(self._measures(c, tick), c.addr)
+        except OSError as e:
+            logger.warning("cannot send to %s:%d: %s", c.addr[0], c.addr[1], e)
+        c.heard = []
+
+    def serve(self) -> None:
+        """Runs until stopped."""
+        while not self.io.stop.is_set():
+            for key, _ in self.sel.select(timeout=0.005):
+                sock = key.fileobj
+                assert isinstance(sock, socket.socket)
+                for _ in range(64):  # drain this socket, then give the others their turn
+                    try:
+                        data, peer = sock.recvfrom(RECV_BYTES)
+                    except BlockingIOError:
+                        break
+                    except OSError as e:
+                        logger.warning("receive failed: %s", e)
+                        break
+                    if self._flooding(peer):
+                        self._refuse(peer, f"more than {FLOOD_PER_S} datagrams a second: dropped")
+                        continue
+                    if key.data is None:
+                        self.on_registration(data, peer)
+                    else:
+                        self.on_client_datagram(key.data, data, peer)
+            self.pump_bus()
+
+    def close(self) -> None:
+        """Closes every socket."""
+        for c in self.clients.values():
+            c.sock.close()
+        self.reception.close()
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Runs ``iwz bridge ciberrato``."""
+    args_in = list(argv or [])
+    if args_in[:1] != ["ciberrato"]:
+        print("usage: iwz bridge ciberrato [options]   (iwz bridge ciberrato --help)")
+        return 2 if args_in[:1] not in (["-h"], ["--help"]) else 0
+    p = argparse.ArgumentParser(
+        prog="iwz bridge ciberrato",
+        description="Let unmodified Ciber-Rato / Intellwheels agents and viewers (XML/UDP) join a Zenoh simulation.",
+        epilog=(
+            "Example: iwz bridge ciberrato --param maps/ciberrato/C1-config.xml\n"
+            "then start the legacy agents and viewers against UDP port 6000, unchanged."
+        ),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("--port", type=int, default=6000, help="registration port (default 6000: unmodified clients use it)")
+    p.add_argument(
+        "--bind", default="127.0.0.1", help="address to listen on (default loopback only; 0.0.0.0 to open it)"
+    )
+    p.add_argument("--param", help="a Ciber-Rato parameters file (what clients are told: sensors on/off, noise)")
+    p.add_argument("--name", default="ciberrato", help="process name (liveliness)")
+    add_common_arguments(p)
+    args = p.parse_args(args_in[1:])
+    setup_logging(args.verbose, "bridge")
+    try:
+        params = load_parameters(args.param) if args.param else SimParameters()
+        bus = ZenohBus(net_from_args(args))
+    except (IwError, ValueError) as e:
+        print(f"iwz bridge ciberrato: {e}")
+        return 2
+    try:
+        bridge = Bridge(
+            bus, keys.chunk(args.sim), bind=args.bind, port=args.port, params=params, name=keys.chunk(args.name)
+        )
+    except OSError as e:
+        bus.close()
+        print(
+            f"iwz bridge ciberrato: cannot listen on {args.bind}:{args.port}: {e.strerror}; "
+            "is another simulator running? Use --port"
+        )
+        return 2
+    install_stop_signals(bridge.io.stop)
+    print(f"iwz bridge ciberrato: listening on udp {args.bind}:{bridge.port} for iw/{args.sim}/", flush=True)
+    try:
+        bridge.serve()
+    finally:
+        bridge.close()
+        bus.close()
+    return 0

@@ -1,0 +1,205 @@
+"""Unmodified legacy clients (written from the fact sheet) over real UDP, in a Zenoh world."""
+
+from __future__ import annotations
+
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from lxml import etree
+
+from iw_zenoh import keys
+from iw_zenoh.messages import Event, WorldState
+from iw_zenoh.net import free_port
+from tests.integration.harness import MAPS, Net, subscribe, wait_msg
+
+pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(150)]
+
+
+def _udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+class LegacyClient:
+    """What croblink.py does: register on the port, then talk to the port the reply came from."""
+
+    def __init__(self, port: int) -> None:
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.settimeout(2.0)  # croblink's own timeout
+        self.server = ("127.0.0.1", port)
+
+    def register(self, xml: bytes, tries: int = 30) -> bytes:
+        for _ in range(tries):  # the bridge may still be starting: ask again, as a user would
+            self.sock.sendto(xml, self.server)
+            try:
+                data, addr = self.sock.recvfrom(1024)
+            except TimeoutError:
+                continue
+            self.server = addr
+            return data
+        raise AssertionError("no reply to the registration")
+
+    def recv(self, size: int = 4096) -> bytes:
+        data, _ = self.sock.recvfrom(size)  # 4096: croblink's Measures buffer
+        return data
+
+    def send(self, xml: bytes) -> None:
+        self.sock.sendto(xml, self.server)
+
+    def close(self) -> None:
+        self.sock.close()
+
+
+@pytest.fixture
+def clients() -> Iterator[list[LegacyClient]]:
+    """Legacy clients of a test, closed after it."""
+    made: list[LegacyClient] = []
+    yield made
+    for c in made:
+        c.close()
+
+
+def _world(net: Net) -> int:
+    port = _udp_port()
+    net.spawn(
+        "world",
+        str(MAPS / "ciberrato" / "C1-lab.xml"),
+        "--grid",
+        str(MAPS / "ciberrato" / "C1-grid.xml"),
+        "--profile",
+        "ciberrato",
+        "--period-ms",
+        "50",
+    )
+    net.spawn("collision")
+    net.spawn("sensors")
+    net.spawn("bridge", "ciberrato", "--port", str(port), "--param", str(MAPS / "ciberrato" / "C1-config.xml"))
+    return port
+
+
+def test_a_legacy_robot_registers_senses_and_drives(net: Net, clients: list[LegacyClient]) -> None:
+    port = _world(net)
+    bus = net.client()
+    states = subscribe(bus, keys.state(net.sim), maxlen=1)
+    robot = LegacyClient(port)
+    clients.append(robot)
+    reply = robot.register(
+        b'<Robot Id="1" Name="pyRob"><IRSensor Id="0" Angle="0.0" /><IRSensor Id="1" Angle="60.0" /><IRSensor Id="2" Angle="-60.0" /><IRSensor Id="3" Angle="180.0" /></Robot>'
+    )
+    assert reply.endswith(b"\n\x00")
+    root = etree.fromstring(reply[:-1])
+    assert root.get("Status") == "Ok"
+    assert root[0].get("NBeacons") == "3"
+    assert root[0].get("SimTime") == "5000"
+    assert robot.server[1] != port  # answered from a socket of its own
+    m = etree.fromstring(robot.recv()[:-1])
+    assert m.tag == "Measures"
+    assert int(m.get("Time")) >= 0
+    assert len(m.find("Sensors").findall("IRSensor")) == 4
+    assert m.find("Leds").get("EndLed") == "Off"
+    assert m.find("Buttons") is not None
+    first = wait_msg(states, WorldState, lambda s: 1 in s.ids)
+    for _ in range(40):
+        robot.send(b'<Actions LeftMotor="0.1" RightMotor="0.1"/>')
+        robot.recv()
+    moved = wait_msg(states, WorldState, lambda s: s.x[s.ids.index(1)] > first.x[first.ids.index(1)] + 0.3)
+    assert moved.y[moved.ids.index(1)] == pytest.approx(11.0, abs=0.2)
+
+
+def test_a_legacy_viewer_gets_the_lab_grid_and_robot_states(net: Net, clients: list[LegacyClient]) -> None:
+    port = _world(net)
+    robot = LegacyClient(port)
+    clients.append(robot)
+    robot.register(b'<Robot Name="cRob" Id="1"></Robot>\x00')
+    viewer = LegacyClient(port)
+    clients.append(viewer)
+    reply = viewer.register(b"<View/>\n\x00")
+    assert etree.fromstring(reply[:-1]).get("Status") == "Ok"
+    viewer.send(b"<LabReq/>\x00")
+    viewer.send(b"<GridReq/>\x00")
+    got: dict[str, bytes] = {}
+    deadline = time.monotonic() + 20
+    while len(got) < 3 and time.monotonic() < deadline:
+        data = viewer.recv(65536)  # the Qt viewer reads whole datagrams (a C1 lab is ~6 kB)
+        got.setdefault(etree.fromstring(data.split(b"\x00")[0]).tag, data)
+    assert got["Lab"].startswith(b'<Lab Name="RMI-2122 C1 Lab" Height="14" Width="28"')
+    assert len(etree.fromstring(got["Lab"][:-1]).findall("Wall")) == 45
+    assert b'<Position X="3" Y="11" Dir="0"/>' in got["Grid"]
+    assert etree.fromstring(got["Robot"][:-1]).get("Name") == "cRob"
+
+
+def test_bad_datagrams_are_refused_and_never_stall_a_good_client(net: Net, clients: list[LegacyClient]) -> None:
+    port = _world(net)
+    bus = net.client()
+    events = subscribe(bus, keys.event(net.sim, "legacy-refused"))
+    robot = LegacyClient(port)
+    clients.append(robot)
+    robot.register(b'<Robot Name="good" Id="1"/>')
+    robot.recv()
+    bad = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    for junk in (
+        b"<Robot",
+        b"<Hack/>",
+        b"\xff\xfe",
+        b'<!DOCTYPE x [<!ENTITY a "b">]><Robot Name="&a;"/>',
+        b"<View/>" + b" " * 2000,
+    ):
+        bad.sendto(junk, ("127.0.0.1", port))
+    robot.send(b"<Actions><Teleport/></Actions>")
+    ev = wait_msg(events, Event, timeout_s=10)
+    assert ev.data["peer"].startswith("127.0.0.1:")
+    for _ in range(5):  # the good client is still served every cycle
+        assert etree.fromstring(robot.recv()[:-1]).tag == "Measures"
+    dup = LegacyClient(port)
+    clients.append(dup)
+    dup.register(b'<Robot Name="again" Id="1"/>')  # id 1 is taken: refused
+    bad.close()
+
+
+def test_iwz_run_a_ciberrato_scenario_serves_legacy_clients(tmp_path: Path, clients: list[LegacyClient]) -> None:
+    port = _udp_port()
+    text = (
+        (MAPS / "ciberrato-c1.toml")
+        .read_text()
+        .replace("port = 6000", f"port = {port}")
+        .replace("duration_s = 250", "duration_s = 6")
+    )
+    text = text.replace('"ciberrato/', f'"{MAPS}/ciberrato/')
+    sc = tmp_path / "c1.toml"
+    sc.write_text(text)
+    argv = [
+        sys.executable,
+        "-m",
+        "iw_zenoh.cli",
+        "run",
+        str(sc),
+        "--port",
+        str(free_port()),
+        "--no-status",
+        "--sim",
+        "c1",
+        "--no-record",
+        "--log-dir",
+        str(tmp_path),
+    ]
+    run = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        robot = LegacyClient(port)
+        clients.append(robot)
+        reply = robot.register(b'<Robot Id="1" Name="student"/>', tries=60)
+        assert etree.fromstring(reply[:-1]).get("Status") == "Ok"
+        times = [int(etree.fromstring(robot.recv()[:-1]).get("Time")) for _ in range(10)]
+        assert times == sorted(times)
+        out, _ = run.communicate(timeout=90)
+    finally:
+        if run.poll() is None:
+            run.kill()
+            run.wait(10)
+    assert run.returncode == 0, out
+    assert "ended at t=6.0 s" in out
