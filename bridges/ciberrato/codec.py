@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from lxml import etree
 
 from iw_zenoh.core.params import SimParameters
-from iw_zenoh.core.spec import BodyShape, IrSensorSpec, RobotSpec, RobotType
+from iw_zenoh.core.spec import BodyShape, IrSensorSpec, NoiseSpec, RobotSpec, RobotType, SensorNoise
 from iw_zenoh.errors import ProtocolError, SpecError
 
 __all__ = [
@@ -31,6 +31,7 @@ __all__ = [
     "build_reply",
     "build_robot_state",
     "frame",
+    "legacy_noise",
     "parse_actions",
     "parse_registration",
     "parse_viewer_command",
@@ -167,7 +168,25 @@ def parse_registration(datagram: bytes) -> Registration:
     )
 
 
-def registration_spec(reg: Registration) -> RobotSpec:
+def legacy_noise(p: SimParameters) -> SensorNoise:
+    """The sensor noise a parameters file asks for (Table 3.1 quantities, per robot)."""
+
+    def n(std: float) -> NoiseSpec:
+        return NoiseSpec(0.0, std, enabled=std > 0)
+
+    return SensorNoise(
+        proximity_m=NoiseSpec(0.0, 0.0, enabled=False),
+        proximity_legacy=n(p.obstacle_noise),
+        compass_deg=n(p.compass_noise),
+        beacon_deg=n(p.beacon_noise),
+        gps_m=n(p.gps_lin_noise),
+        gps_heading_deg=n(p.gps_dir_noise),
+        encoder_slip=NoiseSpec(0.0, 0.0, enabled=False),
+        motion=NoiseSpec(0.0, 0.0, enabled=False),  # MotorsNoise is the world's (--motors-noise)
+    )
+
+
+def registration_spec(reg: Registration, params: SimParameters | None = None) -> RobotSpec:
     """The robot a legacy registration asks for.
 
     A plain Ciber-Rato registration (no body attributes) is a disc of diameter 1 with four IR
@@ -178,6 +197,7 @@ def registration_spec(reg: Registration) -> RobotSpec:
         SpecError: A field out of range, naming it.
     """
     name = (reg.name or f"robot{reg.robot_id}")[:20]
+    noise = legacy_noise(params) if params is not None else SensorNoise()
     body = reg.body
     intellwheels = bool(body) or reg.type is not None or any(s[2] is not None for s in reg.ir)
     if not intellwheels:
@@ -191,7 +211,7 @@ def registration_spec(reg: Registration) -> RobotSpec:
             )
             for i, a in sorted(angles.items())
         )
-        return RobotSpec(name, id=reg.robot_id, shape=BodyShape.CIRCLE, ir_sensors=sensors, legacy=True)
+        return RobotSpec(name, id=reg.robot_id, shape=BodyShape.CIRCLE, ir_sensors=sensors, legacy=True, noise=noise)
     try:
         rtype = RobotType(reg.type) if reg.type else RobotType.SIMULATED
     except ValueError:
@@ -214,6 +234,7 @@ def registration_spec(reg: Registration) -> RobotSpec:
         acceleration_curve=body.get("acceleration_curve", 0.5),
         ir_sensors=sensors,
         legacy=True,
+        noise=noise,
     )
 
 

@@ -190,7 +190,7 @@ class Bridge:
             sock.sendto(build_reply(params, n_beacons=nb), peer)
             return
         try:
-            spec = registration_spec(reg)
+            spec = registration_spec(reg, self.params)
         except IwError as e:
             self._refuse(peer, str(e))
             sock = self._new_socket()
@@ -219,6 +219,9 @@ class Bridge:
 
     def on_client_datagram(self, c: Client, data: bytes, peer: tuple[str, int]) -> None:
         """A datagram on a client's own socket."""
+        if peer != c.addr:
+            self._refuse(peer, f"a datagram on the socket of {c.addr[0]}:{c.addr[1]} from another address")
+            return
         if c.kind == "robot":
             try:
                 a = parse_actions(data)

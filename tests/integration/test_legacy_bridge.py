@@ -9,13 +9,14 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
+import numpy as np
 import pytest
 from lxml import etree
 
 from iw_zenoh import keys
-from iw_zenoh.messages import Event, WorldState
+from iw_zenoh.messages import Event, Hear, RobotSpecMsg, SensorReading, WorldState
 from iw_zenoh.net import free_port
-from tests.integration.harness import MAPS, Net, subscribe, wait_msg
+from tests.integration.harness import MAPS, Net, register, subscribe, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(150)]
 
@@ -203,3 +204,92 @@ def test_iwz_run_a_ciberrato_scenario_serves_legacy_clients(tmp_path: Path, clie
             run.wait(10)
     assert run.returncode == 0, out
     assert "ended at t=6.0 s" in out
+
+
+OPEN_LAB = '<Lab Name="open" Width="28" Height="14"/>'
+TWO = '<Grid><Position X="5" Y="7" Dir="0"/><Position X="7.2" Y="7" Dir="180"/></Grid>'
+
+
+def test_a_legacy_robot_and_a_native_one_see_hear_and_hit_each_other(net: Net, clients: list[LegacyClient]) -> None:
+    (net.tmp / "lab.xml").write_text(OPEN_LAB)
+    (net.tmp / "grid.xml").write_text(TWO)
+    port = _udp_port()
+    net.spawn(
+        "world",
+        str(net.tmp / "lab.xml"),
+        "--grid",
+        str(net.tmp / "grid.xml"),
+        "--profile",
+        "ciberrato",
+        "--period-ms",
+        "50",
+    )
+    net.spawn("collision")
+    net.spawn("sensors")
+    net.spawn("radio")
+    net.spawn("bridge", "ciberrato", "--port", str(port))
+    bus = net.client()
+    events = subscribe(bus, keys.event(net.sim, "collision"))
+    robot = LegacyClient(port)
+    clients.append(robot)
+    robot.register(b'<Robot Id="1" Name="legacy"/>')
+    native = register(bus, net.sim, RobotSpecMsg(name="native", id=2, shape="circle"))
+    assert native.ok, native.reason
+    native_sensors = subscribe(bus, keys.sensors(net.sim, 2))
+    native_hear = subscribe(bus, keys.hear(net.sim, 2))
+    # the native robot sees the legacy one 1.2 m ahead (rims 0.5 m from the centres)
+    seen = wait_msg(native_sensors, SensorReading, lambda r: r.proximity_m[0] is not None)
+    assert seen.proximity_m[0] == pytest.approx(1.2, abs=0.25)
+    # and the legacy robot sees the native one: IR 0 reads about 1/1.2 (once it is there)
+    values = [
+        float(etree.fromstring(robot.recv()[:-1]).find("Sensors").find("IRSensor").get("Value")) for _ in range(20)
+    ]
+    assert values[-1] == pytest.approx(1 / 1.2, abs=0.35)
+    robot.send(b"<Actions><Say><![CDATA[hello native]]></Say></Actions>")
+    heard = wait_msg(native_hear, Hear, lambda h: any(x.sender == 1 for x in h.messages))
+    assert heard.messages[0].text == "hello native"
+    for _ in range(60):  # drive into it
+        robot.send(b'<Actions LeftMotor="0.15" RightMotor="0.15"/>')
+        robot.recv()
+    hit = wait_msg(events, Event, lambda e: e.robot_id == 1, timeout_s=20)
+    assert hit.data["robots"] == [2]
+
+
+def test_thousands_of_malformed_datagrams_leave_good_clients_served(net: Net, clients: list[LegacyClient]) -> None:
+    port = _world(net)
+    robot = LegacyClient(port)
+    clients.append(robot)
+    robot.register(b'<Robot Name="good" Id="1"/>')
+    good = [
+        b'<Robot Id="1" Name="pyRob"><IRSensor Id="0" Angle="0.0" /></Robot>',
+        b'<Actions LeftMotor="0.1" RightMotor="0.1"/>',
+        b"<Actions><Say><![CDATA[hi]]></Say></Actions>\n\x00",
+        b"<View/>\n\x00",
+        b'<Robot Id="3" Removed="Yes"/>\x00',
+    ]
+    rng = np.random.default_rng(7)
+    fuzz = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        sent = 0
+        for i in range(3000):
+            base = bytearray(good[i % len(good)])
+            kind = i % 4
+            if kind == 0:  # truncate
+                data = bytes(base[: rng.integers(0, len(base))])
+            elif kind == 1:  # flip bytes
+                for _ in range(3):
+                    base[rng.integers(0, len(base))] = rng.integers(0, 256)
+                data = bytes(base)
+            elif kind == 2:  # noise
+                data = rng.integers(0, 256, rng.integers(1, 200), dtype=np.uint8).tobytes()
+            else:  # oversized
+                data = bytes(base) + b" " * int(rng.integers(1024, 3000))
+            fuzz.sendto(data, ("127.0.0.1", port))
+            sent += 1
+            if i % 300 == 0:  # all the while, the good client is served every cycle
+                assert etree.fromstring(robot.recv()[:-1]).tag == "Measures"
+        assert sent == 3000
+        for _ in range(10):
+            assert etree.fromstring(robot.recv()[:-1]).tag == "Measures"
+    finally:
+        fuzz.close()
