@@ -162,7 +162,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     for r in res:
         print(
-            f"{r['robots']:>4} robots: Measures every p50 {r['p50_ms']:.1f} ms, p99 {r['p99_ms']:.1f} ms; worst robot got {r['min_share_of_cycles'] * 100:.0f} % of cycles"
+            f"{r['robots']:>4} robots: Measures every p50 {r['p50_ms']:.1f} ms, p99 {r['p99_ms']:.1f} ms; "
+            f"worst robot got {r['min_share_of_cycles'] * 100:.0f} % of cycles"
         )
     print(f"target at 100 robots: every cycle, p99 <= {TARGET_P99_MS:g} ms")
     return 0
