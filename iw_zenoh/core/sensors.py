@@ -23,6 +23,7 @@ from shapely import STRtree
 from iw_zenoh.core.bodies import Bodies, polygons_at
 from iw_zenoh.core.geometry import to_world, wrap_deg
 from iw_zenoh.core.lab import Scene
+from iw_zenoh.core.legacy_ir import ciberrato_ir_distances
 from iw_zenoh.core.noise import NoiseBank, Stream, rng_for
 from iw_zenoh.core.spatial import Boxes, SlotBoxes, boxes_tree, robot_item_pairs
 
@@ -410,6 +411,7 @@ def read_sensors(
     z: FloatArray,
     params: SensorParams | None = None,
     only: BoolArray | None = None,
+    legacy_ir: bool = False,
 ) -> Readings:
     """Computes every sensor of every robot for one tick.
 
@@ -424,6 +426,8 @@ def read_sensors(
             sensor stream, e.g. a :class:`~iw_zenoh.core.noise.NoiseBank`).
         params: Tick-wide settings.
         only: (N,) robots whose proximity sensors to compute (a shard); others read ``inf``.
+        legacy_ir: Compute the legacy reading with Ciber-Rato's own IR model (three rays,
+            corners, its robot formula) instead of from the exact cone distance.
 
     Returns:
         The readings.
@@ -446,7 +450,14 @@ def read_sensors(
     zm = z[m_slot]
     prox = true_d + nm["proximity_m"][own] + ns["proximity_m"][own] * zm
     prox = np.where(np.isfinite(true_d), np.maximum(prox, 0.0), np.inf)
-    legacy = legacy_ir_value(true_d, zm, ns["proximity_legacy"][own])
+    legacy_d = true_d
+    if legacy_ir and len(own):
+        slots = bodies.ir_slots
+        angles = np.where(slots >= 0, bodies.ir_angle_rad[np.maximum(slots, 0)], 0.0)
+        grid = ciberrato_ir_distances(scene, pose, angles)
+        legacy_d = np.full(len(own), np.inf)
+        legacy_d[slots[slots >= 0]] = grid[slots >= 0]
+    legacy = legacy_ir_value(legacy_d, zm, ns["proximity_legacy"][own])
     heading_deg = np.degrees(pose[:, 2])
     compass = wrap_deg(heading_deg + nm["compass_deg"] + ns["compass_deg"] * z_comp)
     beacon = _beacons(scene, pose, z_beac, nm["beacon_deg"], ns["beacon_deg"], p.beacon_aperture_rad)

@@ -95,6 +95,7 @@ class SensorsNode:
             z=z,
             params=params,
             only=only,
+            legacy_ir=view.info.profile == "ciberrato",
         )
         out: list[Outgoing] = []
         # whole arrays to Python lists once; each robot's sensors are a contiguous run
