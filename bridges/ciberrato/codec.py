@@ -412,7 +412,7 @@ class Measures:
     collision: bool | None = None
     compass: float | None = None
     ground: int | None = None
-    ir: tuple[float, ...] = ()
+    ir: tuple[float | None, ...] = ()  # None: not sent this cycle (requestable, not requested)
     beacons: tuple[float | None, ...] | None = None
     gps: tuple[float, float] | None = None
     messages: tuple[tuple[int, str], ...] = ()
@@ -431,7 +431,8 @@ def build_measures(m: Measures) -> bytes:
     if m.ground is not None:
         s.set("Ground", str(m.ground))
     for i, v in enumerate(m.ir):
-        etree.SubElement(s, "IRSensor", Id=str(i), Value=_g(v))
+        if v is not None:
+            etree.SubElement(s, "IRSensor", Id=str(i), Value=_g(v))
     for i, b in enumerate(m.beacons or ()):
         etree.SubElement(s, "BeaconSensor", Id=str(i), Value="NotVisible" if b is None else _g(b))
     if m.gps is not None:

@@ -12,6 +12,7 @@ with an event naming the peer and the reason; it never stalls another client.
 from __future__ import annotations
 
 import argparse
+import collections
 import logging
 import os
 import selectors
@@ -19,6 +20,7 @@ import socket
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 from iw_zenoh import keys
 from iw_zenoh.bus import ZenohBus
@@ -63,6 +65,8 @@ __all__ = ["Bridge", "main"]
 logger = logging.getLogger(__name__)
 
 RECV_BYTES = 4096
+GPS_OFFSET = (840.1877, 394.3829)  # the legacy simulator's GPS origin on glibc, until a reset
+NO_MEASUREMENT: dict[str, Any] = {"ir": 0.0, "compass": 0.0, "ground": -1, "collision": False, "beacon": None}
 FLOOD_PER_S = 400  # datagrams a second one address may send before the rest are dropped
 EVENT_EVERY_S = 1.0  # at most one refusal event a second per peer
 
@@ -82,6 +86,8 @@ class Client:
     reading: SensorReading | None = None
     heard: list[tuple[int, str]] = field(default_factory=list)
     sent_tick: int = -1
+    requests: list[str] = field(default_factory=list)  # sensor requests of this cycle
+    fifos: dict[str, collections.deque[Any]] = field(default_factory=dict)  # latency queues
 
 
 class Bridge:
@@ -228,6 +234,7 @@ class Bridge:
             except ProtocolError as e:
                 self._refuse(peer, str(e))
                 return
+            c.requests += list(a.requests)
             c.left = a.left if a.left is not None else c.left
             c.right = a.right if a.right is not None else c.right
             c.leds.update(a.leds)
@@ -272,29 +279,52 @@ class Bridge:
 
     # --- Zenoh side ----------------------------------------------------------------------
 
+    def _delayed(self, c: Client, name: str, value: Any, latency: int) -> Any:
+        """The reading ``latency`` updates ago (Ciber-Rato's FIFO; "no measurement" at first)."""
+        q = c.fifos.get(name)
+        if q is None:
+            default = NO_MEASUREMENT[name.rstrip("0123456789")]
+            q = c.fifos[name] = collections.deque([default] * latency, maxlen=latency + 1)
+        q.append(value)
+        return q[0]
+
     def _measures(self, c: Client, tick: int) -> bytes:
         r = c.reading
         p = self.params
+        buttons = (self.running, not self.running)
         if r is None:
-            return build_measures(
-                Measures(time=tick, collision=False, ir=(0.0,) * 4, buttons=(self.running, not self.running))
-            )
-        beacons = (
-            tuple(None if b is None else float(int(b + 0.5 if b >= 0 else b - 0.5)) for b in r.beacons_deg)
-            if p.beacon_sensor
+            return bytes(build_measures(Measures(time=tick, collision=False, ir=(0.0,) * 4, buttons=buttons)))
+        # requests: at most NRequestsPerCycle honoured, in order, across the cycle's datagrams
+        granted = set(c.requests[: p.n_requests_per_cycle])
+        c.requests = []
+
+        def wanted(name: str, requestable: bool) -> bool:
+            return not requestable or name in granted
+
+        ir = tuple(
+            float(self._delayed(c, f"ir{i}", v, p.obstacle_latency))
+            if wanted(f"IRSensor{i}", p.obstacle_requestable)
             else None
+            for i, v in enumerate(r.proximity_legacy[:4])
         )
+        compass = self._delayed(c, "compass", float(round(r.compass_deg)), p.compass_latency)
+        ground = self._delayed(c, "ground", r.ground, p.ground_latency)
+        collision = self._delayed(c, "collision", r.collision, p.collision_latency)
+        beacons = None
+        if p.beacon_sensor and (not p.beacon_requestable or any(n.startswith("Beacon") for n in granted)):
+            now = tuple(None if b is None else float(int(b + 0.5 if b >= 0 else b - 0.5)) for b in r.beacons_deg)
+            beacons = tuple(self._delayed(c, f"beacon{i}", v, p.beacon_latency) for i, v in enumerate(now))
         m = Measures(
             time=tick,
-            collision=r.collision,
-            compass=float(round(r.compass_deg)) if p.compass_sensor else None,
-            ground=r.ground,
-            ir=tuple(r.proximity_legacy[:4]),
+            collision=bool(collision) if wanted("Collision", p.collision_requestable) else None,
+            compass=float(compass) if p.compass_sensor and wanted("Compass", p.compass_requestable) else None,
+            ground=int(ground) if wanted("Ground", p.ground_requestable) else None,
+            ir=ir,
             beacons=beacons,
-            gps=(round(r.gps[0], 1), round(r.gps[1], 1)) if p.gps else None,
+            gps=(round(r.gps[0] + GPS_OFFSET[0], 1), round(r.gps[1] + GPS_OFFSET[1], 1)) if p.gps else None,
             messages=tuple(c.heard),
             leds=(c.leds.get("EndLed", False), c.leds.get("ReturningLed", False), c.leds.get("VisitingLed", False)),
-            buttons=(self.running, not self.running),
+            buttons=buttons,
         )
         return bytes(build_measures(m))
 

@@ -293,3 +293,39 @@ def test_thousands_of_malformed_datagrams_leave_good_clients_served(net: Net, cl
             assert etree.fromstring(robot.recv()[:-1]).tag == "Measures"
     finally:
         fuzz.close()
+
+
+def test_requestable_sensors_the_request_limit_and_the_gps_origin(net: Net, clients: list[LegacyClient]) -> None:
+    params = net.tmp / "params.xml"
+    params.write_text(
+        '<Parameters GPS="On" GPSLinNoise="0" ObstacleRequestable="On" NRequestsPerCycle="1" CompassSensor="On" CompassNoise="0"/>'
+    )
+    port = _udp_port()
+    net.spawn(
+        "world",
+        str(MAPS / "ciberrato" / "C1-lab.xml"),
+        "--grid",
+        str(MAPS / "ciberrato" / "C1-grid.xml"),
+        "--profile",
+        "ciberrato",
+        "--period-ms",
+        "50",
+    )
+    net.spawn("collision")
+    net.spawn("sensors")
+    net.spawn("bridge", "ciberrato", "--port", str(port), "--param", str(params))
+    robot = LegacyClient(port)
+    clients.append(robot)
+    reply = etree.fromstring(robot.register(b'<Robot Id="1" Name="req"/>')[:-1])
+    assert reply[0].get("ObstacleRequestable") == "On"
+    unasked = [etree.fromstring(robot.recv()[:-1]) for _ in range(5)][-1]
+    assert unasked.find("Sensors").findall("IRSensor") == []  # requestable and not requested: not sent
+    gps = unasked.find("Sensors").find("GPS")
+    assert (float(gps.get("X")), float(gps.get("Y"))) == (843.2, 405.4)  # (3, 11) from the legacy origin
+    got: list[list[str]] = []
+    for _ in range(10):
+        robot.send(b'<Actions><SensorRequests IRSensor0="Yes" IRSensor2="Yes"/></Actions>')
+        m = etree.fromstring(robot.recv()[:-1])
+        got.append([ir.get("Id") for ir in m.find("Sensors").findall("IRSensor")])
+    assert ["0"] in got  # one request a cycle honoured: the first
+    assert all(ids in ([], ["0"]) for ids in got)
