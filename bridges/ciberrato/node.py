@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import collections
 import logging
+import math
 import os
 import selectors
 import socket
@@ -87,6 +88,7 @@ class Client:
     heard: list[tuple[int, str]] = field(default_factory=list)
     sent_tick: int = -1
     requests: list[str] = field(default_factory=list)  # sensor requests of this cycle
+    finished: bool = False  # EndLed seen: the legacy state machine freezes the robot
     fifos: dict[str, collections.deque[Any]] = field(default_factory=dict)  # latency queues
 
 
@@ -135,6 +137,8 @@ class Bridge:
         self.hears = self.io.inbox(keys.all_hear(sim))
         self.infos = self.io.inbox(keys.info(sim), maxlen=1)
         self._rate: dict[str, tuple[float, int]] = {}
+        self._hit: dict[int, bool] = {}
+        self._collisions: dict[int, int] = {}
         self._last_event: dict[tuple[str, str], float] = {}
         self.io.alive()
         bus.token(keys.alive(sim, "bridge", name))
@@ -238,6 +242,10 @@ class Bridge:
             c.left = a.left if a.left is not None else c.left
             c.right = a.right if a.right is not None else c.right
             c.leds.update(a.leds)
+            if c.leds.get("EndLed"):
+                c.finished = True
+            if c.finished:  # a Finished robot never moves again (legacy state machine)
+                c.left = c.right = 0.0
             tick = c.reading.tick if c.reading else 0
             sim_ns = c.reading.sim_time_ns if c.reading else 0
             if a.pose is not None:
@@ -373,15 +381,23 @@ class Bridge:
             names = {c.robot_id: c.name for c in self.by_robot.values()}
             specs = {s.id: s.name for s in (self.info.robots if self.info else [])}
             for rid, x, y, h, hit in zip(st.ids, st.x, st.y, st.heading, st.collided, strict=True):
+                if hit and not self._hit.get(rid, False):
+                    self._collisions[rid] = self._collisions.get(rid, 0) + 1  # rising edges, as legacy counts
+                self._hit[rid] = hit
+                client = self.by_robot.get(rid)
+                state = (
+                    "Finished" if client is not None and client.finished else "Running" if self.running else "Stopped"
+                )
                 data_out = build_robot_state(
                     name=names.get(rid) or specs.get(rid, f"robot{rid}"),
                     robot_id=rid,
                     time=st.tick,
                     x=x,
                     y=y,
-                    dir_deg=h * 57.29577951308232,
+                    dir_deg=math.degrees(h),
                     collision=hit,
-                    state="Running" if self.running else "Stopped",
+                    collisions=self._collisions.get(rid, 0),
+                    state=state,
                 )
                 for v in viewers:
                     v.sock.sendto(data_out, v.addr)

@@ -329,3 +329,30 @@ def test_requestable_sensors_the_request_limit_and_the_gps_origin(net: Net, clie
         got.append([ir.get("Id") for ir in m.find("Sensors").findall("IRSensor")])
     assert ["0"] in got  # one request a cycle honoured: the first
     assert all(ids in ([], ["0"]) for ids in got)
+
+
+def test_end_led_finishes_a_legacy_robot_for_good(net: Net, clients: list[LegacyClient]) -> None:
+    port = _world(net)
+    bus = net.client()
+    states = subscribe(bus, keys.state(net.sim), maxlen=1)
+    robot = LegacyClient(port)
+    clients.append(robot)
+    robot.register(b'<Robot Id="1" Name="done"/>')
+    viewer = LegacyClient(port)
+    clients.append(viewer)
+    viewer.register(b"<View/>\n\x00")
+    robot.recv()
+    robot.send(b'<Actions LeftMotor="0.0" RightMotor="0.0" EndLed="On"/>')
+    for _ in range(30):  # whatever it asks afterwards, it does not move
+        robot.send(b'<Actions LeftMotor="0.15" RightMotor="0.15"/>')
+        m = etree.fromstring(robot.recv()[:-1])
+    assert m.find("Leds").get("EndLed") == "On"
+    a = wait_msg(states, WorldState, lambda s: 1 in s.ids)
+    b = wait_msg(states, WorldState, lambda s: s.tick >= a.tick + 10)
+    assert b.x[b.ids.index(1)] == pytest.approx(a.x[a.ids.index(1)], abs=1e-6)
+    finished = False
+    for _ in range(40):
+        data = viewer.recv(65536)
+        if data.startswith(b"<Robot"):
+            finished |= etree.fromstring(data[:-1]).get("State") == "Finished"
+    assert finished
