@@ -32,6 +32,7 @@ COMMANDS: dict[str, tuple[str, str] | tuple[str, str, str]] = {
     "incidents": ("iw_zenoh.record.incidents", "list a recording's collisions, near misses, stops and losses"),
     "render": ("iw_zenoh.record.render", "draw a moment of a recording to PNG (map, bodies, cones, plots)"),
     "resim": ("iw_zenoh.record.resim", "re-run a lock-step recording exactly; swap one robot's agent"),
+    "calibrate": ("iw_zenoh.record.calibrate", "fit MaxSpeed and AccelerationCurve to a real chair's log"),
     "doctor": ("iw_zenoh.record.tools", "say whether a recording is whole", "doctor_main"),
     "recover": ("iw_zenoh.record.tools", "rebuild a readable, indexed file from a cut-off recording", "recover_main"),
 }
