@@ -1,0 +1,203 @@
+"""``iwz agent door``: doors as robots moved by their own agent (hinged, sliding, revolving).
+
+The state machine of the seed's Fig. 5.5: Closed -> (something detected) -> Opening -> (turned
+90 degrees, or slid its length) -> Open (timer starts) -> (timeout with nothing detected) ->
+Closing -> (back where it was) -> Closed. While opening or closing a collision stops the
+movement and it resumes when the collision clears; something detected while closing opens the
+door again (nobody gets shut in). A revolving door turns while something is detected and stops
+after the timeout. The policy here is "open on proximity" (the seed's test); the negotiation
+policy over the radio is the next step.
+"""
+
+from __future__ import annotations
+
+import argparse
+import enum
+import math
+from dataclasses import dataclass, replace
+
+from iw_zenoh.agent import Command
+from iw_zenoh.core.spec import IrSensorSpec, NoiseSpec, RobotSpec, RobotType, SensorNoise
+from iw_zenoh.messages import Heard, SensorReading
+
+__all__ = ["DoorKind", "DoorMachine", "DoorParams", "DoorState", "add_arguments", "door_spec", "make"]
+
+DOOR_CURVE = 0.1  # a door's drive answers almost at once, so it stops where it is told
+SLOW_SHARE = 0.2  # the slowest a door moves near the end of its travel, as a share of its power
+EXACT = SensorNoise(*(NoiseSpec(0.0, 0.0, enabled=False),) * 8)
+
+
+class DoorKind(enum.StrEnum):
+    """The seed's three doors (section 5.3)."""
+
+    HINGED = "hinged"
+    SLIDING = "sliding"
+    REVOLVING = "revolving"
+
+
+class DoorState(enum.StrEnum):
+    """Fig. 5.5."""
+
+    CLOSED = "closed"
+    OPENING = "opening"
+    OPEN = "open"
+    CLOSING = "closing"
+
+
+@dataclass(frozen=True)
+class DoorParams:
+    """How a door behaves.
+
+    Attributes:
+        kind: Hinged, sliding or revolving.
+        detect_m: Something nearer than this to a door sensor is detected.
+        open_deg: How far a hinged door turns (degrees).
+        slide_m: How far a sliding door slides.
+        timeout_s: Open this long with nothing detected, then close.
+        power: Motor power while moving.
+    """
+
+    kind: DoorKind = DoorKind.HINGED
+    detect_m: float = 1.0
+    open_deg: float = 90.0
+    slide_m: float = 1.0
+    timeout_s: float = 3.0
+    power: float = 0.05
+
+
+class DoorMachine:
+    """The state machine, pure: readings in, motor command out.
+
+    Args:
+        params: Behaviour.
+        closed_pose: (x, y, heading deg) of the closed door.
+    """
+
+    def __init__(self, params: DoorParams, closed_pose: tuple[float, float, float]) -> None:
+        self.p = params
+        self.closed = closed_pose
+        self.state = DoorState.CLOSED
+        self.timer_s = 0.0
+
+    def progress(self, pose: tuple[float, float, float]) -> float:
+        """0 when closed, 1 when fully open."""
+        x, y, h = pose
+        if self.p.kind == DoorKind.SLIDING:
+            return math.hypot(x - self.closed[0], y - self.closed[1]) / self.p.slide_m
+        return abs(math.remainder(h - self.closed[2], 360.0)) / self.p.open_deg
+
+    def step(
+        self, *, detected: bool, collided: bool, pose: tuple[float, float, float], dt_s: float
+    ) -> tuple[float, float]:
+        """Advances one tick; returns (left, right) motor powers."""
+        p = self.p
+        if p.kind == DoorKind.REVOLVING:
+            if detected:
+                self.state, self.timer_s = DoorState.OPENING, 0.0
+            elif self.state != DoorState.CLOSED:
+                self.timer_s += dt_s
+                if self.timer_s >= p.timeout_s:
+                    self.state = DoorState.CLOSED
+            turning = self.state == DoorState.OPENING and not collided
+            return (-p.power, p.power) if turning else (0.0, 0.0)
+        done = self.progress(pose)
+        if self.state == DoorState.CLOSED and detected:
+            self.state = DoorState.OPENING
+        elif self.state == DoorState.OPENING and done >= 1.0:
+            self.state, self.timer_s = DoorState.OPEN, 0.0
+        elif self.state == DoorState.OPEN:
+            self.timer_s = 0.0 if detected else self.timer_s + dt_s
+            if self.timer_s >= p.timeout_s:
+                self.state = DoorState.CLOSING
+        elif self.state == DoorState.CLOSING:
+            if detected:
+                self.state = DoorState.OPENING  # never shut on someone
+            elif done <= 0.02:
+                self.state = DoorState.CLOSED
+        if collided or self.state in (DoorState.CLOSED, DoorState.OPEN):
+            return 0.0, 0.0  # a collision stops the movement; it resumes when clear
+        sign = 1.0 if self.state == DoorState.OPENING else -1.0
+        left = 1.0 - done if sign > 0 else done
+        power = p.power * min(1.0, max(SLOW_SHARE, 2.0 * left))  # ease in, so inertia does not overshoot
+        if p.kind == DoorKind.SLIDING:
+            return sign * power, sign * power
+        return -sign * power, sign * power
+
+
+def door_spec(name: str, kind: DoorKind, *, x: float, y: float, dir_deg: float, test_door: bool = False) -> RobotSpec:
+    """A door body: the seed's table (leaf 1.0 across, 0.1 thick; COM 0.99, revolving 0.5), or
+    the test door of section 7.4 (1.0 long, 0.1 across, COM 0.99, sensors at +-90 deg, cone 40)."""
+    if test_door:
+        # at the middle of the leaf, so that open, they look past the door frame, not at it
+        sensors = (IrSensorSpec(0, 0.5, 0.05, 90.0, 40.0, 3.0), IrSensorSpec(1, 0.5, -0.05, -90.0, 40.0, 3.0))
+        return RobotSpec(
+            name,
+            type=RobotType.DOOR,
+            width_m=1.0,
+            height_m=0.1,
+            com=0.99,
+            x_m=x,
+            y_m=y,
+            dir_deg=dir_deg,
+            ir_sensors=sensors,
+            noise=EXACT,
+            max_speed_mps=0.5,
+            acceleration_curve=DOOR_CURVE,
+        )
+    com = 0.5 if kind == DoorKind.REVOLVING else 0.99
+    sensors = (IrSensorSpec(0, 0.05, 0.0, 0.0, 60.0, 3.0), IrSensorSpec(1, -0.05, 0.0, 180.0, 60.0, 3.0))
+    return RobotSpec(
+        name,
+        type=RobotType.DOOR,
+        width_m=0.1,
+        height_m=1.0,
+        com=com,
+        x_m=x,
+        y_m=y,
+        dir_deg=dir_deg,
+        ir_sensors=sensors,
+        noise=EXACT,
+        max_speed_mps=0.5,
+        acceleration_curve=DOOR_CURVE,
+    )
+
+
+class DoorAgent:
+    """A door driven by its state machine from its own sensors."""
+
+    def __init__(self, spec: RobotSpec, params: DoorParams, dt_s: float = 0.1) -> None:
+        self._spec = spec
+        self.machine = DoorMachine(params, (spec.x_m or 0.0, spec.y_m or 0.0, spec.dir_deg or 0.0))
+        self.dt_s = dt_s
+
+    def spec(self) -> RobotSpec:
+        """The door to register."""
+        return self._spec
+
+    def on_sensors(self, reading: SensorReading, heard: list[Heard]) -> Command:
+        """One tick of the state machine."""
+        near = [d for d in reading.proximity_m if d is not None]
+        detected = bool(near) and min(near) < self.machine.p.detect_m
+        left, right = self.machine.step(detected=detected, collided=reading.collision, pose=reading.gps, dt_s=self.dt_s)
+        return Command(left, right)
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """Options of ``iwz agent door``."""
+    p.add_argument("--kind", choices=[k.value for k in DoorKind], default="hinged", help="door kind (default hinged)")
+    p.add_argument("--at", required=True, help="closed pose x,y,dir_deg")
+    p.add_argument("--robot-name", default="door", help="robot name (default door)")
+    p.add_argument("--id", type=int, default=0, help="robot id to ask for (default: the next free one)")
+    p.add_argument("--detect", type=float, default=1.0, help="open when something is this near, m (default 1)")
+    p.add_argument("--timeout", type=float, default=3.0, help="close after this long with nothing near, s (default 3)")
+    p.add_argument(
+        "--test-door", action="store_true", help="the seed's test door of section 7.4 (1 m leaf along the heading)"
+    )
+
+
+def make(args: argparse.Namespace) -> list[DoorAgent]:
+    """The door the arguments ask for."""
+    x, y, d = (float(v) for v in args.at.split(","))
+    kind = DoorKind(args.kind)
+    spec = replace(door_spec(args.robot_name, kind, x=x, y=y, dir_deg=d, test_door=args.test_door), id=args.id)
+    return [DoorAgent(spec, DoorParams(kind=kind, detect_m=args.detect, timeout_s=args.timeout))]
