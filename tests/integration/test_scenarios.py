@@ -47,3 +47,17 @@ def test_automatic_door_opens_for_the_chair_and_closes_after(tmp_path: Path) -> 
     assert door[0] == pytest.approx(-90.0, abs=1.0)
     assert max(door) > -10.0  # it opened (about 90 degrees)
     assert door[-1] == pytest.approx(-90.0, abs=5.0)  # and closed again once the chair had gone
+
+
+def test_convoy_three_followers_keep_their_gaps_behind_the_leader(tmp_path: Path) -> None:
+    r, rec = _run("convoy.toml", tmp_path)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "PASS collisions 0" in r.stdout
+    last = None
+    with rec.open("rb") as f:
+        for _, _, m in make_reader(f).iter_messages(topics=[keys.state("sc")]):
+            last = decode(m.data, WorldState)
+    assert last is not None
+    x = dict(zip(last.ids, last.x, strict=True))
+    gaps = [x[4] - x[3], x[3] - x[2], x[2] - x[1]]
+    assert all(1.6 < g < 2.8 for g in gaps), gaps  # about the 2 m asked, nobody left behind
