@@ -79,6 +79,7 @@ class Scenario:
     world_args: tuple[str, ...] = ()
     bridge_port: int | None = None  # a legacy XML/UDP bridge on this UDP port
     bridge_params: Path | None = None  # the Ciber-Rato parameters file it tells clients
+    base: Path = Path(".")  # the scenario's folder: agents run there, so their file arguments are relative to it
 
     @property
     def robots(self) -> int:
@@ -246,6 +247,7 @@ def parse_scenario(text: str, base: Path, name: str = "scenario") -> Scenario:
         world_args=world_args,
         bridge_port=bridge_port,
         bridge_params=bridge_params,
+        base=base,
     )
 
 

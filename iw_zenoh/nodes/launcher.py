@@ -8,6 +8,7 @@ refused; 3 a role could not start; 130 interrupted.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import logging
 import math
 import os
@@ -48,12 +49,19 @@ class Child:
     proc: subprocess.Popen[bytes] | None = None
     restarts: int = 0
     expected_exit: bool = False
+    cwd: Path | None = None
 
     def start(self, env: dict[str, str]) -> None:
         """Starts (or restarts) the process, its output to its log file."""
         with self.log.open("ab") as f:
             self.proc = subprocess.Popen(
-                self.argv, stdout=f, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, env=env, start_new_session=True
+                self.argv,
+                stdout=f,
+                stderr=subprocess.STDOUT,
+                stdin=subprocess.DEVNULL,
+                env=env,
+                start_new_session=True,
+                cwd=self.cwd,
             )
 
     def alive(self) -> bool:
@@ -174,7 +182,7 @@ class Launcher:
             self._child("bridge", "bridge", "ciberrato", "--port", str(sc.bridge_port), *extra)
         for i, a in enumerate(sc.agents):
             name = a.name or f"agent-{i + 1}-{a.program}"
-            self._child("agent", name, a.program, *a.args, "--name", name)
+            self._child("agent", name, a.program, *a.args, "--name", name).cwd = sc.base.resolve()
 
     def _wait_router(self, timeout_s: float = 15.0) -> bool:
         deadline = time.monotonic() + timeout_s
@@ -397,6 +405,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-status", action="store_true", help="no live status line")
     p.add_argument("--record", metavar="FILE", help="record the run here (default recordings/SCENARIO-DATE-TIME.mcap)")
     p.add_argument("--no-record", action="store_true", help="do not record the run")
+    p.add_argument("--lockstep", action="store_true", help="run in lock-step whatever the scenario says (reproducible)")
     p.add_argument("-v", "--verbose", action="count", default=0, help="log more")
     return p
 
@@ -407,6 +416,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     setup_logging(args.verbose, "run")
     try:
         sc = load_scenario(args.scenario)
+        if args.lockstep:
+            sc = dataclasses.replace(sc, mode="lockstep")
         launcher = Launcher(
             sc,
             port=args.port,
