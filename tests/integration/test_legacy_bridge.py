@@ -66,7 +66,8 @@ def clients() -> Iterator[list[LegacyClient]]:
         c.close()
 
 
-def _world(net: Net) -> int:
+def _world(net: Net, params: Path = MAPS / "ciberrato" / "C1-config.xml") -> int:
+    """A C1 world in the ciberrato profile with the bridge on a free UDP port (returned)."""
     port = _udp_port()
     net.spawn(
         "world",
@@ -80,7 +81,7 @@ def _world(net: Net) -> int:
     )
     net.spawn("collision")
     net.spawn("sensors")
-    net.spawn("bridge", "ciberrato", "--port", str(port), "--param", str(MAPS / "ciberrato" / "C1-config.xml"))
+    net.spawn("bridge", "ciberrato", "--port", str(port), "--param", str(params))
     return port
 
 
@@ -300,20 +301,7 @@ def test_requestable_sensors_the_request_limit_and_the_gps_origin(net: Net, clie
     params.write_text(
         '<Parameters GPS="On" GPSLinNoise="0" ObstacleRequestable="On" NRequestsPerCycle="1" CompassSensor="On" CompassNoise="0"/>'
     )
-    port = _udp_port()
-    net.spawn(
-        "world",
-        str(MAPS / "ciberrato" / "C1-lab.xml"),
-        "--grid",
-        str(MAPS / "ciberrato" / "C1-grid.xml"),
-        "--profile",
-        "ciberrato",
-        "--period-ms",
-        "50",
-    )
-    net.spawn("collision")
-    net.spawn("sensors")
-    net.spawn("bridge", "ciberrato", "--port", str(port), "--param", str(params))
+    port = _world(net, params)
     robot = LegacyClient(port)
     clients.append(robot)
     reply = etree.fromstring(robot.register(b'<Robot Id="1" Name="req"/>')[:-1])
