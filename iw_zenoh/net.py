@@ -9,7 +9,6 @@ from __future__ import annotations
 import json
 import socket
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import zenoh
 
@@ -101,11 +100,3 @@ def free_port(host: str = "127.0.0.1") -> int:
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
         s.bind((host, 0))
         return int(s.getsockname()[1])
-
-
-def read_text(path: str) -> str:
-    """Reads a small text file, as a ConfigError when it cannot."""
-    try:
-        return Path(path).read_text(encoding="utf-8")
-    except OSError as e:
-        raise ConfigError(path, f"cannot read it: {e.strerror}") from None

@@ -11,9 +11,7 @@ import enum
 import numpy as np
 import numpy.typing as npt
 
-from iw_zenoh.core.spec import NoiseSpec
-
-__all__ = ["NoiseBank", "Stream", "apply_noise", "rng_for", "standard_normals"]
+__all__ = ["NoiseBank", "Stream", "rng_for", "standard_normals"]
 
 
 class Stream(enum.IntEnum):
@@ -52,22 +50,6 @@ def standard_normals(rngs: list[np.random.Generator], k: int) -> npt.NDArray[np.
     for i, g in enumerate(rngs):
         out[i] = g.standard_normal(k)
     return out
-
-
-def apply_noise(value: npt.NDArray[np.float64], z: npt.NDArray[np.float64], spec: NoiseSpec) -> npt.NDArray[np.float64]:
-    """Adds ``N(mean, std)`` built from standard normals ``z`` to ``value`` when enabled.
-
-    Args:
-        value: True values, any shape.
-        z: Standard normal draws, the same shape.
-        spec: The noise.
-
-    Returns:
-        The noisy values (a new array).
-    """
-    if not spec.enabled:
-        return np.array(value, dtype=np.float64, copy=True)
-    return np.asarray(value + spec.mean + spec.std * z, dtype=np.float64)
 
 
 class NoiseBank:

@@ -11,28 +11,10 @@ import numpy.typing as npt
 import shapely
 from shapely import STRtree
 
-__all__ = ["Boxes", "SlotBoxes", "boxes_tree", "ragged_arange", "robot_item_pairs"]
+__all__ = ["Boxes", "SlotBoxes", "boxes_tree", "robot_item_pairs"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
-
-
-def ragged_arange(starts: IntArray, counts: IntArray) -> IntArray:
-    """Concatenates ``arange(s, s + c)`` for every (s, c) pair, without a Python loop.
-
-    Args:
-        starts: (K,) first values.
-        counts: (K,) lengths, >= 0.
-
-    Returns:
-        (sum(counts),) the concatenated ranges.
-    """
-    total = int(counts.sum())
-    if total == 0:
-        return np.zeros(0, dtype=np.int64)
-    ends = np.cumsum(counts)
-    offs = np.repeat(starts - (ends - counts), counts)
-    return np.asarray(offs + np.arange(total), dtype=np.int64)
 
 
 class Boxes:

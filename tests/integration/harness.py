@@ -139,6 +139,15 @@ class Net:
             p.kill(signal.SIGTERM)
 
 
+def iwz_run_argv(
+    scenario: Path, tmp: Path, sim: str, *, record: Path | None = None, extra: tuple[str, ...] = ()
+) -> list[str]:
+    """``iwz run SCENARIO`` on a free router port, logs in ``tmp``, recorded to ``record`` (or not)."""
+    argv = [sys.executable, "-m", "iw_zenoh.cli", "run", str(scenario), "--port", str(free_port()), "--no-status"]
+    argv += ["--sim", sim, "--log-dir", str(tmp), *(["--record", str(record)] if record else ["--no-record"]), *extra]
+    return argv
+
+
 def subscribe(bus: ZenohBus, key_expr: str, maxlen: int | None = None) -> Inbox:
     """A test inbox on a key expression."""
     box = Inbox(maxlen=maxlen)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import socket
 import subprocess
-import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -15,8 +14,7 @@ from lxml import etree
 
 from iw_zenoh import keys
 from iw_zenoh.messages import Event, Hear, RobotSpecMsg, SensorReading, WorldState
-from iw_zenoh.net import free_port
-from tests.integration.harness import MAPS, Net, register, subscribe, wait_msg
+from tests.integration.harness import MAPS, Net, iwz_run_argv, register, subscribe, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(150)]
 
@@ -175,21 +173,7 @@ def test_iwz_run_a_ciberrato_scenario_serves_legacy_clients(tmp_path: Path, clie
     text = text.replace('"ciberrato/', f'"{MAPS}/ciberrato/')
     sc = tmp_path / "c1.toml"
     sc.write_text(text)
-    argv = [
-        sys.executable,
-        "-m",
-        "iw_zenoh.cli",
-        "run",
-        str(sc),
-        "--port",
-        str(free_port()),
-        "--no-status",
-        "--sim",
-        "c1",
-        "--no-record",
-        "--log-dir",
-        str(tmp_path),
-    ]
+    argv = iwz_run_argv(sc, tmp_path, "c1")
     run = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         robot = LegacyClient(port)

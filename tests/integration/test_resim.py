@@ -8,9 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from iw_zenoh.net import free_port
 from iw_zenoh.record.resim import _make_agent, load_run, resimulate
-from tests.integration.harness import MAPS
+from tests.integration.harness import MAPS, iwz_run_argv
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(150)]
 
@@ -35,22 +34,7 @@ def recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
     sc = tmp / "lockrec.toml"
     sc.write_text(SCENARIO.format(map=MAPS / "hospital.xml", grid=MAPS / "hospital-grid.xml"))
     out = tmp / "lockrec.mcap"
-    argv = [
-        sys.executable,
-        "-m",
-        "iw_zenoh.cli",
-        "run",
-        str(sc),
-        "--port",
-        str(free_port()),
-        "--no-status",
-        "--sim",
-        "lr",
-        "--record",
-        str(out),
-        "--log-dir",
-        str(tmp),
-    ]
+    argv = iwz_run_argv(sc, tmp, "lr", record=out)
     r = subprocess.run(argv, capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stdout + r.stderr
     return out

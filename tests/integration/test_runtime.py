@@ -4,16 +4,14 @@ from __future__ import annotations
 
 import signal
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 from iw_zenoh import keys
 from iw_zenoh.messages import Actions, RobotSpecMsg, WorldState, encode
-from iw_zenoh.net import free_port
 from iw_zenoh.record.tools import check
-from tests.integration.harness import MAPS, Net, register, state_of, subscribe, wait_event, wait_msg
+from tests.integration.harness import MAPS, Net, iwz_run_argv, register, state_of, subscribe, wait_event, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(120)]
 
@@ -162,10 +160,8 @@ def test_without_collision_process_every_chair_is_held_until_it_returns(net: Net
 
 
 def test_demo_scenario_runs_meets_its_criteria_and_is_recorded(tmp_path: Path) -> None:
-    port = free_port()
-    argv = [sys.executable, "-m", "iw_zenoh.cli", "run", str(MAPS / "demo.toml"), "--port", str(port), "--no-status"]
     # lock-step, so the verdict does not depend on how loaded the machine is
-    argv += ["--sim", "demo", "--log-dir", str(tmp_path), "--record", str(tmp_path / "demo.mcap"), "--lockstep"]
+    argv = iwz_run_argv(MAPS / "demo.toml", tmp_path, "demo", record=tmp_path / "demo.mcap", extra=("--lockstep",))
     r = subprocess.run(argv, capture_output=True, text=True, timeout=110)
     assert r.returncode == 0, r.stdout + r.stderr
     assert "PASS robot 1 within 0.5 m of (20, 6.1)" in r.stdout

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -12,25 +11,14 @@ from mcap.reader import make_reader
 
 from iw_zenoh import keys
 from iw_zenoh.messages import WorldState, decode
-from iw_zenoh.net import free_port
-from tests.integration.harness import MAPS
+from tests.integration.harness import MAPS, iwz_run_argv
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(200)]
 
 
 def _run(scenario: str, tmp: Path) -> tuple[subprocess.CompletedProcess[str], Path]:
     out = tmp / "run.mcap"
-    argv = [
-        sys.executable,
-        "-m",
-        "iw_zenoh.cli",
-        "run",
-        str(MAPS / scenario),
-        "--port",
-        str(free_port()),
-        "--no-status",
-    ]
-    argv += ["--sim", "sc", "--record", str(out), "--log-dir", str(tmp)]
+    argv = iwz_run_argv(MAPS / scenario, tmp, "sc", record=out)
     return subprocess.run(argv, capture_output=True, text=True, timeout=180), out
 
 
