@@ -1,0 +1,51 @@
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from iw_zenoh.core.sonarmap import Cone, SonarMap
+
+
+def _map() -> SonarMap:
+    return SonarMap(np.zeros((100, 100), dtype=bool), 0.05)
+
+
+def test_a_reading_marks_its_arc_and_carves_what_is_nearer() -> None:
+    m = _map()
+    new = m.update([Cone(1.0, 2.5, 0.0, math.radians(7.5), 3.0, 1.0)])
+    assert len(new) > 0
+    assert np.all(np.abs(np.hypot(new[:, 0] - 1.0, new[:, 1] - 2.5) - 1.0) < 0.06)  # on the arc at 1 m
+    assert np.all(np.abs(new[:, 1] - 2.5) < 0.15)  # and inside the 15-degree cone
+    r, c = int(2.5 / 0.05), int(1.5 / 0.05)
+    assert m.carved_at[r, c] == 1  # half a metre ahead: free
+    assert not m.occupied[r, c]
+
+
+def test_nothing_in_range_only_carves() -> None:
+    m = _map()
+    assert len(m.update([Cone(1.0, 2.5, 0.0, math.radians(7.5), 2.0, None)])) == 0
+    assert not m.occupied.any()
+    assert m.carved_at[int(2.5 / 0.05), int(2.9 / 0.05)] == 1
+
+
+def test_a_cell_seen_free_lately_is_not_marked_and_a_later_view_clears_a_wrong_mark() -> None:
+    m = _map()
+    m.update([Cone(1.0, 2.5, 0.0, math.radians(7.5), 3.0, 1.0)])
+    assert m.occupied[int(2.5 / 0.05), int(2.0 / 0.05)]
+    # looking from the side through the same place, the cone reads 2 m: the mark was wrong
+    m.update([Cone(2.0, 1.0, math.pi / 2, math.radians(7.5), 3.0, 2.5)])
+    assert not m.occupied[int(2.5 / 0.05), int(2.0 / 0.05)]
+
+
+def test_a_reading_the_map_explains_carves_but_does_not_mark() -> None:
+    m = _map()
+    assert len(m.update([Cone(1.0, 2.5, 0.0, math.radians(7.5), 3.0, 1.0, mark=False)])) == 0
+    assert not m.occupied.any()
+
+
+def test_known_walls_are_not_marked_again() -> None:
+    known = np.zeros((100, 100), dtype=bool)
+    known[:, 40:42] = True  # a wall at x = 2.0
+    m = SonarMap(known, 0.05)
+    assert len(m.update([Cone(1.0, 2.5, 0.0, math.radians(7.5), 3.0, 1.0)])) == 0
