@@ -25,7 +25,9 @@ logger = logging.getLogger(__name__)
 def available() -> list[str]:
     """Names of the agent programs that ship."""
     package = importlib.import_module("iw_zenoh.agents")
-    return sorted(m.name for m in pkgutil.iter_modules(package.__path__) if not m.name.startswith("_"))
+    names = sorted(m.name for m in pkgutil.iter_modules(package.__path__) if not m.name.startswith("_"))
+    # helper modules (the autopilot, the emulated chair) are not programs: a program has make()
+    return [n for n in names if hasattr(importlib.import_module(f"iw_zenoh.agents.{n}"), "make")]
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -49,3 +49,27 @@ def test_convoy_three_followers_keep_their_gaps_behind_the_leader(tmp_path: Path
     x = dict(zip(last.ids, last.x, strict=True))
     gaps = [x[4] - x[3], x[3] - x[2], x[2] - x[1]]
     assert all(1.6 < g < 2.8 for g in gaps), gaps  # about the 2 m asked, nobody left behind
+
+
+def test_the_autonomous_chair_finds_the_unknown_box_and_arrives_without_touching(tmp_path: Path) -> None:
+    r, rec = _run("find-the-box.toml", tmp_path)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "PASS collisions 0" in r.stdout
+    assert "PASS robot 1 within 0.5 m of (10.5, 3)" in r.stdout
+    ys = []
+    with rec.open("rb") as f:
+        for _, _, m in make_reader(f).iter_messages(topics=[keys.state("sc")]):
+            st = decode(m.data, WorldState)
+            if 5.0 < st.x[0] < 7.0:
+                ys.append(st.y[0])
+    assert ys
+    assert min(abs(y - 3.0) for y in ys) > 0.8  # it went round the box (0.8 m half height)
+
+
+def test_an_augmented_chair_misses_the_virtual_box_and_the_real_one(tmp_path: Path) -> None:
+    r, _ = _run("find-the-box-augmented.toml", tmp_path)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "PASS collisions 0" in r.stdout  # the virtual box, judged by the world at the reported pose
+    assert "PASS robot 1 within 0.5 m of (10.5, 3)" in r.stdout
+    log = (tmp_path / "agent-1-wheelchair.log").read_text()
+    assert "touched" not in log  # the real box, in the emulated chair's own room

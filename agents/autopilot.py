@@ -1,0 +1,293 @@
+"""The wheelchair's autonomous driving, pure: plan on the known map, follow the plan, map what
+the sonars find, replan when the plan is blocked.
+
+* Planning: hybrid A* over (x, y, heading) for the chair's own rectangle
+  (:mod:`iw_zenoh.core.poseplan`): the known walls grown by the chair's outline at each heading
+  (the configuration space, as ViRBot grows walls by its robot's radius, but for a rectangle
+  that turns about a point near its front axle).
+* Following: pure pursuit on the planned poses, turning on the spot where the plan does.
+* Mapping: every tick the cones carve free space, and a reading nearer than the known map
+  explains (the chair predicts each cone's reading on its map) marks its arc
+  (:mod:`iw_zenoh.core.sonarmap`); when a marked cell makes the rest of the plan collide, the
+  chair stops and plans again with what it has seen grown in.
+* Reactive safety: something nearer than ``stop_m`` ahead (a chair crossing, a closing door)
+  stops the chair whatever the plan says; it goes on once the way is clear, and plans again if
+  it stays blocked.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import numpy.typing as npt
+
+from iw_zenoh.core.bodies import Bodies
+from iw_zenoh.core.lab import Lab, Scene
+from iw_zenoh.core.poseplan import Footprint, PoseSpace, occupancy, pose_plan
+from iw_zenoh.core.sensors import proximity_distances
+from iw_zenoh.core.sonarmap import Cone, SonarMap
+from iw_zenoh.core.spec import IrSensorSpec, RobotSpec, prototype_chair
+
+from .waypoint import FINE_GPS
+
+__all__ = ["MAPPING_SENSORS", "Autopilot", "Drive", "cones_of", "mapping_chair"]
+
+FloatArray = npt.NDArray[np.float64]
+
+CELL_M = 0.05
+MARK_M = 3.0  # narrow cones: a reading this near marks its arc (5 degrees at 3 m is 0.26 m)
+LOOKAHEAD_M = 0.3
+TURN_IN_PLACE_DEG = 25.0  # turn on the spot when the lookahead point is further off than this
+CRUISE_MPS = 0.2
+TURN_RADPS = 0.35
+WINDOW_M = 4.0  # plan inside the box round start and goal grown by this much (the whole lab if that fails)
+BLOCKED_REPLAN_TICKS = 20  # stopped by something ahead this long: plan again round it
+EXPLAINED_M = (0.1, 0.08)  # a reading within a + b * d of what the known map predicts is the map, not news
+NO_PATH_RETRY_TICKS = 20  # no path: stand still and look this long, then try again
+FORGET_AFTER_FAILS = 3  # this many failed plans in a row: forget what the sonars marked
+
+
+MAPPING_SENSORS = tuple(
+    IrSensorSpec(i, x, y, a, 5.0, 3.0)
+    for i, (x, y, a) in enumerate(
+        [(0.8, 0.1 * k, 0.0) for k in range(-3, 4)]
+        + [(0.8, math.copysign(0.33, a), a) for a in (-15.0, 15.0, -30.0, 30.0, -45.0, 45.0, -60.0, 60.0, -75.0, 75.0)]
+        + [(x, math.copysign(0.33, a), a) for x in (0.5, 0.2, -0.1) for a in (-90.0, 90.0)]
+        + [(-0.2, 0.0, 180.0)]
+    )
+)  # twenty-four narrow (5-degree) infrared rangefinders, 3 m: seven ahead, ten round the front
+# corners, six along the sides, one behind
+
+
+def mapping_chair(name: str, **overrides: object) -> RobotSpec:
+    """The LIACC prototype's body with the narrow cones an autonomous chair maps with (its
+    eight 60-degree sonars cannot tell where along a corridor-wide arc a thing is) and a fine
+    GPS (a localised chair)."""
+    args: dict[str, object] = {"ir_sensors": MAPPING_SENSORS, "noise": FINE_GPS}
+    args.update(overrides)
+    return prototype_chair(name, **args)  # type: ignore[arg-type]
+
+
+@dataclass(frozen=True)
+class Drive:
+    """Wheel speeds asked for, m/s, and why."""
+
+    left_mps: float
+    right_mps: float
+    status: str
+
+
+def cones_of(
+    spec: RobotSpec, pose: tuple[float, float, float], ids: list[int], dists: list[float | None]
+) -> list[Cone]:
+    """The cones of a reading in world coordinates (pose: x, y, heading deg)."""
+    x, y, hdg = pose
+    th = math.radians(hdg)
+    c, s = math.cos(th), math.sin(th)
+    by_id = {m.id: m for m in spec.sensors}
+    out = []
+    for i, d in zip(ids, dists, strict=True):
+        m = by_id.get(i)
+        if m is None:
+            continue
+        out.append(
+            Cone(
+                x + c * m.x_m - s * m.y_m,
+                y + s * m.x_m + c * m.y_m,
+                th + math.radians(m.angle_deg),
+                math.radians(m.cone_deg) / 2,
+                m.range_m,
+                d,
+            )
+        )
+    return out
+
+
+@dataclass
+class Autopilot:
+    """Plans and follows a path to a goal for one chair.
+
+    Args:
+        spec: The chair (outline, centre of movement, sensors).
+        known: The map the chair knows (walls; closed doors count as walls).
+        margin_m: Kept clear of everything, on every side.
+        reach_m: The goal counts as reached this near.
+        stop_m: Stop when something is nearer than this ahead.
+    """
+
+    spec: RobotSpec
+    known: Lab
+    margin_m: float = 0.04
+    reach_m: float = 0.35
+    stop_m: float = 0.3
+    goal: tuple[float, float] | None = None
+    path: FloatArray | None = None
+    index: int = 0
+    replans: int = 0
+    blocked_ticks: int = 0
+    status: str = "idle"
+    _occ: npt.NDArray[np.bool_] = field(init=False, repr=False)
+    _space: PoseSpace | None = field(default=None, init=False, repr=False)
+    _replan: bool = field(default=False, init=False, repr=False)
+    _wait: int = field(default=0, init=False, repr=False)
+    _fails: int = field(default=0, init=False, repr=False)
+    _unwrapped: FloatArray = field(default_factory=lambda: np.zeros(0), init=False, repr=False)
+    sonar: SonarMap = field(init=False, repr=False)
+    fp: Footprint = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self._occ = occupancy(self.known, CELL_M)
+        self.sonar = SonarMap(self._occ, CELL_M, mark_m=MARK_M)
+        self.fp = Footprint.of(self.spec.width_m, self.spec.height_m, self.spec.com, self.margin_m)
+        self._front = {m.id for m in self.spec.sensors if abs(m.angle_deg) <= 10.0}
+        self._scene = Scene(self.known)
+        self._bodies = Bodies.from_specs([self.spec])
+        self._sensor_ids = self._bodies.ir_id.tolist()
+
+    def expected(self, pose: tuple[float, float, float]) -> dict[int, float]:
+        """What each cone would read on the known map at a pose (x, y, heading deg)."""
+        p = np.array([[pose[0], pose[1], math.radians(pose[2])]])
+        d = proximity_distances(self._scene, self._bodies, p)
+        return dict(zip(self._sensor_ids, d.tolist(), strict=True))
+
+    def unexplained(
+        self, pose: tuple[float, float, float], ids: list[int], dists: list[float | None]
+    ) -> list[float | None]:
+        """The readings with what the known map explains replaced by "nothing there": a cone
+        still carves free space up to its reading, but only news marks an arc."""
+        exp = self.expected(pose)
+        return [
+            None if d is None or d >= exp.get(i, math.inf) - EXPLAINED_M[0] - EXPLAINED_M[1] * d else d
+            for i, d in zip(ids, dists, strict=True)
+        ]
+
+    def set_goal(self, goal: tuple[float, float]) -> None:
+        """A new goal: the next step plans to it."""
+        self.goal = goal
+        self.path = None
+        self.status = "planning"
+
+    def arrived(self, pose: tuple[float, float, float]) -> bool:
+        """Whether the chair is at its goal."""
+        return (
+            self.goal is not None and math.hypot(self.goal[0] - pose[0], self.goal[1] - pose[1]) <= self.reach_m + 0.1
+        )
+
+    def _plan(self, pose: tuple[float, float, float]) -> None:
+        assert self.goal is not None
+        start = (pose[0], pose[1], math.radians(pose[2]))
+        (x0, x1), (y0, y1) = sorted((pose[0], self.goal[0])), sorted((pose[1], self.goal[1]))
+        # with every mark first; if that leaves no way, with the confirmed (near) ones only:
+        # far arcs are wide and the chair will see better when nearer
+        for seen in (self.sonar.occupied, self.sonar.confirmed):
+            occ = self._occ | seen
+            for window in ((x0 - WINDOW_M, y0 - WINDOW_M, x1 + WINDOW_M, y1 + WINDOW_M), None):
+                space = PoseSpace(occ, CELL_M, self.fp, window=window)
+                found = pose_plan(space, start, self.goal, reach_m=self.reach_m)
+                if found is not None:
+                    self._space, self.path, self.index = space, found.poses, 0
+                    self._unwrapped = np.unwrap(found.poses[:, 2])
+                    self.status = "driving"
+                    return
+        self._space, self.path = None, None
+        self.status = "no path"
+
+    def step(
+        self, pose: tuple[float, float, float], ids: list[int], dists: list[float | None], *, collided: bool = False
+    ) -> Drive:
+        """One tick: map, check the plan, follow it. Pose is (x, y, heading deg)."""
+        news = self.unexplained(pose, ids, dists)
+        cones = cones_of(self.spec, pose, ids, dists)
+        # carve with every reading, mark only with the unexplained ones
+        cones = [
+            c if n is not None or c.distance_m is None else replace(c, mark=False)
+            for c, n in zip(cones, news, strict=True)
+        ]
+        new = self.sonar.update(cones)
+        if self.goal is None or self.arrived(pose):
+            self.status = "arrived" if self.goal is not None else "idle"
+            return Drive(0.0, 0.0, self.status)
+        if self._wait > 0:
+            self._wait -= 1
+            return Drive(0.0, 0.0, self.status)
+        if self._replan or self.path is None:
+            self._replan = False
+            self._plan(pose)
+        if self.path is None or self._space is None:
+            self._fails += 1
+            self._wait = NO_PATH_RETRY_TICKS
+            if self._fails >= FORGET_AFTER_FAILS:
+                self._fails = 0
+                self.sonar.occupied[:] = False  # the marks may be wrong: look again
+            return Drive(0.0, 0.0, self.status)
+        self._fails = 0
+        if len(new):
+            self._space.add_points(new)
+            ahead = self.path[self.index :]
+            if not np.all(self._space.path_free(ahead[:: max(1, len(ahead) // 200)])):
+                self.replans += 1
+                self._replan = True  # stop now, plan next tick (a plan may take a while)
+                return Drive(0.0, 0.0, "replanning")
+        drive = self._follow(pose)
+        # reactive: something close ahead that neither map explains (it moved in, or was missed)
+        # stops forward motion; what is mapped the plan already keeps clear of
+        front = min(
+            (
+                d
+                for i, d, cone in zip(ids, news, cones, strict=True)
+                if d is not None and i in self._front and d < self.sonar.nearest(cone) - EXPLAINED_M[0]
+            ),
+            default=math.inf,
+        )
+        forward = drive.left_mps + drive.right_mps > 0.0
+        if (front < self.stop_m and forward) or collided:
+            self.blocked_ticks += 1
+            if self.blocked_ticks >= BLOCKED_REPLAN_TICKS:
+                self.blocked_ticks = 0
+                self.replans += 1
+                self._replan = True
+            return Drive(0.0, 0.0, "blocked")
+        self.blocked_ticks = 0
+        return drive
+
+    def _follow(self, pose: tuple[float, float, float]) -> Drive:
+        assert self.path is not None
+        x, y, hdg = pose
+        p = self.path
+        hu = self._unwrapped
+        # progress: the nearest path pose ahead (heading counts, so a turn on the spot is
+        # followed pose by pose)
+        lo, hi = self.index, min(len(p), self.index + 30)
+        th = hu[lo] + math.remainder(math.radians(hdg) - hu[lo], 2 * math.pi)
+        d2 = (p[lo:hi, 0] - x) ** 2 + (p[lo:hi, 1] - y) ** 2 + (0.3 * (hu[lo:hi] - th)) ** 2
+        self.index = lo + int(np.argmin(d2))
+        i = self.index
+        th = hu[i] + math.remainder(math.radians(hdg) - hu[i], 2 * math.pi)
+        # a turn on the spot ahead: poses at one place, headings changing; do it where planned
+        j = i
+        while j + 1 < len(p) and math.hypot(p[j + 1, 0] - p[j, 0], p[j + 1, 1] - p[j, 1]) < 1e-6:
+            j += 1
+        base = self.spec.height_m
+        if j > i or math.hypot(p[i, 0] - x, p[i, 1] - y) < 0.05 and abs(hu[j] - th) > math.radians(8.0):
+            err = hu[j] - th
+            if abs(err) > math.radians(3.0):
+                w = math.copysign(min(TURN_RADPS, 1.5 * abs(err) + 0.05), err)
+                return Drive(-w * base / 2, w * base / 2, "turning")
+        # pure pursuit to a point ahead, stopping short of the next turn
+        k = i
+        while k + 1 < len(p) and math.hypot(p[k, 0] - x, p[k, 1] - y) < LOOKAHEAD_M and abs(hu[k + 1] - hu[i]) < 0.2:
+            k += 1
+        tx, ty = p[k, 0], p[k, 1]
+        dist = math.hypot(tx - x, ty - y)
+        if dist < 0.03 or (k == len(p) - 1 and dist < 0.1):
+            self._replan = True  # the plan is used up short of the goal: plan the rest
+            return Drive(0.0, 0.0, "replanning")
+        err = math.remainder(math.atan2(ty - y, tx - x) - th, 2 * math.pi)
+        if abs(math.degrees(err)) > TURN_IN_PLACE_DEG:
+            w = math.copysign(min(TURN_RADPS, 1.5 * abs(err) + 0.05), err)
+            return Drive(-w * base / 2, w * base / 2, "turning")
+        v = CRUISE_MPS * min(1.0, 0.3 + dist / LOOKAHEAD_M)
+        w = v * 2.0 * math.sin(err) / max(dist, 0.05)
+        return Drive(v - w * base / 2, v + w * base / 2, "driving")

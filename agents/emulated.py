@@ -1,0 +1,130 @@
+"""A chair emulated in-process on the simulation core: the stand-in for real hardware.
+
+:class:`LocalWorld` steps robots on a lab with the core's motors, collision and sensors, with
+no Zenoh and no clock. Two uses:
+
+* the *emulated real chair* of the augmented mode: its own "true" world (the real room), its own
+  noisy sonars, and an odometry pose integrated from its wheel encoders (which slip, so the pose
+  it reports drifts from the truth, as a real chair's does);
+* fast, deterministic runs of an agent's logic in tests, with readings shaped exactly as the
+  sensors process sends them.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from iw_zenoh.core.bodies import Bodies
+from iw_zenoh.core.collision import check_collisions
+from iw_zenoh.core.lab import Lab, Scene
+from iw_zenoh.core.noise import Stream, rng_for
+from iw_zenoh.core.sensors import noise_layout, read_sensors
+from iw_zenoh.core.spec import RobotSpec
+from iw_zenoh.core.world import WorldState, commit, initial_state, propose
+from iw_zenoh.messages import SensorReading
+
+__all__ = ["LocalWorld", "Odometry"]
+
+
+class Odometry:
+    """Dead reckoning from wheel encoder counts (differential drive).
+
+    Args:
+        pose: Start (x, y, heading deg).
+        wheel_base_m: Distance between the wheels (the spec's Height).
+        ticks_per_m: Encoder ticks per metre.
+    """
+
+    def __init__(self, pose: tuple[float, float, float], wheel_base_m: float, ticks_per_m: float) -> None:
+        self.x, self.y = pose[0], pose[1]
+        self.th = math.radians(pose[2])
+        self.base = wheel_base_m
+        self.per_m = ticks_per_m
+        self._last = (0, 0)  # encoders count from zero at the start pose
+
+    def update(self, encoders: tuple[int, int]) -> tuple[float, float, float]:
+        """Advances by the counts since the last call; returns (x, y, heading deg)."""
+        dl = (encoders[0] - self._last[0]) / self.per_m
+        dr = (encoders[1] - self._last[1]) / self.per_m
+        d = 0.5 * (dl + dr)
+        dth = (dr - dl) / self.base
+        mid = self.th + 0.5 * dth
+        self.x += d * math.cos(mid)
+        self.y += d * math.sin(mid)
+        self.th = math.remainder(self.th + dth, 2 * math.pi)
+        self._last = encoders
+        return self.x, self.y, math.degrees(self.th)
+
+
+class LocalWorld:
+    """Robots stepped in-process on the core (native profile).
+
+    Args:
+        lab: The room (walls and obstacles).
+        specs: The robots, each with its id and start pose set.
+        seed: Seeds every robot's sensor stream.
+        dt_s: Tick length.
+    """
+
+    def __init__(self, lab: Lab, specs: Sequence[RobotSpec], *, seed: int = 0, dt_s: float = 0.1) -> None:
+        self.scene = Scene(lab)
+        self.specs = list(specs)
+        self.ids = [s.id for s in self.specs]
+        self.bodies = Bodies.from_specs(self.specs)
+        self.dt_s = dt_s
+        pose = np.array([[s.x_m or 0.0, s.y_m or 0.0, math.radians(s.dir_deg or 0.0)] for s in self.specs])
+        self.state: WorldState = initial_state(pose)
+        self.collisions = 0
+        self._rngs = [rng_for(seed, i, Stream.SENSORS) for i in self.ids]
+        self._counts, self._starts = noise_layout(self.bodies, len(lab.beacons))
+        self._enc = np.zeros((len(self.specs), 2))
+
+    def pose(self, robot_id: int) -> tuple[float, float, float]:
+        """The true pose (x, y, heading deg)."""
+        x, y, th = self.state.pose[self.ids.index(robot_id)]
+        return float(x), float(y), math.degrees(float(th))
+
+    def step(self, commands: dict[int, tuple[float, float]]) -> dict[int, SensorReading]:
+        """Applies the commands (robots not named keep theirs) for one tick; returns readings."""
+        cmd = self.state.cmd.copy()
+        for rid, (left, right) in commands.items():
+            cmd[self.ids.index(rid)] = (left, right)
+        st = WorldState(
+            self.state.tick, self.state.pose, self.state.motor_out, cmd, self.state.collided, self.state.rolled_m
+        )
+        prop = propose(st, self.bodies, dt_s=self.dt_s)
+        col = check_collisions(self.scene, self.bodies.outline, st.pose, prop.pose)
+        self.state = commit(st, prop, col)
+        self.collisions += int(np.count_nonzero(col.collided))
+        z = np.concatenate([g.standard_normal(int(c)) for g, c in zip(self._rngs, self._counts, strict=True)])
+        r = read_sensors(
+            self.scene,
+            self.bodies,
+            self.state.pose,
+            collided=self.state.collided,
+            encoder_acc=self._enc,
+            rolled_m=self.state.rolled_m,
+            z=z,
+        )
+        self._enc = r.encoder_acc
+        out: dict[int, SensorReading] = {}
+        owner = self.bodies.ir_owner
+        for i, rid in enumerate(self.ids):
+            sel = owner == i
+            prox = [None if not math.isfinite(v) else float(v) for v in r.proximity_m[sel].tolist()]
+            out[rid] = SensorReading(
+                tick=self.state.tick,
+                sim_time_ns=int(round(self.state.tick * self.dt_s * 1e9)),
+                robot_id=rid,
+                proximity_ids=self.bodies.ir_id[sel].tolist(),
+                proximity_m=prox,
+                proximity_legacy=r.proximity_legacy[sel].tolist(),
+                compass_deg=float(r.compass_deg[i]),
+                gps=(float(r.gps[i, 0]), float(r.gps[i, 1]), float(r.gps[i, 2])),
+                collision=bool(r.collision[i]),
+                encoders=(int(r.encoder_ticks[i, 0]), int(r.encoder_ticks[i, 1])),
+            )
+        return out

@@ -1,0 +1,318 @@
+"""``iwz agent wheelchair``: the wheelchair control agent, driven by hand or on its own.
+
+Autonomous (``--goal X,Y``): plans on the known map (``--map``) with A* over the chair's own
+(x, y, heading) configuration space, follows the plan, maps what its cones see and plans again
+when something blocks the way (see ``agents/autopilot.py``).
+
+Manual (``--teleop``): the terminal is the joystick. Arrows drive (up/down forward and back,
+left/right turn), space stops, + and - change the speed limit, q quits. A key held down repeats;
+when no key has come for ``--stale`` seconds the chair stops. A status line shows the speed limit
+and the nearest reading of each sensor.
+
+Chairs (``--chair``): ``simulated`` (virtual sensors only, the world moves the chair); ``augmented`` and ``real``
+drive a real chair that reports its own pose (odometry) to the world as a Real robot. This build
+has no serial link to hardware yet: ``--hardware emulated`` (the only choice) stands in a chair
+emulated on the core, in a room of its own (``--room``, the real obstacles), whose encoders slip so
+its odometry drifts. In ``augmented`` mode the virtual readings (at the reported pose) and the
+chair's own are merged conservatively: for each sensor the nearer reading wins. In ``real`` mode
+only the chair's own readings are used.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import math
+import os
+import select
+import sys
+import termios
+import threading
+import time
+import tty
+from dataclasses import replace
+
+from iw_zenoh.agent import Command
+from iw_zenoh.core.lab import Lab, Wall
+from iw_zenoh.core.motor import MAX_POWER
+from iw_zenoh.core.spec import NoiseSpec, RobotSpec, RobotType, SensorNoise
+from iw_zenoh.maps import load_lab
+from iw_zenoh.messages import Heard, SensorReading
+
+from .autopilot import Autopilot, mapping_chair
+from .emulated import LocalWorld, Odometry
+from .waypoint import FINE_GPS
+
+__all__ = ["EmulatedChair", "KeyReader", "Teleop", "Wheelchair", "add_arguments", "make", "merge_nearer"]
+
+logger = logging.getLogger(__name__)
+
+EMULATED_SLIP = NoiseSpec(0.0, 0.005)  # a decent encoder: 0.5 % slip per tick, odometry drifts slowly
+
+
+def merge_nearer(a: list[float | None], b: list[float | None]) -> list[float | None]:
+    """Per sensor, the nearer of two readings (None: nothing in range)."""
+    out: list[float | None] = []
+    for x, y in zip(a, b, strict=True):
+        out.append(y if x is None else x if y is None else min(x, y))
+    return out
+
+
+class EmulatedChair:
+    """A real chair, emulated: true motion and own sensors in its room, odometry from encoders.
+
+    Args:
+        spec: The chair (its start pose set).
+        room: The real room (walls and real obstacles).
+        seed: Noise seed.
+    """
+
+    def __init__(self, spec: RobotSpec, room: Lab, seed: int = 0) -> None:
+        noise = replace(spec.noise, encoder_slip=EMULATED_SLIP)
+        self.spec = replace(spec, id=1, type=RobotType.SIMULATED, noise=noise)
+        self.world = LocalWorld(room, [self.spec], seed=seed)
+        self.odometry = Odometry(
+            (spec.x_m or 0.0, spec.y_m or 0.0, spec.dir_deg or 0.0), spec.height_m, spec.encoder.ticks_per_m
+        )
+        self.pose = (spec.x_m or 0.0, spec.y_m or 0.0, spec.dir_deg or 0.0)
+        self.reading = self.world.step({})[1]
+        self.real_collisions = 0
+
+    def drive(self, left: float, right: float) -> None:
+        """One tick of the hardware at these powers."""
+        self.reading = self.world.step({1: (left, right)})[1]
+        self.pose = self.odometry.update(self.reading.encoders)
+        if self.reading.collision:
+            self.real_collisions += 1
+            logger.warning("the real chair touched something at %s (true pose)", self.world.pose(1))
+
+
+class KeyReader:
+    """Reads arrow keys, space, +, - and q from a terminal in cbreak mode, in a thread.
+
+    Args:
+        fd: The terminal's file descriptor (stdin).
+    """
+
+    KEYS = {b"\x1b[A": "up", b"\x1b[B": "down", b"\x1b[C": "right", b"\x1b[D": "left", b" ": "stop"}
+    KEYS |= {b"+": "faster", b"=": "faster", b"-": "slower", b"q": "quit"}
+
+    def __init__(self, fd: int) -> None:
+        self.fd = fd
+        self.last: str | None = None
+        self.at = -math.inf
+        self.quit = threading.Event()
+        self.ready = threading.Event()  # set once the terminal is in cbreak mode
+        self.lock = threading.Lock()
+        self._pending: list[str] = []
+
+    def feed(self, data: bytes) -> None:
+        """Parses bytes from the terminal."""
+        i = 0
+        while i < len(data):
+            for seq, name in self.KEYS.items():
+                if data.startswith(seq, i):
+                    with self.lock:
+                        self.last, self.at = name, time.monotonic()
+                        self._pending.append(name)
+                    if name == "quit":
+                        self.quit.set()
+                    i += len(seq)
+                    break
+            else:
+                i += 1  # an unknown byte: ignored
+
+    def take(self) -> list[str]:
+        """Keys pressed since the last call."""
+        with self.lock:
+            out, self._pending = self._pending, []
+            return out
+
+    def run(self) -> None:
+        """Reads until quit (call in a thread)."""
+        old = termios.tcgetattr(self.fd) if os.isatty(self.fd) else None
+        try:
+            if old is not None:
+                tty.setcbreak(self.fd)
+            self.ready.set()
+            while not self.quit.is_set():
+                ready, _, _ = select.select([self.fd], [], [], 0.1)
+                if ready:
+                    data = os.read(self.fd, 64)
+                    if not data:
+                        self.quit.set()
+                        break
+                    self.feed(data)
+        finally:
+            if old is not None:
+                termios.tcsetattr(self.fd, termios.TCSADRAIN, old)
+
+
+class Teleop:
+    """Keys to wheel powers, stopping on a stale key.
+
+    Args:
+        keys: The key reader.
+        limit: Speed limit as motor power (at most 0.15).
+        stale_s: Stop when no key came for this long.
+    """
+
+    def __init__(self, keys: KeyReader, *, limit: float = 0.06, stale_s: float = 0.5) -> None:
+        self.keys = keys
+        self.limit = limit
+        self.stale_s = stale_s
+
+    def command(self, now: float) -> tuple[float, float, str]:
+        """(left, right, what) for now."""
+        for k in self.keys.take():
+            if k == "faster":
+                self.limit = min(MAX_POWER, round(self.limit + 0.01, 3))
+            elif k == "slower":
+                self.limit = max(0.01, round(self.limit - 0.01, 3))
+        with self.keys.lock:
+            key, at = self.keys.last, self.keys.at
+        if key is None or now - at > self.stale_s or key in ("stop", "quit", "faster", "slower"):
+            return 0.0, 0.0, "stopped" if key != "quit" else "quit"
+        v, t = self.limit, 0.5 * self.limit
+        return {
+            "up": (v, v, "forward"),
+            "down": (-v, -v, "back"),
+            "left": (-t, t, "left"),
+            "right": (t, -t, "right"),
+        }[key]
+
+
+class Wheelchair:
+    """The wheelchair agent.
+
+    Args:
+        spec: The chair to register.
+        known: The map it plans on (autonomous).
+        goal: Where to go (autonomous), or None with ``teleop``.
+        mode: simulated, augmented or real.
+        hardware: The real chair (augmented and real modes).
+        teleop: Manual control.
+    """
+
+    def __init__(
+        self,
+        spec: RobotSpec,
+        known: Lab,
+        *,
+        goal: tuple[float, float] | None,
+        mode: str = "simulated",
+        hardware: EmulatedChair | None = None,
+        teleop: Teleop | None = None,
+    ) -> None:
+        self._spec = spec
+        self.mode = mode
+        self.hardware = hardware
+        self.teleop = teleop
+        self.pilot = Autopilot(spec, known)
+        if goal is not None:
+            self.pilot.set_goal(goal)
+        self.status = ""
+
+    def spec(self) -> RobotSpec:
+        """The chair to register (a Real robot when a real chair drives)."""
+        return self._spec
+
+    def on_sensors(self, reading: SensorReading, heard: list[Heard]) -> Command:
+        """This tick: sense (merged as the mode says), decide, drive."""
+        dists: list[float | None] = list(reading.proximity_m)
+        pose = reading.gps
+        hw = self.hardware
+        if hw is not None:
+            own = hw.reading
+            own_by_id = dict(zip(own.proximity_ids, own.proximity_m, strict=True))
+            mine = [own_by_id.get(i) for i in reading.proximity_ids]
+            dists = mine if self.mode == "real" else merge_nearer(dists, mine)
+            pose = hw.pose
+        collided = reading.collision or (hw is not None and hw.reading.collision)
+        if self.teleop is not None:
+            left, right, self.status = self.teleop.command(time.monotonic())
+            near = " ".join("-" if d is None else f"{d:.2f}" for d in dists)
+            print(
+                f"\r{self.status:8} limit {self.teleop.limit:.2f}  sensors {near}   ",
+                end="",
+                file=sys.stderr,
+                flush=True,
+            )
+        else:
+            d = self.pilot.step(pose, list(reading.proximity_ids), dists, collided=collided)
+            scale = MAX_POWER / self._spec.max_speed_mps
+            left, right, self.status = d.left_mps * scale, d.right_mps * scale, d.status
+        if hw is not None:
+            hw.drive(left, right)
+            return Command(0.0, 0.0, pose=hw.pose)
+        return Command(left, right)
+
+
+def _pose(text: str) -> tuple[float, float, float]:
+    parts = [float(v) for v in text.split(",")]
+    if len(parts) != 3:
+        raise ValueError(f"a pose is x,y,dir_deg, got {text!r}")
+    return parts[0], parts[1], parts[2]
+
+
+def _point(text: str) -> tuple[float, float]:
+    parts = [float(v) for v in text.split(",")]
+    if len(parts) != 2:
+        raise ValueError(f"a point is x,y, got {text!r}")
+    return parts[0], parts[1]
+
+
+def _boxes(text: str) -> tuple[Wall, ...]:
+    walls = []
+    for part in filter(None, (p.strip() for p in text.split(";"))):
+        x0, y0, x1, y1 = (float(v) for v in part.split(","))
+        walls.append(Wall(((x0, y0), (x1, y0), (x1, y1), (x0, y1)), 1.0))
+    return tuple(walls)
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """Options of ``iwz agent wheelchair``."""
+    p.add_argument("--map", required=True, help="the map the chair knows (Lab XML); obstacles not in it are found")
+    p.add_argument("--start", required=True, help="start pose x,y,dir_deg")
+    p.add_argument("--goal", default="", help="autonomous: drive to x,y")
+    p.add_argument("--teleop", action="store_true", help="manual: drive with the arrow keys in this terminal")
+    p.add_argument(
+        "--stale", type=float, default=0.5, help="teleop: stop when no key came for this long, s (default 0.5)"
+    )
+    p.add_argument(
+        "--limit", type=float, default=0.06, help="teleop: speed limit as motor power (default 0.06, max 0.15)"
+    )
+    p.add_argument(
+        "--chair",
+        choices=["simulated", "augmented", "real"],
+        default="simulated",
+        help="simulated (virtual sensors), augmented (a real chair, its sensors merged with the virtual ones) "
+        "or real (a real chair, its own sensors); default simulated",
+    )
+    p.add_argument("--hardware", choices=["emulated"], default="emulated", help="the real chair (augmented/real modes)")
+    p.add_argument("--room", default="", help="emulated hardware: its real room's obstacles x0,y0,x1,y1;... on --map")
+    p.add_argument("--id", type=int, default=0, help="robot id to ask for")
+    p.add_argument("--robot-name", default="wheelchair", help="robot name")
+    p.add_argument("--seed", type=int, default=0, help="emulated hardware noise seed")
+
+
+def make(args: argparse.Namespace) -> list[Wheelchair]:
+    """The chair the arguments ask for."""
+    if not args.teleop and not args.goal:
+        raise ValueError("say where to go (--goal X,Y) or drive by hand (--teleop)")
+    if not 0.0 < args.limit <= MAX_POWER:
+        raise ValueError(f"--limit must be in (0, {MAX_POWER}], got {args.limit}")
+    x, y, d = _pose(args.start)
+    known = load_lab(args.map)
+    spec = mapping_chair(args.robot_name, id=args.id, x_m=x, y_m=y, dir_deg=d, noise=FINE_GPS)
+    hardware = None
+    if args.chair != "simulated":
+        hardware = EmulatedChair(spec, known.with_walls(_boxes(args.room)), seed=args.seed)
+        spec = replace(spec, type=RobotType.REAL, noise=SensorNoise())
+    teleop = None
+    if args.teleop:
+        keys = KeyReader(sys.stdin.fileno())
+        threading.Thread(target=keys.run, name="keys", daemon=True).start()
+        teleop = Teleop(keys, limit=args.limit, stale_s=args.stale)
+    goal = _point(args.goal) if args.goal else None
+    return [Wheelchair(spec, known, goal=goal, mode=args.chair, hardware=hardware, teleop=teleop)]

@@ -1,0 +1,82 @@
+"""The autonomous driving logic on the in-process core (agents.emulated), no Zenoh."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from iw_zenoh.agents.autopilot import Autopilot, mapping_chair
+from iw_zenoh.agents.emulated import LocalWorld, Odometry
+
+from iw_zenoh.core.lab import Lab
+from iw_zenoh.core.motor import MAX_POWER
+from tests.conftest import box_wall
+
+KNOWN = Lab("open", 12.0, 6.0)
+ROOM = KNOWN.with_walls((box_wall(5.5, 2.2, 6.5, 3.8),))  # a box in the way
+
+
+def _drive(known: Lab, ticks: int = 1200) -> tuple[LocalWorld, Autopilot, str]:
+    spec = mapping_chair("c", id=1, x_m=1.5, y_m=3.0, dir_deg=0.0)
+    world = LocalWorld(ROOM, [spec], seed=1)
+    ap = Autopilot(spec, known)
+    ap.set_goal((10.5, 3.0))
+    r = world.step({})[1]
+    status = ""
+    scale = MAX_POWER / spec.max_speed_mps
+    for _ in range(ticks):
+        d = ap.step(r.gps, r.proximity_ids, r.proximity_m, collided=r.collision)
+        status = d.status
+        if status == "arrived":
+            break
+        r = world.step({1: (d.left_mps * scale, d.right_mps * scale)})[1]
+    return world, ap, status
+
+
+def test_a_chair_that_knows_the_box_plans_round_it_and_arrives_without_touching() -> None:
+    world, ap, status = _drive(ROOM)
+    assert status == "arrived"
+    x, y, _ = world.pose(1)
+    assert math.hypot(x - 10.5, y - 3.0) < 0.5
+    assert world.collisions == 0
+    assert ap.replans == 0
+
+
+def test_a_chair_that_does_not_know_the_box_finds_it_replans_and_arrives_without_touching() -> None:
+    world, ap, status = _drive(KNOWN)
+    assert status == "arrived"
+    assert world.collisions == 0
+    assert ap.replans >= 1  # the first plan went straight through the box
+    assert ap.sonar.occupied.any()  # what it found is on its map
+
+
+def test_a_chair_with_no_way_through_stands_still() -> None:
+    shut = Lab("shut", 12.0, 6.0, (box_wall(5.9, 0.0, 6.1, 6.0),))
+    spec = mapping_chair("c", id=1, x_m=1.5, y_m=3.0, dir_deg=0.0)
+    ap = Autopilot(spec, shut)
+    ap.set_goal((10.5, 3.0))
+    world = LocalWorld(shut, [spec], seed=1)
+    r = world.step({})[1]
+    d = ap.step(r.gps, r.proximity_ids, r.proximity_m)
+    assert (d.left_mps, d.right_mps, d.status) == (0.0, 0.0, "no path")
+
+
+@pytest.mark.parametrize("slip", [0.0, 0.02])
+def test_odometry_follows_the_encoders_and_drifts_only_when_wheels_slip(slip: float) -> None:
+    from dataclasses import replace
+
+    from iw_zenoh.core.spec import NoiseSpec, SensorNoise
+
+    noise = replace(SensorNoise(), encoder_slip=NoiseSpec(0.0, slip, enabled=slip > 0))
+    spec = mapping_chair("c", id=1, x_m=1.0, y_m=3.0, dir_deg=0.0, noise=noise)
+    world = LocalWorld(KNOWN, [spec], seed=4)
+    odo = Odometry((1.0, 3.0, 0.0), spec.height_m, spec.encoder.ticks_per_m)
+    for _ in range(100):
+        r = world.step({1: (0.08, 0.1)})[1]  # a gentle left arc
+        est = odo.update(r.encoders)
+    x, y, h = world.pose(1)
+    err = math.hypot(est[0] - x, est[1] - y)
+    if slip == 0.0:
+        assert err < 0.01
+    else:
+        assert err > 0.01  # slip: the odometry pose drifts from the truth

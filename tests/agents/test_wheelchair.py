@@ -1,0 +1,103 @@
+"""The wheelchair agent's parts: teleop over a real pseudo-terminal, merging, the emulated chair."""
+
+from __future__ import annotations
+
+import os
+import pty
+import threading
+import time
+from collections.abc import Iterator
+
+import pytest
+from iw_zenoh.agents.autopilot import mapping_chair
+from iw_zenoh.agents.wheelchair import EmulatedChair, KeyReader, Teleop, merge_nearer
+
+from iw_zenoh.core.lab import Lab
+
+
+def test_merging_keeps_the_nearer_reading_of_each_sensor() -> None:
+    assert merge_nearer([1.0, None, 0.5, None], [0.8, 2.0, None, None]) == [0.8, 2.0, 0.5, None]
+
+
+@pytest.fixture
+def terminal() -> Iterator[tuple[int, KeyReader]]:
+    master, slave = pty.openpty()
+    keys = KeyReader(slave)
+    t = threading.Thread(target=keys.run, daemon=True)
+    t.start()
+    assert keys.ready.wait(5.0)
+    yield master, keys
+    keys.quit.set()
+    t.join(timeout=5)
+    os.close(master)
+    os.close(slave)
+
+
+def _wait_key(keys: KeyReader, name: str) -> None:
+    deadline = time.monotonic() + 5.0
+    while keys.last != name and time.monotonic() < deadline:
+        keys.quit.wait(0.01)
+    assert keys.last == name
+
+
+def test_arrow_keys_on_a_terminal_drive_and_space_stops(terminal: tuple[int, KeyReader]) -> None:
+    master, keys = terminal
+    tele = Teleop(keys, limit=0.06, stale_s=10.0)
+    os.write(master, b"\x1b[A")
+    _wait_key(keys, "up")
+    assert tele.command(time.monotonic()) == (0.06, 0.06, "forward")
+    os.write(master, b"\x1b[D")
+    _wait_key(keys, "left")
+    left, right, _ = tele.command(time.monotonic())
+    assert left < 0 < right
+    os.write(master, b" ")
+    _wait_key(keys, "stop")
+    assert tele.command(time.monotonic())[:2] == (0.0, 0.0)
+
+
+def test_plus_and_minus_change_the_speed_limit_within_bounds(terminal: tuple[int, KeyReader]) -> None:
+    master, keys = terminal
+    tele = Teleop(keys, limit=0.14, stale_s=10.0)
+    os.write(master, b"+++")
+    deadline = time.monotonic() + 5.0
+    while len(keys._pending) < 3 and time.monotonic() < deadline:
+        keys.quit.wait(0.01)
+    tele.command(time.monotonic())
+    assert tele.limit == 0.15  # never above the motors' limit
+    os.write(master, b"-\x1b[A")
+    _wait_key(keys, "up")
+    assert tele.command(time.monotonic())[:2] == (0.14, 0.14)
+
+
+def test_a_stale_key_stops_the_chair(terminal: tuple[int, KeyReader]) -> None:
+    master, keys = terminal
+    tele = Teleop(keys, limit=0.06, stale_s=0.5)
+    os.write(master, b"\x1b[A")
+    _wait_key(keys, "up")
+    now = keys.at
+    assert tele.command(now + 0.1)[:2] == (0.06, 0.06)
+    assert tele.command(now + 0.6) == (0.0, 0.0, "stopped")  # held key not repeated: stop
+
+
+def test_q_quits_and_unknown_bytes_are_ignored(terminal: tuple[int, KeyReader]) -> None:
+    master, keys = terminal
+    os.write(master, b"xyz\x1b[Zq")
+    assert keys.quit.wait(5.0)
+    assert keys.last == "quit"
+
+
+def test_the_emulated_chair_moves_reports_odometry_and_sees_its_own_room() -> None:
+    from tests.conftest import box_wall
+
+    room = Lab("r", 10.0, 6.0, (box_wall(4.0, 2.0, 5.0, 4.0),))
+    hw = EmulatedChair(mapping_chair("c", id=7, x_m=1.0, y_m=3.0, dir_deg=0.0), room, seed=3)
+    ahead = [d for i, d in zip(hw.reading.proximity_ids, hw.reading.proximity_m, strict=True) if i == 3][0]
+    assert ahead is not None
+    assert ahead == pytest.approx(4.0 - 1.0 - 0.8, abs=0.05)
+    for _ in range(30):
+        hw.drive(0.06, 0.06)
+    x, y, _ = hw.pose
+    tx, ty, _ = hw.world.pose(1)
+    assert x > 1.3
+    assert abs(x - tx) < 0.05  # the odometry pose follows the truth (and drifts slowly)
+    assert hw.real_collisions == 0
