@@ -44,6 +44,7 @@ CRUISE_MPS = 0.2
 TURN_RADPS = 0.35
 WINDOW_M = 4.0  # plan inside the box round start and goal grown by this much (the whole lab if that fails)
 BLOCKED_REPLAN_TICKS = 20  # stopped by something ahead this long: plan again round it
+PLAN_EXPAND = 30_000  # give up a plan after this many states (about 2 s here)
 EXPLAINED_M = (0.1, 0.08)  # a reading within a + b * d of what the known map predicts is the map, not news
 NO_PATH_RETRY_TICKS = 20  # no path: stand still and look this long, then try again
 FORGET_AFTER_FAILS = 3  # this many failed plans in a row: forget what the sonars marked
@@ -115,6 +116,7 @@ class Autopilot:
         margin_m: Kept clear of everything, on every side.
         reach_m: The goal counts as reached this near.
         stop_m: Stop when something is nearer than this ahead.
+        movers: (x, y, radius) places where something known moves (a door's leaf): not mapped.
     """
 
     spec: RobotSpec
@@ -133,6 +135,7 @@ class Autopilot:
     _replan: bool = field(default=False, init=False, repr=False)
     _wait: int = field(default=0, init=False, repr=False)
     _fails: int = field(default=0, init=False, repr=False)
+    movers: list[tuple[float, float, float]] = field(default_factory=list)
     _unwrapped: FloatArray = field(default_factory=lambda: np.zeros(0), init=False, repr=False)
     sonar: SonarMap = field(init=False, repr=False)
     fp: Footprint = field(init=False, repr=False)
@@ -169,6 +172,18 @@ class Autopilot:
         self.path = None
         self.status = "planning"
 
+    def _at_mover(self, cone: Cone, d: float) -> bool:
+        """Whether a reading hits where a known mover is (a door's leaf)."""
+        hx, hy = cone.x + d * math.cos(cone.angle_rad), cone.y + d * math.sin(cone.angle_rad)
+        return any((hx - mx) ** 2 + (hy - my) ** 2 <= mr**2 for mx, my, mr in self.movers)
+
+    def passes_near(self, x: float, y: float, within_m: float) -> bool:
+        """Whether the rest of the plan passes within ``within_m`` of (x, y)."""
+        if self.path is None:
+            return False
+        rest = self.path[self.index :]
+        return bool(np.any((rest[:, 0] - x) ** 2 + (rest[:, 1] - y) ** 2 <= within_m**2))
+
     def arrived(self, pose: tuple[float, float, float]) -> bool:
         """Whether the chair is at its goal."""
         return (
@@ -183,9 +198,11 @@ class Autopilot:
         # far arcs are wide and the chair will see better when nearer
         for seen in (self.sonar.occupied, self.sonar.confirmed):
             occ = self._occ | seen
-            for window in ((x0 - WINDOW_M, y0 - WINDOW_M, x1 + WINDOW_M, y1 + WINDOW_M), None):
+            box = (x0 - WINDOW_M, y0 - WINDOW_M, x1 + WINDOW_M, y1 + WINDOW_M)
+            whole = box[0] <= 0 and box[1] <= 0 and box[2] >= self.known.width_m and box[3] >= self.known.height_m
+            for window in (box,) if whole else (box, None):
                 space = PoseSpace(occ, CELL_M, self.fp, window=window)
-                found = pose_plan(space, start, self.goal, reach_m=self.reach_m)
+                found = pose_plan(space, start, self.goal, reach_m=self.reach_m, max_expand=PLAN_EXPAND)
                 if found is not None:
                     self._space, self.path, self.index = space, found.poses, 0
                     self._unwrapped = np.unwrap(found.poses[:, 2])
@@ -206,6 +223,14 @@ class Autopilot:
             for c, n in zip(cones, news, strict=True)
         ]
         new = self.sonar.update(cones)
+        if self.movers and len(new):
+            keep = np.ones(len(new), dtype=bool)
+            for mx, my, mr in self.movers:
+                inside = (new[:, 0] - mx) ** 2 + (new[:, 1] - my) ** 2 <= mr**2
+                keep &= ~inside
+                cells = (new[inside] / CELL_M).astype(np.int64)
+                self.sonar.occupied[cells[:, 1], cells[:, 0]] = False
+            new = new[keep]
         if self.goal is None or self.arrived(pose):
             self.status = "arrived" if self.goal is not None else "idle"
             return Drive(0.0, 0.0, self.status)
@@ -237,7 +262,10 @@ class Autopilot:
             (
                 d
                 for i, d, cone in zip(ids, news, cones, strict=True)
-                if d is not None and i in self._front and d < self.sonar.nearest(cone) - EXPLAINED_M[0]
+                if d is not None
+                and i in self._front
+                and d < self.sonar.nearest(cone) - EXPLAINED_M[0]
+                and not self._at_mover(cone, d)
             ),
             default=math.inf,
         )

@@ -5,8 +5,12 @@ The state machine of the seed's Fig. 5.5: Closed -> (something detected) -> Open
 Closing -> (back where it was) -> Closed. While opening or closing a collision stops the
 movement and it resumes when the collision clears; something detected while closing opens the
 door again (nobody gets shut in). A revolving door turns while something is detected and stops
-after the timeout. The policy here is "open on proximity" (the seed's test); the negotiation
-policy over the radio is the next step.
+after the timeout.
+
+Two policies: ``proximity`` opens when a door sensor detects something (the seed's test);
+``negotiate`` opens for the chairs that ask over the radio and grants the doorway to one at a
+time (``agents/passage.py`` has the protocol). Under either, a closing door that detects
+something opens again.
 """
 
 from __future__ import annotations
@@ -19,6 +23,8 @@ from dataclasses import dataclass, replace
 from iw_zenoh.agent import Command
 from iw_zenoh.core.spec import IrSensorSpec, NoiseSpec, RobotSpec, RobotType, SensorNoise
 from iw_zenoh.messages import Heard, SensorReading
+
+from .passage import Arbiter, join, parse_all
 
 __all__ = ["DoorKind", "DoorMachine", "DoorParams", "DoorState", "add_arguments", "door_spec", "make"]
 
@@ -163,12 +169,27 @@ def door_spec(name: str, kind: DoorKind, *, x: float, y: float, dir_deg: float, 
 
 
 class DoorAgent:
-    """A door driven by its state machine from its own sensors."""
+    """A door driven by its state machine from its own sensors, or by negotiation.
 
-    def __init__(self, spec: RobotSpec, params: DoorParams, dt_s: float = 0.1) -> None:
+    Args:
+        spec: The door body.
+        params: Behaviour.
+        dt_s: Tick length.
+        negotiate: Open for chairs that ask over the radio (else on proximity).
+    """
+
+    def __init__(self, spec: RobotSpec, params: DoorParams, dt_s: float = 0.1, *, negotiate: bool = False) -> None:
         self._spec = spec
         self.machine = DoorMachine(params, (spec.x_m or 0.0, spec.y_m or 0.0, spec.dir_deg or 0.0))
         self.dt_s = dt_s
+        self.arbiter: Arbiter | None = None
+        self.negotiate = negotiate
+        self._outbox: list[str] = []
+
+    def on_registered(self, robot_id: int, spec: RobotSpec) -> None:
+        """Learns its id (the protocol names doors by robot id)."""
+        if self.negotiate:
+            self.arbiter = Arbiter(robot_id)
 
     def spec(self) -> RobotSpec:
         """The door to register."""
@@ -178,8 +199,16 @@ class DoorAgent:
         """One tick of the state machine."""
         near = [d for d in reading.proximity_m if d is not None]
         detected = bool(near) and min(near) < self.machine.p.detect_m
+        say = None
+        if self.arbiter is not None:
+            msgs = [m for h in heard for m in parse_all(h.text)]
+            is_open = self.machine.state == DoorState.OPEN
+            answers = self.arbiter.step(msgs, reading.sim_time_ns / 1e9, is_open)
+            say, self._outbox = join(self._outbox + [a.text() for a in answers])
+            # open for the chairs that want it; a closing door still reopens for what it detects
+            detected = self.arbiter.wanted or (detected and self.machine.state == DoorState.CLOSING)
         left, right = self.machine.step(detected=detected, collided=reading.collision, pose=reading.gps, dt_s=self.dt_s)
-        return Command(left, right)
+        return Command(left, right, say=say)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -191,6 +220,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--detect", type=float, default=1.0, help="open when something is this near, m (default 1)")
     p.add_argument("--timeout", type=float, default=3.0, help="close after this long with nothing near, s (default 3)")
     p.add_argument(
+        "--policy",
+        choices=["proximity", "negotiate"],
+        default="proximity",
+        help="open when something is detected (default) or for chairs that ask over the radio",
+    )
+    p.add_argument(
         "--test-door", action="store_true", help="the seed's test door of section 7.4 (1 m leaf along the heading)"
     )
 
@@ -200,4 +235,5 @@ def make(args: argparse.Namespace) -> list[DoorAgent]:
     x, y, d = (float(v) for v in args.at.split(","))
     kind = DoorKind(args.kind)
     spec = replace(door_spec(args.robot_name, kind, x=x, y=y, dir_deg=d, test_door=args.test_door), id=args.id)
-    return [DoorAgent(spec, DoorParams(kind=kind, detect_m=args.detect, timeout_s=args.timeout))]
+    params = DoorParams(kind=kind, detect_m=args.detect, timeout_s=args.timeout)
+    return [DoorAgent(spec, params, negotiate=args.policy == "negotiate")]

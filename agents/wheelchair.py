@@ -9,6 +9,9 @@ left/right turn), space stops, + and - change the speed limit, q quits. A key he
 when no key has come for ``--stale`` seconds the chair stops. A status line shows the speed limit
 and the nearest reading of each sensor.
 
+Doors (``--door ID,X,Y``): a negotiated door on the way. Within 4 m the chair asks it for
+passage over the radio (``agents/passage.py``), and without a grant it stops 2.3 m from it.
+
 Chairs (``--chair``): ``simulated`` (virtual sensors only, the world moves the chair); ``augmented`` and ``real``
 drive a real chair that reports its own pose (odometry) to the world as a Real robot. This build
 has no serial link to hardware yet: ``--hardware emulated`` (the only choice) stands in a chair
@@ -30,7 +33,7 @@ import termios
 import threading
 import time
 import tty
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 from iw_zenoh.agent import Command
 from iw_zenoh.core.lab import Lab, Wall
@@ -41,6 +44,7 @@ from iw_zenoh.messages import Heard, SensorReading
 
 from .autopilot import Autopilot, mapping_chair
 from .emulated import LocalWorld, Odometry
+from .passage import Client, parse_all
 from .waypoint import FINE_GPS
 
 __all__ = ["EmulatedChair", "KeyReader", "Teleop", "Wheelchair", "add_arguments", "make", "merge_nearer"]
@@ -48,6 +52,23 @@ __all__ = ["EmulatedChair", "KeyReader", "Teleop", "Wheelchair", "add_arguments"
 logger = logging.getLogger(__name__)
 
 EMULATED_SLIP = NoiseSpec(0.0, 0.005)  # a decent encoder: 0.5 % slip per tick, odometry drifts slowly
+ASK_M = 4.0  # ask a door on the way for passage from this far
+WAIT_M = 2.3  # without a grant, stop this far from the door (its leaf swings 1 m)
+NEAR_M = 0.8  # in the doorway
+DOORWAY_R = 0.6  # the closed leaf lies within this of the doorway's middle: not an obstacle to map
+HYSTERESIS_M = 0.4  # once waiting, wait until granted or this much farther than WAIT_M
+THROUGH_M = 1.5  # this far again after the doorway: through
+
+
+@dataclass
+class Gate:
+    """A negotiated door on the chair's way: where it is and the protocol's chair side."""
+
+    client: Client
+    x: float
+    y: float
+    near: bool = False
+    waiting: bool = False
 
 
 def merge_nearer(a: list[float | None], b: list[float | None]) -> list[float | None]:
@@ -203,15 +224,47 @@ class Wheelchair:
         mode: str = "simulated",
         hardware: EmulatedChair | None = None,
         teleop: Teleop | None = None,
+        doors: list[tuple[int, float, float]] | None = None,
     ) -> None:
         self._spec = spec
         self.mode = mode
         self.hardware = hardware
         self.teleop = teleop
-        self.pilot = Autopilot(spec, known)
+        self.pilot = Autopilot(spec, known, movers=[(x, y, DOORWAY_R) for _, x, y in doors or []])
         if goal is not None:
             self.pilot.set_goal(goal)
         self.status = ""
+        self._last_status = ""
+        self.doors = doors or []
+        self.gates: list[Gate] = []
+
+    def on_registered(self, robot_id: int, spec: RobotSpec) -> None:
+        """Learns its id (the passage protocol names chairs by robot id)."""
+        self.gates = [Gate(Client(d, robot_id), x, y) for d, x, y in self.doors]
+
+    def _negotiate(
+        self, pose: tuple[float, float, float], heard: list[Heard], now_s: float
+    ) -> tuple[str | None, int | None]:
+        """Talks to the doors on the way; returns (what to say, the door to wait for or None)."""
+        msgs = [m for h in heard for m in parse_all(h.text)]
+        say: str | None = None
+        wait_for: int | None = None
+        for g in self.gates:
+            g.client.hear(msgs, now_s)
+            d = math.hypot(g.x - pose[0], g.y - pose[1])
+            if d < NEAR_M:
+                g.near = True
+            through = g.near and d > THROUGH_M
+            if through:
+                g.near = False
+            wants = d < ASK_M and (g.near or self.pilot.passes_near(g.x, g.y, 1.0)) and not through
+            text = g.client.say(now_s, wants=wants, eta_s=d / 0.2, through=through)
+            say = say or text
+            limit = WAIT_M + (HYSTERESIS_M if g.waiting else 0.0)
+            g.waiting = wants and not g.near and d < limit and not g.client.granted(now_s)
+            if g.waiting:
+                wait_for = g.client.door
+        return say, wait_for
 
     def spec(self) -> RobotSpec:
         """The chair to register (a Real robot when a real chair drives)."""
@@ -229,6 +282,7 @@ class Wheelchair:
             dists = mine if self.mode == "real" else merge_nearer(dists, mine)
             pose = hw.pose
         collided = reading.collision or (hw is not None and hw.reading.collision)
+        say: str | None = None
         if self.teleop is not None:
             left, right, self.status = self.teleop.command(time.monotonic())
             near = " ".join("-" if d is None else f"{d:.2f}" for d in dists)
@@ -239,13 +293,20 @@ class Wheelchair:
                 flush=True,
             )
         else:
-            d = self.pilot.step(pose, list(reading.proximity_ids), dists, collided=collided)
-            scale = MAX_POWER / self._spec.max_speed_mps
-            left, right, self.status = d.left_mps * scale, d.right_mps * scale, d.status
+            say, wait_for = self._negotiate(pose, heard, reading.sim_time_ns / 1e9) if self.gates else (None, None)
+            if wait_for is not None:
+                left, right, self.status = 0.0, 0.0, f"waiting for door {wait_for}"
+            else:
+                d = self.pilot.step(pose, list(reading.proximity_ids), dists, collided=collided)
+                scale = MAX_POWER / self._spec.max_speed_mps
+                left, right, self.status = d.left_mps * scale, d.right_mps * scale, d.status
+        if self.status != self._last_status:
+            logger.info("t=%.1f s at (%.2f, %.2f): %s", reading.sim_time_ns / 1e9, pose[0], pose[1], self.status)
+            self._last_status = self.status
         if hw is not None:
             hw.drive(left, right)
-            return Command(0.0, 0.0, pose=hw.pose)
-        return Command(left, right)
+            return Command(0.0, 0.0, pose=hw.pose, say=say)
+        return Command(left, right, say=say)
 
 
 def _pose(text: str) -> tuple[float, float, float]:
@@ -291,6 +352,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--hardware", choices=["emulated"], default="emulated", help="the real chair (augmented/real modes)")
     p.add_argument("--room", default="", help="emulated hardware: its real room's obstacles x0,y0,x1,y1;... on --map")
+    p.add_argument(
+        "--door",
+        action="append",
+        default=[],
+        metavar="ID,X,Y",
+        help="a negotiated door on the way: its robot id and the middle of its doorway (repeat for more)",
+    )
     p.add_argument("--id", type=int, default=0, help="robot id to ask for")
     p.add_argument("--robot-name", default="wheelchair", help="robot name")
     p.add_argument("--seed", type=int, default=0, help="emulated hardware noise seed")
@@ -315,4 +383,10 @@ def make(args: argparse.Namespace) -> list[Wheelchair]:
         threading.Thread(target=keys.run, name="keys", daemon=True).start()
         teleop = Teleop(keys, limit=args.limit, stale_s=args.stale)
     goal = _point(args.goal) if args.goal else None
-    return [Wheelchair(spec, known, goal=goal, mode=args.chair, hardware=hardware, teleop=teleop)]
+    doors = []
+    for text in args.door:
+        parts = text.split(",")
+        if len(parts) != 3:
+            raise ValueError(f"--door is ID,X,Y, got {text!r}")
+        doors.append((int(parts[0]), float(parts[1]), float(parts[2])))
+    return [Wheelchair(spec, known, goal=goal, mode=args.chair, hardware=hardware, teleop=teleop, doors=doors)]

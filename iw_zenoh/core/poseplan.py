@@ -236,6 +236,43 @@ def _primitives() -> list[tuple[FloatArray, float, bool]]:
 
 
 PRIMITIVES = _primitives()
+COARSE = 4  # the heuristic's grid: cells this many planning cells across
+
+
+def _wavefront(space: PoseSpace, goal: Point, reach_m: float) -> tuple[npt.NDArray[np.float64], float]:
+    """Steps (8-connected, so never more than the straight-line distance) from every coarse cell
+    to the goal through cells where the chair fits at some heading: a lower bound of the path
+    length that, unlike the straight line, knows about walls (so A* looks for the doorway
+    instead of filling the room first). Returns (steps, coarse cell size)."""
+    k = COARSE
+    fits = ~np.all(space.blocked, axis=0)
+    rows, cols = -(-space.rows // k), -(-space.cols // k)
+    pad = np.zeros((rows * k, cols * k), dtype=bool)
+    pad[: space.rows, : space.cols] = fits
+    free = pad.reshape(rows, k, cols, k).any(axis=(1, 3))
+    size = space.cell_m * k
+    gr = int((goal[1] / space.cell_m - space.r0) / k)
+    gc = int((goal[0] / space.cell_m - space.c0) / k)
+    dist = np.full((rows, cols), np.inf)
+    rr, cc = np.mgrid[0:rows, 0:cols]
+    seed = np.hypot(rr - gr, cc - gc) <= reach_m / size + 1
+    front = seed & free
+    if not front.any():
+        front = seed
+    reached = front.copy()
+    steps = 0
+    while front.any():
+        dist[front] = steps
+        grown = front.copy()
+        grown[1:, :] |= front[:-1, :]
+        grown[:-1, :] |= front[1:, :]
+        g2 = grown.copy()
+        g2[:, 1:] |= grown[:, :-1]
+        g2[:, :-1] |= grown[:, 1:]
+        front = g2 & free & ~reached
+        reached |= front
+        steps += 1
+    return dist, size
 
 
 def pose_plan(
@@ -245,7 +282,7 @@ def pose_plan(
     *,
     reach_m: float = 0.1,
     max_expand: int = 60_000,
-    weight: float = 1.5,
+    weight: float = 2.0,
 ) -> PosePath | None:
     """Hybrid A* from a pose to within ``reach_m`` of a point, for the rectangular chair: arcs
     of a few curvatures and turns on the spot, each checked against the chair's outline every
@@ -272,6 +309,17 @@ def pose_plan(
 
     def key(x: float, y: float, th: float) -> tuple[int, int, int]:
         return int(x / cell), int(y / cell), round(th / bin_rad) % NH
+
+    wave, wsize = _wavefront(space, goal, reach_m)
+    wrows, wcols = wave.shape
+
+    def h_of(x: float, y: float) -> float:
+        straight = max(0.0, math.hypot(gx - x, gy - y) - reach_m)
+        r = int((y / cell - r0) / COARSE)
+        c = int((x / cell - c0) / COARSE)
+        if 0 <= r < wrows and 0 <= c < wcols and math.isfinite(wave[r, c]):
+            return max(straight, float(wave[r, c] - 2.0) * wsize)
+        return straight
 
     # every primitive's samples at once: (P, S) offsets, and which are turns on the spot
     px = np.stack([q[0][:, 0] for q in PRIMITIVES])
@@ -318,7 +366,7 @@ def pose_plan(
                 poses.append((nx, ny, nt))
                 parent.append(node)
                 via.append(np.column_stack([wx[i], wy[i], wt[i]]))
-                h = max(0.0, math.hypot(gx - nx, gy - ny) - reach_m)
+                h = h_of(nx, ny)
                 heapq.heappush(heap, (new + weight * h, new, len(poses) - 1))
     if end < 0:
         return None
