@@ -39,8 +39,9 @@ FloatArray = npt.NDArray[np.float64]
 CELL_M = 0.05
 MARK_M = 3.0  # narrow cones: a reading this near marks its arc (5 degrees at 3 m is 0.26 m)
 LOOKAHEAD_M = 0.3
-TURN_IN_PLACE_DEG = 25.0  # turn on the spot when the lookahead point is further off than this
+TURN_IN_PLACE_DEG = 45.0  # off the plan by more than this (not a planned turn): turn on the spot
 CRUISE_MPS = 0.2
+SLOW_SHARE = 0.35  # the slowest share of cruise speed, when something is within 0.24 m
 TURN_RADPS = 0.35
 WINDOW_M = 4.0  # plan inside the box round start and goal grown by this much (the whole lab if that fails)
 BLOCKED_REPLAN_TICKS = 20  # stopped by something ahead this long: plan again round it
@@ -121,7 +122,7 @@ class Autopilot:
 
     spec: RobotSpec
     known: Lab
-    margin_m: float = 0.04
+    margin_m: float = 0.05
     reach_m: float = 0.35
     stop_m: float = 0.3
     goal: tuple[float, float] | None = None
@@ -278,6 +279,11 @@ class Autopilot:
                 self._replan = True
             return Drive(0.0, 0.0, "blocked")
         self.blocked_ticks = 0
+        if drive.status == "driving":
+            # slow down where it is tight (a doorway, a chair beside): the follower keeps closer
+            near = min((d for d in dists if d is not None), default=math.inf)
+            k = min(1.0, max(SLOW_SHARE, (near - 0.1) / 0.4))
+            drive = Drive(drive.left_mps * k, drive.right_mps * k, drive.status)
         return drive
 
     def _follow(self, pose: tuple[float, float, float]) -> Drive:
