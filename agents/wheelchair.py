@@ -28,6 +28,7 @@ import logging
 import math
 import os
 import select
+import signal
 import sys
 import termios
 import threading
@@ -379,8 +380,16 @@ def make(args: argparse.Namespace) -> list[Wheelchair]:
         spec = replace(spec, type=RobotType.REAL, noise=SensorNoise())
     teleop = None
     if args.teleop:
+        if not os.isatty(sys.stdin.fileno()):
+            raise ValueError("--teleop reads the keyboard: run it in a terminal (not from a scenario or a pipe)")
         keys = KeyReader(sys.stdin.fileno())
         threading.Thread(target=keys.run, name="keys", daemon=True).start()
+
+        def quit_on_q() -> None:
+            keys.quit.wait()
+            os.kill(os.getpid(), signal.SIGINT)  # q: stop the agent as Ctrl-C does
+
+        threading.Thread(target=quit_on_q, name="quit", daemon=True).start()
         teleop = Teleop(keys, limit=args.limit, stale_s=args.stale)
     goal = _point(args.goal) if args.goal else None
     doors = []

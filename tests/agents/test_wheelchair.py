@@ -101,3 +101,44 @@ def test_the_emulated_chair_moves_reports_odometry_and_sees_its_own_room() -> No
     assert x > 1.3
     assert abs(x - tx) < 0.05  # the odometry pose follows the truth (and drifts slowly)
     assert hw.real_collisions == 0
+
+
+def test_teleop_without_a_terminal_is_refused_with_the_reason() -> None:
+    import subprocess
+    import sys
+
+    r = subprocess.run(
+        [sys.executable, "-m", "iw_zenoh.cli", "agent", "wheelchair", "--map", "maps/open-room.xml"]
+        + ["--start", "1,3,0", "--teleop"],
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert r.returncode == 2
+    assert "run it in a terminal" in r.stdout
+
+
+def test_the_wheelchair_needs_a_goal_or_teleop() -> None:
+    import subprocess
+    import sys
+
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "iw_zenoh.cli",
+            "agent",
+            "wheelchair",
+            "--map",
+            "maps/open-room.xml",
+            "--start",
+            "1,3,0",
+        ],
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert r.returncode == 2
+    assert "--goal X,Y" in r.stdout
