@@ -39,7 +39,7 @@ FloatArray = npt.NDArray[np.float64]
 CELL_M = 0.05
 MARK_M = 3.0  # narrow cones: a reading this near marks its arc (5 degrees at 3 m is 0.26 m)
 LOOKAHEAD_M = 0.3
-TURN_IN_PLACE_DEG = 45.0  # off the plan by more than this (not a planned turn): turn on the spot
+TURN_IN_PLACE_DEG = 25.0  # off the plan by more than this (not a planned turn): turn on the spot
 CRUISE_MPS = 0.2
 SLOW_SHARE = 0.35  # the slowest share of cruise speed, when something is within 0.24 m
 TURN_RADPS = 0.35
@@ -118,11 +118,14 @@ class Autopilot:
         reach_m: The goal counts as reached this near.
         stop_m: Stop when something is nearer than this ahead.
         movers: (x, y, radius) places where something known moves (a door's leaf): not mapped.
+        careful: For tight floors (1.1 m doorways): slow down near things and correct
+            deviations by arcs, not turns on the spot (use with a 5 cm margin).
     """
 
     spec: RobotSpec
     known: Lab
-    margin_m: float = 0.05
+    margin_m: float = 0.04
+    careful: bool = False
     reach_m: float = 0.35
     stop_m: float = 0.3
     goal: tuple[float, float] | None = None
@@ -279,7 +282,7 @@ class Autopilot:
                 self._replan = True
             return Drive(0.0, 0.0, "blocked")
         self.blocked_ticks = 0
-        if drive.status == "driving":
+        if drive.status == "driving" and self.careful:
             # slow down where it is tight (a doorway, a chair beside): the follower keeps closer
             near = min((d for d in dists if d is not None), default=math.inf)
             k = min(1.0, max(SLOW_SHARE, (near - 0.1) / 0.4))
@@ -319,7 +322,7 @@ class Autopilot:
             self._replan = True  # the plan is used up short of the goal: plan the rest
             return Drive(0.0, 0.0, "replanning")
         err = math.remainder(math.atan2(ty - y, tx - x) - th, 2 * math.pi)
-        if abs(math.degrees(err)) > TURN_IN_PLACE_DEG:
+        if abs(math.degrees(err)) > (45.0 if self.careful else TURN_IN_PLACE_DEG):
             w = math.copysign(min(TURN_RADPS, 1.5 * abs(err) + 0.05), err)
             return Drive(-w * base / 2, w * base / 2, "turning")
         v = CRUISE_MPS * min(1.0, 0.3 + dist / LOOKAHEAD_M)

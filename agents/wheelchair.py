@@ -226,12 +226,19 @@ class Wheelchair:
         hardware: EmulatedChair | None = None,
         teleop: Teleop | None = None,
         doors: list[tuple[int, float, float]] | None = None,
+        careful: bool = False,
     ) -> None:
         self._spec = spec
         self.mode = mode
         self.hardware = hardware
         self.teleop = teleop
-        self.pilot = Autopilot(spec, known, movers=[(x, y, DOORWAY_R) for _, x, y in doors or []])
+        self.pilot = Autopilot(
+            spec,
+            known,
+            movers=[(x, y, DOORWAY_R) for _, x, y in doors or []],
+            careful=careful,
+            margin_m=0.05 if careful else 0.04,
+        )
         if goal is not None:
             self.pilot.set_goal(goal)
         self.status = ""
@@ -360,6 +367,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="ID,X,Y",
         help="a negotiated door on the way: its robot id and the middle of its doorway (repeat for more)",
     )
+    p.add_argument(
+        "--careful",
+        action="store_true",
+        help="tight floors (1.1 m doorways): 5 cm margin, slow near things, no corrective turns on the spot",
+    )
     p.add_argument("--id", type=int, default=0, help="robot id to ask for")
     p.add_argument("--robot-name", default="wheelchair", help="robot name")
     p.add_argument("--seed", type=int, default=0, help="emulated hardware noise seed")
@@ -398,4 +410,8 @@ def make(args: argparse.Namespace) -> list[Wheelchair]:
         if len(parts) != 3:
             raise ValueError(f"--door is ID,X,Y, got {text!r}")
         doors.append((int(parts[0]), float(parts[1]), float(parts[2])))
-    return [Wheelchair(spec, known, goal=goal, mode=args.chair, hardware=hardware, teleop=teleop, doors=doors)]
+    return [
+        Wheelchair(
+            spec, known, goal=goal, mode=args.chair, hardware=hardware, teleop=teleop, doors=doors, careful=args.careful
+        )
+    ]

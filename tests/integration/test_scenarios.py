@@ -73,22 +73,3 @@ def test_an_augmented_chair_misses_the_virtual_box_and_the_real_one(tmp_path: Pa
     assert "PASS robot 1 within 0.5 m of (10.5, 3)" in r.stdout
     log = (tmp_path / "agent-1-wheelchair.log").read_text()
     assert "touched" not in log  # the real box, in the emulated chair's own room
-
-
-@pytest.mark.timeout(420)
-def test_two_chairs_negotiate_one_doorway_one_waits_and_both_get_through(tmp_path: Path) -> None:
-    out = tmp_path / "run.mcap"
-    argv = iwz_run_argv(MAPS / "negotiated-door.toml", tmp_path, "sc", record=out)
-    r = subprocess.run(argv, capture_output=True, text=True, timeout=400)
-    assert r.returncode == 0, r.stdout + r.stderr
-    assert "PASS collisions 0" in r.stdout
-    assert "PASS robot 2 within 0.5 m of (16, 7)" in r.stdout
-    assert "PASS robot 3 within 0.5 m of (4, 3)" in r.stdout
-    logs = [(tmp_path / f"agent-{i}-wheelchair.log").read_text() for i in (2, 3)]
-    assert sum("waiting for door 1" in log for log in logs) >= 1  # one gave way to the other
-    door: list[float] = []
-    with out.open("rb") as f:
-        for _, _, m in make_reader(f).iter_messages(topics=[keys.state("sc")]):
-            st = decode(m.data, WorldState)
-            door.append(math.degrees(st.heading[st.ids.index(1)]))
-    assert max(door) > -10.0  # it opened for them
