@@ -215,10 +215,9 @@ class PosePath:
     expanded: int
 
 
-def _primitives() -> list[tuple[FloatArray, float, bool]]:
-    """Motion primitives in the chair's frame: (samples (S, 3) of dx, dy, dheading; cost; is a
-    turn on the spot)."""
-    out: list[tuple[FloatArray, float, bool]] = []
+def _primitives() -> list[tuple[FloatArray, float]]:
+    """Motion primitives in the chair's frame: (samples (S, 3) of dx, dy, dheading; cost)."""
+    out: list[tuple[FloatArray, float]] = []
     n = int(round(STEP_M / SAMPLE_M))
     for k in CURVATURES:
         s = np.linspace(SAMPLE_M, STEP_M, n)
@@ -227,11 +226,11 @@ def _primitives() -> list[tuple[FloatArray, float, bool]]:
         else:
             th = k * s
             pts = np.column_stack([np.sin(th) / k, (1.0 - np.cos(th)) / k, th])
-        out.append((pts, STEP_M * (1.0 + CURVE_COST * abs(k)), False))
+        out.append((pts, STEP_M * (1.0 + CURVE_COST * abs(k))))
     for d in (1, -1):
         step = 2 * math.pi / NH
         th = d * step * TURN_BINS * np.linspace(1.0 / n, 1.0, n)  # n samples, like the arcs
-        out.append((np.column_stack([np.zeros(n), np.zeros(n), th]), TURN_COST_M, True))
+        out.append((np.column_stack([np.zeros(n), np.zeros(n), th]), TURN_COST_M))
     return out
 
 

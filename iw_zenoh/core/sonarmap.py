@@ -75,10 +75,13 @@ class SonarMap:
         self.cell_m = cell_m
         self.rows, self.cols = known.shape
         # known walls, grown by two cells: a wall seen at the edge of a cone is not news
-        grown = known.copy()
-        for dr in (-2, -1, 0, 1, 2):
-            for dc in (-2, -1, 0, 1, 2):
-                grown |= np.roll(np.roll(known, dr, axis=0), dc, axis=1)
+        rows, cols = known.shape
+        padded = np.zeros((rows + 4, cols + 4), dtype=bool)
+        padded[2:-2, 2:-2] = known
+        grown = np.zeros_like(known)
+        for dr in range(5):
+            for dc in range(5):
+                grown |= padded[dr : dr + rows, dc : dc + cols]
         self.known = grown
         self.mark_m = mark_m
         self.carve_tol_m = carve_tol_m

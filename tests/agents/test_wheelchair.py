@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import os
 import pty
+import subprocess
+import sys
 import threading
 import time
 from collections.abc import Iterator
@@ -103,42 +105,18 @@ def test_the_emulated_chair_moves_reports_odometry_and_sees_its_own_room() -> No
     assert hw.real_collisions == 0
 
 
-def test_teleop_without_a_terminal_is_refused_with_the_reason() -> None:
-    import subprocess
-    import sys
+def _agent(*args: str) -> subprocess.CompletedProcess[str]:
+    argv = [sys.executable, "-m", "iw_zenoh.cli", "agent", "wheelchair", "--map", "maps/open-room.xml", *args]
+    return subprocess.run(argv, stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=60)
 
-    r = subprocess.run(
-        [sys.executable, "-m", "iw_zenoh.cli", "agent", "wheelchair", "--map", "maps/open-room.xml"]
-        + ["--start", "1,3,0", "--teleop"],
-        stdin=subprocess.DEVNULL,
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
+
+def test_teleop_without_a_terminal_is_refused_with_the_reason() -> None:
+    r = _agent("--start", "1,3,0", "--teleop")
     assert r.returncode == 2
     assert "run it in a terminal" in r.stdout
 
 
 def test_the_wheelchair_needs_a_goal_or_teleop() -> None:
-    import subprocess
-    import sys
-
-    r = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "iw_zenoh.cli",
-            "agent",
-            "wheelchair",
-            "--map",
-            "maps/open-room.xml",
-            "--start",
-            "1,3,0",
-        ],
-        stdin=subprocess.DEVNULL,
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
+    r = _agent("--start", "1,3,0")
     assert r.returncode == 2
     assert "--goal X,Y" in r.stdout
