@@ -64,12 +64,3 @@ def test_the_autonomous_chair_finds_the_unknown_box_and_arrives_without_touching
                 ys.append(st.y[0])
     assert ys
     assert min(abs(y - 3.0) for y in ys) > 0.8  # it went round the box (0.8 m half height)
-
-
-def test_an_augmented_chair_misses_the_virtual_box_and_the_real_one(tmp_path: Path) -> None:
-    r, _ = _run("find-the-box-augmented.toml", tmp_path)
-    assert r.returncode == 0, r.stdout + r.stderr
-    assert "PASS collisions 0" in r.stdout  # the virtual box, judged by the world at the reported pose
-    assert "PASS robot 1 within 0.5 m of (10.5, 3)" in r.stdout
-    log = (tmp_path / "agent-1-wheelchair.log").read_text()
-    assert "touched" not in log  # the real box, in the emulated chair's own room
