@@ -112,6 +112,7 @@ class AgentHost:
         self.radio = self.io.inbox(keys.radio(sim))
         self.radio_alive: set[str] = set()
         self._heard: dict[int, dict[int, list[Heard]]] = {}
+        self._fresh: dict[int, int] = {}  # tick -> how many hosted robots have that tick's readings
         self.lockstep = False
         self._requests = 0
         bus.watch_alive(keys.all_alive(sim), self._on_alive)
@@ -171,15 +172,16 @@ class AgentHost:
             r = self.io.decode(d, SensorReading)
             if r is not None and r.robot_id == rid and (h.reading is None or r.tick > h.reading.tick):
                 h.reading = r
+                if r.tick > h.answered:
+                    self._fresh[r.tick] = self._fresh.get(r.tick, 0) + 1
 
     def _ready(self) -> int | None:
-        """The tick to answer now, or None."""
-        fresh = [h.reading.tick for h in self.hosted.values() if h.reading is not None and h.reading.tick > h.answered]
-        if not fresh:
+        """The tick to answer now, or None (counts kept by _collect: no scan of every robot)."""
+        if not self._fresh:
             return None
-        n = max(fresh)
+        n = max(self._fresh)
         if self.lockstep:
-            if any(h.reading is None or h.reading.tick < n for h in self.hosted.values()):
+            if self._fresh[n] < len(self.hosted):
                 return None  # wait for every robot's readings of tick n
             if self.radio_alive and n not in self._heard:
                 return None  # and for the radio's batch, so heard messages are the same every run
@@ -226,6 +228,8 @@ class AgentHost:
             h.answered = r.tick
         for t in [t for t in self._heard if t <= n]:
             del self._heard[t]
+        for t in [t for t in self._fresh if t <= n]:
+            del self._fresh[t]
         return True
 
     def run(self) -> None:

@@ -25,6 +25,7 @@ __all__ = [
     "ActionsFrame",
     "Measures",
     "Registration",
+    "Score",
     "ViewerCommand",
     "build_measures",
     "build_refusal",
@@ -405,6 +406,18 @@ def build_refusal() -> bytes:
 
 
 @dataclass(frozen=True)
+class Score:
+    """A robot's ``<Score>`` (sent when the parameters' ScoreSensor is On)."""
+
+    score: int
+    arrival_time: int = 0
+    returning_time: int = 0
+    collisions: int = 0
+    collision: bool = False
+    visited_mask: str = ""
+
+
+@dataclass(frozen=True)
 class Measures:
     """One robot's ``<Measures>`` of a cycle; None leaves an element out."""
 
@@ -418,34 +431,45 @@ class Measures:
     messages: tuple[tuple[int, str], ...] = ()
     leds: tuple[bool, bool, bool] = (False, False, False)
     buttons: tuple[bool, bool] = (False, True)
+    score: Score | None = None
 
 
 def build_measures(m: Measures) -> bytes:
-    """A ``<Measures>`` datagram (at most 4096 bytes for the Python and C clients)."""
-    root = etree.Element("Measures", Time=str(m.time))
-    s = etree.SubElement(root, "Sensors")
+    """A ``<Measures>`` datagram, byte for byte as the legacy server prints it (at most 4096 bytes
+    for the Python and C clients): tab indents, ``<GPS ... />`` with its space, ``\\n\\0`` at
+    the end. Formatted directly rather than through lxml: it is sent to every robot every cycle."""
+    attrs = ""
     if m.collision is not None:
-        s.set("Collision", "Yes" if m.collision else "No")
+        attrs += f' Collision="{"Yes" if m.collision else "No"}"'
     if m.compass is not None:
-        s.set("Compass", _g(m.compass))
+        attrs += f' Compass="{m.compass:g}"'
     if m.ground is not None:
-        s.set("Ground", str(m.ground))
+        attrs += f' Ground="{m.ground:d}"'
+    out = [f'<Measures Time="{m.time:d}">\n\t<Sensors{attrs}>\n']
     for i, v in enumerate(m.ir):
         if v is not None:
-            etree.SubElement(s, "IRSensor", Id=str(i), Value=_g(v))
+            out.append(f'\t\t<IRSensor Id="{i}" Value="{v:g}"/>\n')
     for i, b in enumerate(m.beacons or ()):
-        etree.SubElement(s, "BeaconSensor", Id=str(i), Value="NotVisible" if b is None else _g(b))
+        out.append(f'\t\t<BeaconSensor Id="{i}" Value="{"NotVisible" if b is None else format(b, "g")}"/>\n')
     if m.gps is not None:
-        etree.SubElement(s, "GPS", X=_g(m.gps[0]), Y=_g(m.gps[1]))
+        out.append(f'\t\t<GPS X="{m.gps[0]:g}" Y="{m.gps[1]:g}" />\n')
     for sender, text in m.messages:
-        msg = etree.SubElement(s, "Message", From=str(sender))
         safe = text.encode("latin-1", "replace").decode("latin-1").replace("]]>", "]] >")  # CDATA cannot hold ]]>
-        msg.text = etree.CDATA(safe)
+        out.append(f'\t\t<Message From="{sender:d}"><![CDATA[{safe}]]></Message>\n')
+    if m.score is not None:
+        sc = m.score
+        out.append(
+            f'\t\t<Score Score="{sc.score:d}" ArrivalTime="{sc.arrival_time:d}" '
+            f'ReturningTime="{sc.returning_time:d}" Collisions="{sc.collisions:d}" '
+            f'Collision="{"True" if sc.collision else "False"}" VisitedMask="{sc.visited_mask}" />\n'
+        )
     end, ret, vis = m.leds
-    etree.SubElement(root, "Leds", EndLed=_onoff(end), ReturningLed=_onoff(ret), VisitingLed=_onoff(vis))
     start, stop = m.buttons
-    etree.SubElement(root, "Buttons", Start=_onoff(start), Stop=_onoff(stop))
-    return _finish(root)
+    out.append(
+        f'\t</Sensors>\n\t<Leds EndLed="{_onoff(end)}" ReturningLed="{_onoff(ret)}" VisitingLed="{_onoff(vis)}"/>\n'
+        f'\t<Buttons Start="{_onoff(start)}" Stop="{_onoff(stop)}"/>\n</Measures>\n\x00'
+    )
+    return "".join(out).encode("utf-8")
 
 
 def build_robot_state(

@@ -68,7 +68,7 @@ logger = logging.getLogger(__name__)
 RECV_BYTES = 4096
 GPS_OFFSET = (840.1877, 394.3829)  # the legacy simulator's GPS origin on glibc, until a reset
 NO_MEASUREMENT: dict[str, Any] = {"ir": 0.0, "compass": 0.0, "ground": -1, "collision": False, "beacon": None}
-FLOOD_PER_S = 400  # datagrams a second one address may send before the rest are dropped
+FLOOD_PER_S = 400  # datagrams a second one peer (address and port) may send before the rest are dropped
 EVENT_EVERY_S = 1.0  # at most one refusal event a second per peer
 
 
@@ -136,7 +136,7 @@ class Bridge:
         self.readings = self.io.inbox(keys.all_sensors(sim))
         self.hears = self.io.inbox(keys.all_hear(sim))
         self.infos = self.io.inbox(keys.info(sim), maxlen=1)
-        self._rate: dict[str, tuple[float, int]] = {}
+        self._rate: dict[tuple[str, int], tuple[float, int]] = {}
         self._hit: dict[int, bool] = {}
         self._collisions: dict[int, int] = {}
         self._last_event: dict[tuple[str, str], float] = {}
@@ -146,19 +146,25 @@ class Bridge:
     # --- legacy side ---------------------------------------------------------------------
 
     def _refuse(self, peer: tuple[str, int], reason: str) -> None:
-        logger.warning("refused a datagram from %s:%d: %s", peer[0], peer[1], reason)
-        key = (peer[0], reason[:40])
+        """Logs and reports a refused datagram, at most once per peer and reason every EVENT_EVERY_S
+        (a flood must not turn into a flood of log lines)."""
+        key = (f"{peer[0]}:{peer[1]}", reason[:40])
         now = time.monotonic()
         if now - self._last_event.get(key, 0.0) >= EVENT_EVERY_S:
             self._last_event[key] = now
+            logger.warning("refused a datagram from %s:%d: %s", peer[0], peer[1], reason)
             self.io.event("legacy-refused", f"{peer[0]}:{peer[1]}: {reason}", peer=f"{peer[0]}:{peer[1]}")
 
     def _flooding(self, peer: tuple[str, int]) -> bool:
-        start, n = self._rate.get(peer[0], (time.monotonic(), 0))
+        """Whether this peer sent more than FLOOD_PER_S datagrams in its current second. Counted
+        per address *and port*: a course's agents all share one machine's address."""
         now = time.monotonic()
+        if len(self._rate) > 4096:  # forget peers quiet for a second (spoofed ports cost no memory)
+            self._rate = {p: v for p, v in self._rate.items() if now - v[0] < 1.0}
+        start, n = self._rate.get(peer, (now, 0))
         if now - start >= 1.0:
             start, n = now, 0
-        self._rate[peer[0]] = (start, n + 1)
+        self._rate[peer] = (start, n + 1)
         return n + 1 > FLOOD_PER_S
 
     def _new_socket(self) -> socket.socket:

@@ -23,6 +23,7 @@ FloatArray = npt.NDArray[np.float64]
 HALF_CONE = np.pi / 6  # +-30 deg
 RADIUS = 0.5  # the robots' disc radius
 RAY_EPS = 1e-12  # a ray parallel to a segment never hits it
+ROBOT_BLOCK = 64  # other robots per vectorised block (bounds the temporaries at N x K x 64)
 
 
 def _wrap(a: FloatArray) -> FloatArray:
@@ -74,18 +75,30 @@ def ciberrato_ir_distances(
     within = np.abs(_wrap(np.arctan2(vy, vx) - phi[..., None])) <= HALF_CONE
     best = np.minimum(best, np.where(within, np.hypot(vx, vy), np.inf).min(axis=-1))
 
-    # other robots
-    for j in np.flatnonzero(act):
-        vx = pose[j, 0] - px
-        vy = pose[j, 1] - py
-        dist = np.hypot(vx, vy)
-        delta = np.abs(_wrap(np.arctan2(vy, vx) - phi))
+    # other robots, a block of them at a time (N x K x block arrays). The angle tests are done
+    # on cosines and sines (dot and cross products) rather than with atan2 / asin: the same
+    # conditions without a transcendental function per pair
+    ux, uy = np.cos(phi)[..., None], np.sin(phi)[..., None]
+    ch, sh = np.cos(HALF_CONE), np.sin(HALF_CONE)
+    others = np.flatnonzero(act)
+    for b0 in range(0, len(others), ROBOT_BLOCK):
+        j = others[b0 : b0 + ROBOT_BLOCK]
+        vx = pose[j, 0][None, None, :] - px[..., None]  # (N, K, B)
+        vy = pose[j, 1][None, None, :] - py[..., None]
+        dist = np.sqrt(vx * vx + vy * vy)
         with np.errstate(invalid="ignore", divide="ignore"):
-            m = np.arcsin(np.minimum(1.0, RADIUS / dist))
-            psi = delta - HALF_CONE
-            inner = np.maximum(0.0, RADIUS**2 - (dist * np.sin(psi)) ** 2)
-            side = dist * np.cos(psi) - np.sqrt(inner)
-        d = np.where(delta <= HALF_CONE, dist - RADIUS, np.where(delta <= HALF_CONE + m, side, np.inf))
-        d[j] = np.inf  # a robot does not see itself
-        best = np.minimum(best, d)
+            cos_d = (vx * ux + vy * uy) / dist  # cos and |sin| of delta, the bearing off phi
+            sin_d = np.abs(vx * uy - vy * ux) / dist
+            in_cone = cos_d >= ch  # delta <= 30 deg
+            # delta <= 30 deg + asin(R / D): cos(delta) >= cos(30 deg + m)
+            sin_m = np.minimum(1.0, RADIUS / dist)
+            cos_m = np.sqrt(1.0 - sin_m * sin_m)
+            on_rim = cos_d >= ch * cos_m - sh * sin_m
+            cos_psi = cos_d * ch + sin_d * sh  # psi = delta - 30 deg
+            sin_psi = sin_d * ch - cos_d * sh
+            inner = np.maximum(0.0, RADIUS**2 - (dist * sin_psi) ** 2)
+            side = dist * cos_psi - np.sqrt(inner)
+        d = np.where(in_cone, dist - RADIUS, np.where(on_rim, side, np.inf))
+        d[j, :, np.arange(len(j))] = np.inf  # a robot does not see itself
+        best = np.minimum(best, d.min(axis=-1))
     return np.asarray(best, dtype=np.float64)

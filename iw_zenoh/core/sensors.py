@@ -446,17 +446,26 @@ def read_sensors(
     z_enc = z[after[:, None] + 4 + nbeac + np.arange(2)[None, :]]
 
     nm, ns = bodies.noise_mean, bodies.noise_std
-    true_d = proximity_distances(scene, bodies, pose, only=only)
-    zm = z[m_slot]
-    prox = true_d + nm["proximity_m"][own] + ns["proximity_m"][own] * zm
-    prox = np.where(np.isfinite(true_d), np.maximum(prox, 0.0), np.inf)
-    legacy_d = true_d
     if legacy_ir and len(own):
         slots = bodies.ir_slots
         angles = np.where(slots >= 0, bodies.ir_angle_rad[np.maximum(slots, 0)], 0.0)
         grid = ciberrato_ir_distances(scene, pose, angles)
         legacy_d = np.full(len(own), np.inf)
         legacy_d[slots[slots >= 0]] = grid[slots >= 0]
+        # Ciber-Rato's disc robots see by its own model only (their rim sensors have no range, so
+        # the cone model would test every body against every sensor for the same answer)
+        cones = ~bodies.is_circle if only is None else np.asarray(only, dtype=bool) & ~bodies.is_circle
+        true_d = proximity_distances(scene, bodies, pose, only=cones)
+        discs = bodies.is_circle[own]
+        true_d[discs] = legacy_d[discs]
+        if only is not None:
+            true_d[~np.asarray(only, dtype=bool)[own]] = np.inf
+    else:
+        true_d = proximity_distances(scene, bodies, pose, only=only)
+        legacy_d = true_d
+    zm = z[m_slot]
+    prox = true_d + nm["proximity_m"][own] + ns["proximity_m"][own] * zm
+    prox = np.where(np.isfinite(true_d), np.maximum(prox, 0.0), np.inf)
     legacy = legacy_ir_value(legacy_d, zm, ns["proximity_legacy"][own])
     heading_deg = np.degrees(pose[:, 2])
     compass = wrap_deg(heading_deg + nm["compass_deg"] + ns["compass_deg"] * z_comp)

@@ -166,7 +166,7 @@ class _World:
                 n = core.tick
                 self.wait_until(
                     self.clock.now_ns() + int(cfg.lockstep_timeout_ms * MS),
-                    lambda n=n: not core.expected(n) or core.stopped or not core.due(),
+                    lambda n=n: not core.waiting(n) or core.stopped or not core.due(),
                 )
                 late = core.expected(n)
                 t_acts = self.clock.now_ns()

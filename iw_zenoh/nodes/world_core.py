@@ -120,6 +120,9 @@ class WorldCore:
         self.agents_alive: set[str] = set()
         self.holding = ""
         self._motion_rngs: dict[int, np.random.Generator] = {}
+        # lock-step: the robots tick n still waits for, kept up to date as actions arrive (the
+        # loop asks after every input; scanning the roster each time is quadratic at 1,000 robots)
+        self._awaiting: tuple[int, set[int]] | None = None
         self._pending: tuple[int, Proposal] | None = None
         self._ids: list[int] = []
         self._tick_wall_ns = 0
@@ -151,6 +154,7 @@ class WorldCore:
 
     def _rebuild(self, keep_pose: dict[int, np.ndarray]) -> None:
         """Rebuilds arrays after the roster changed, keeping every surviving robot's state."""
+        self._awaiting = None
         old = {rid: i for i, rid in enumerate(self._ids)}
         ids = self.registry.ids
         n = len(ids)
@@ -224,6 +228,7 @@ class WorldCore:
         e.cmd = (msg.left, msg.right)
         e.last_action_ns = now_ns
         e.last_action_tick = max(e.last_action_tick, msg.tick)
+        self._mark_answered(msg.robot_id, msg.tick)
         e.leds = {"end": msg.end_led, "returning": msg.returning_led, "visiting": msg.visiting_led}
         if e.watchdog:
             e.watchdog = False
@@ -238,6 +243,11 @@ class WorldCore:
         e.report = (msg.x, msg.y, float(np.radians(msg.dir_deg)))
         e.last_action_ns = now_ns
         e.last_action_tick = max(e.last_action_tick, msg.tick)
+        self._mark_answered(msg.robot_id, msg.tick)
+
+    def _mark_answered(self, robot_id: int, tick: int) -> None:
+        if self._awaiting is not None and tick >= self._awaiting[0]:
+            self._awaiting[1].discard(robot_id)
 
     def remove(self, robot_id: int, reason: str) -> list[Outgoing]:
         """Removes a robot from the world."""
@@ -296,6 +306,7 @@ class WorldCore:
 
     def on_alive(self, role: str, name: str, alive: bool, now_ns: int) -> list[Outgoing]:
         """Tracks collision processes and agents; an agent lost zeroes its robots at once."""
+        self._awaiting = None
         out: list[Outgoing] = []
         if role == "collision":
             (self.collision_alive.add if alive else self.collision_alive.discard)(name)
@@ -316,6 +327,12 @@ class WorldCore:
                         )
         return out
 
+    def _motion_rng(self, rid: int) -> np.random.Generator:
+        g = self._motion_rngs.get(rid)
+        if g is None:  # built once per robot
+            g = self._motion_rngs[rid] = rng_for(self.cfg.seed, rid, Stream.MOTION)
+        return g
+
     # --- the tick --------------------------------------------------------------------------
 
     def due(self) -> bool:
@@ -331,6 +348,12 @@ class WorldCore:
             for rid, e in self.registry.entries.items()
             if e.agent and e.agent in self.agents_alive and e.lost_ns is None and e.last_action_tick < tick
         ]
+
+    def waiting(self, tick: int) -> bool:
+        """Whether lock-step still waits for some robot's actions for sensors tick ``tick``."""
+        if self._awaiting is None or self._awaiting[0] != tick:
+            self._awaiting = (tick, set(self.expected(tick)))
+        return bool(self._awaiting[1])
 
     def begin_tick(self, now_ns: int, wall_ns: int = 0) -> list[Outgoing]:
         """Applies commands and watchdogs, proposes next poses; returns the proposal to publish."""
@@ -366,7 +389,7 @@ class WorldCore:
             and self.cfg.motors_noise_pct > 0
             or bool(np.any(self.bodies.noise_std["motion"] > 0))
         ):
-            rngs = [self._motion_rngs.setdefault(rid, rng_for(self.cfg.seed, rid, Stream.MOTION)) for rid in ids]
+            rngs = [self._motion_rng(rid) for rid in ids]
             z = standard_normals(rngs, 2)
         prop = propose(
             self.state,

@@ -12,6 +12,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from iw_zenoh.bridges.ciberrato.codec import (
     Measures,
+    Score,
     build_measures,
     build_refusal,
     build_reply,
@@ -182,10 +183,44 @@ def test_measures_carry_what_the_legacy_server_sends() -> None:
             buttons=(False, True),
         )
     )
-    assert _attrs(ours) == _attrs(captured)
-    assert ours.endswith(b"\n\x00")
+    assert ours == captured  # byte for byte, the space in <GPS ... /> included
     with_msg = build_measures(Measures(time=5, messages=((2, "hello ]]> there"),)))
     assert b'<Message From="2"><![CDATA[hello ]] > there]]></Message>' in with_msg
+
+
+def test_measures_with_every_optional_part_as_the_fact_sheet_prints_them() -> None:
+    ours = build_measures(
+        Measures(
+            time=123,
+            collision=False,
+            compass=-90,
+            ground=-1,
+            ir=(0.6, 0.5, 1.2, 0.3),
+            beacons=(45, None),
+            gps=(843.2, 401.4),
+            messages=((2, "hello"),),
+            score=Score(400, arrival_time=5, visited_mask="000"),
+            buttons=(True, False),
+        )
+    )
+    assert ours == (
+        b'<Measures Time="123">\n'
+        b'\t<Sensors Collision="No" Compass="-90" Ground="-1">\n'
+        b'\t\t<IRSensor Id="0" Value="0.6"/>\n'
+        b'\t\t<IRSensor Id="1" Value="0.5"/>\n'
+        b'\t\t<IRSensor Id="2" Value="1.2"/>\n'
+        b'\t\t<IRSensor Id="3" Value="0.3"/>\n'
+        b'\t\t<BeaconSensor Id="0" Value="45"/>\n'
+        b'\t\t<BeaconSensor Id="1" Value="NotVisible"/>\n'
+        b'\t\t<GPS X="843.2" Y="401.4" />\n'
+        b'\t\t<Message From="2"><![CDATA[hello]]></Message>\n'
+        b'\t\t<Score Score="400" ArrivalTime="5" ReturningTime="0" Collisions="0" Collision="False" '
+        b'VisitedMask="000" />\n'
+        b"\t</Sensors>\n"
+        b'\t<Leds EndLed="Off" ReturningLed="Off" VisitingLed="Off"/>\n'
+        b'\t<Buttons Start="On" Stop="Off"/>\n'
+        b"</Measures>\n\x00"
+    )
 
 
 @given(st.binary(max_size=300))

@@ -69,3 +69,12 @@ def test_a_wall_ahead_and_a_robot_behind() -> None:
     d = ciberrato_ir_distances(scene, pose, np.tile(ANGLES, (2, 1)))
     assert d[0, 0] == pytest.approx(1.5)  # rim at 8.5, wall at 10
     assert d[0, 3] == pytest.approx(2.0)  # the robot behind: centres 3 apart, minus two radii
+
+
+def test_more_robots_than_one_vectorised_block_equal_the_reference() -> None:
+    g = np.random.default_rng(7)
+    scene = Scene(Lab("r", 28.0, 14.0, (box_wall(10.0, 3.0, 12.0, 9.0),)))
+    n = 70  # other robots are taken 64 at a time
+    pose = np.column_stack([g.uniform(1, 27, n), g.uniform(1, 13, n), g.uniform(-math.pi, math.pi, n)])
+    fast = ciberrato_ir_distances(scene, pose, np.tile(ANGLES, (n, 1)))
+    np.testing.assert_allclose(fast, _reference(scene, pose, ANGLES), rtol=1e-9, atol=1e-9)
