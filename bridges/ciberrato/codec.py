@@ -9,6 +9,8 @@ through one hardened lxml parser; malformed input raises
 
 from __future__ import annotations
 
+import threading
+
 import math
 from dataclasses import dataclass, field
 
@@ -47,10 +49,17 @@ LEGACY_IR_ANGLES = (0.0, 60.0, -60.0, 180.0)  # Ciber-Rato's default IR mounting
 CIBER_RADIUS = 0.5
 
 
+_PARSERS = threading.local()
+
+
 def _parser() -> etree.XMLParser:
-    return etree.XMLParser(
-        resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False, remove_comments=True
-    )
+    """The hardened parser, one per thread (building one costs more than parsing an Actions)."""
+    p: etree.XMLParser | None = getattr(_PARSERS, "parser", None)
+    if p is None:
+        p = _PARSERS.parser = etree.XMLParser(
+            resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False, remove_comments=True
+        )
+    return p
 
 
 def frame(datagram: bytes, limit: int) -> bytes:

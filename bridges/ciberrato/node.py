@@ -69,6 +69,7 @@ RECV_BYTES = 4096
 GPS_OFFSET = (840.1877, 394.3829)  # the legacy simulator's GPS origin on glibc, until a reset
 NO_MEASUREMENT: dict[str, Any] = {"ir": 0.0, "compass": 0.0, "ground": -1, "collision": False, "beacon": None}
 FLOOD_PER_S = 400  # datagrams a second one peer (address and port) may send before the rest are dropped
+POLL_S = 0.001  # the loop looks at the bus queues at least this often
 EVENT_EVERY_S = 1.0  # at most one refusal event a second per peer
 
 
@@ -131,11 +132,14 @@ class Bridge:
         self.by_robot: dict[int, Client] = {}
         self.info: WorldInfo | None = None
         self.running = True
-        self.states = self.io.inbox(keys.state(sim), maxlen=1)
-        self.ticks = self.io.inbox(keys.tick(sim), maxlen=1)
-        self.readings = self.io.inbox(keys.all_sensors(sim))
-        self.hears = self.io.inbox(keys.all_hear(sim))
-        self.infos = self.io.inbox(keys.info(sim), maxlen=1)
+        # Zenoh's own queues, polled by the UDP loop every millisecond: no Python callback thread
+        # competing for the interpreter lock with the loop 100 times a cycle (that contention,
+        # not the work, was most of the Measures jitter at 100 robots)
+        self.states = bus.queue(keys.state(sim), 64)
+        self.ticks = bus.queue(keys.tick(sim), 64)
+        self.readings = bus.queue(keys.all_sensors(sim), 4096)
+        self.hears = bus.queue(keys.all_hear(sim), 4096)
+        self.infos = bus.queue(keys.info(sim), 16)
         self._rate: dict[tuple[str, int], tuple[float, int]] = {}
         self._hit: dict[int, bool] = {}
         self._collisions: dict[int, int] = {}
@@ -344,7 +348,7 @@ class Bridge:
 
     def pump_bus(self) -> None:
         """Takes new readings, hear lists, states and ticks; sends Measures and viewer states."""
-        for _, data, _ in self.infos.drain():
+        for _, data, _ in self.infos.drain()[-1:]:
             try:
                 self.info = decode(data, WorldInfo)
             except IwError:
@@ -367,7 +371,7 @@ class Bridge:
                     c.heard = [(h.sender, h.text) for h in decode(data, Hear).messages]
                 except IwError:
                     continue
-        for _, data, _ in self.ticks.drain():
+        for _, data, _ in self.ticks.drain()[-1:]:
             try:
                 t = decode(data, Tick)
             except IwError:
@@ -376,7 +380,7 @@ class Bridge:
             if not t.running:  # stopped: Measures keep coming, as the legacy server sends them
                 for c in list(self.by_robot.values()):
                     self._send_measures(c, t.tick, force=True)
-        for _, data, _ in self.states.drain():
+        for _, data, _ in self.states.drain()[-1:]:
             try:
                 st = decode(data, WorldState)
             except IwError:
@@ -421,7 +425,7 @@ class Bridge:
     def serve(self) -> None:
         """Runs until stopped."""
         while not self.io.stop.is_set():
-            for key, _ in self.sel.select(timeout=0.005):
+            for key, _ in self.sel.select(timeout=POLL_S):
                 sock = key.fileobj
                 assert isinstance(sock, socket.socket)
                 for _ in range(64):  # drain this socket, then give the others their turn

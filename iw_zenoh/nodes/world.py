@@ -157,8 +157,9 @@ class _World:
             io.send_all(core.finish_tick(verdict))
             t_state = self.clock.now_ns()
             logger.debug(
-                "tick %d: propose+verdict %.2f ms, commit+publish %.2f ms",
+                "tick %d: started %.2f ms late, propose+verdict %.2f ms, commit+publish %.2f ms",
                 core.tick,
+                0.0 if lockstep else (start - next_ns) / 1e6,
                 (t_verdict - start) / 1e6,
                 (t_state - t_verdict) / 1e6,
             )
