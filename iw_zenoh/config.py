@@ -79,6 +79,7 @@ class Scenario:
     world_args: tuple[str, ...] = ()
     bridge_port: int | None = None  # a legacy XML/UDP bridge on this UDP port
     bridge_params: Path | None = None  # the Ciber-Rato parameters file it tells clients
+    bridge_scoring: int = 0  # the legacy --scoring mode (0 competitive, 1 control, 2 mapping, 3 planning)
     base: Path = Path(".")  # the scenario's folder: agents run there, so their file arguments are relative to it
 
     @property
@@ -220,8 +221,15 @@ def parse_scenario(text: str, base: Path, name: str = "scenario") -> Scenario:
     b = _take(doc, "bridge", dict, name, None)
     bridge_port: int | None = None
     bridge_params: Path | None = None
+    bridge_scoring = 0
     if b is not None:
-        _no_extra(b, {"port", "params"}, "bridge")
+        _no_extra(b, {"port", "params", "scoring"}, "bridge")
+        bridge_scoring = _take(b, "scoring", int, "bridge", 0)
+        if bridge_scoring not in (0, 1, 2, 3):
+            raise ConfigError(
+                "bridge.scoring",
+                f"must be 0 (competitive), 1 (control), 2 (mapping) or 3 (planning), got {bridge_scoring}",
+            )
         bridge_port = _take(b, "port", int, "bridge", 6000)
         if not 0 < bridge_port < 65536:
             raise ConfigError("bridge.port", f"must be a UDP port (1..65535), got {bridge_port}")
@@ -247,6 +255,7 @@ def parse_scenario(text: str, base: Path, name: str = "scenario") -> Scenario:
         world_args=world_args,
         bridge_port=bridge_port,
         bridge_params=bridge_params,
+        bridge_scoring=bridge_scoring,
         base=base,
     )
 

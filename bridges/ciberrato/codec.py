@@ -9,9 +9,8 @@ through one hardened lxml parser; malformed input raises
 
 from __future__ import annotations
 
-import threading
-
 import math
+import threading
 from dataclasses import dataclass, field
 
 from lxml import etree
@@ -493,19 +492,22 @@ def build_robot_state(
     collision: bool = False,
     state: str = "Running",
     score: int = 0,
+    arrival_time: int | None = None,
+    returning_time: int = 0,
+    visited_mask: str = "000",
 ) -> bytes:
-    """The per-cycle ``<Robot>`` datagram for viewers."""
+    """The per-cycle ``<Robot>`` datagram for viewers (``%u`` numbers: a negative score wraps)."""
     root = etree.Element("Robot")
     for k, v in (
         ("Name", name[:24]),
         ("Id", str(robot_id)),
         ("Time", str(time)),
         ("Score", str(score & 0xFFFFFFFF)),
-        ("ArrivalTime", str(time)),
-        ("ReturningTime", "0"),
+        ("ArrivalTime", str((time if arrival_time is None else arrival_time) & 0xFFFFFFFF)),
+        ("ReturningTime", str(returning_time & 0xFFFFFFFF)),
         ("Collisions", str(collisions)),
         ("Collision", "True" if collision else "False"),
-        ("VisitedMask", "000"),
+        ("VisitedMask", visited_mask),
         ("State", state),
     ):
         root.set(k, v)

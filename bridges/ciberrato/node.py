@@ -18,6 +18,7 @@ import math
 import os
 import selectors
 import socket
+import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -33,12 +34,14 @@ from iw_zenoh.messages import (
     Actions,
     Control,
     Hear,
+    LabMsg,
     PoseReport,
     RegisterReply,
     RegisterRequest,
     Say,
     SensorReading,
     Tick,
+    Verdict,
     WorldInfo,
     WorldState,
     decode,
@@ -51,6 +54,7 @@ from iw_zenoh.nodes.base import NodeIO, install_stop_signals, setup_logging
 
 from .codec import (
     Measures,
+    Score,
     build_measures,
     build_refusal,
     build_reply,
@@ -60,6 +64,7 @@ from .codec import (
     parse_viewer_command,
     registration_spec,
 )
+from .scoring import FreeSpace, Mode, PathLength, RobotGame, StepInput
 
 __all__ = ["Bridge", "main"]
 
@@ -89,7 +94,11 @@ class Client:
     heard: list[tuple[int, str]] = field(default_factory=list)
     sent_tick: int = -1
     requests: list[str] = field(default_factory=list)  # sensor requests of this cycle
-    finished: bool = False  # EndLed seen: the legacy state machine freezes the robot
+    finished: bool = False  # EndLed seen (or the game says Finished): the robot never moves again
+    game: RobotGame | None = None  # its legacy state and score
+    start: tuple[float, float] = (0.0, 0.0)  # its grid position
+    returning_now: bool = False  # a ReturningLed="On" arrived this cycle
+    pose: tuple[float, float] = (0.0, 0.0)  # its last committed centre
     fifos: dict[str, collections.deque[Any]] = field(default_factory=dict)  # latency queues
 
 
@@ -114,12 +123,14 @@ class Bridge:
         port: int = 6000,
         params: SimParameters | None = None,
         name: str = "ciberrato",
+        scoring: Mode = Mode.COMPETITIVE,
     ) -> None:
         self.bus = bus
         self.sim = sim
         self.bind = bind
         self.params = params or SimParameters()
         self.name = name
+        self.scoring = scoring
         self.io = NodeIO(bus, sim, "agent", name)  # its robots stop if this process goes
         self.sel = selectors.DefaultSelector()
         self.reception = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -140,6 +151,9 @@ class Bridge:
         self.readings = bus.queue(keys.all_sensors(sim), 4096)
         self.hears = bus.queue(keys.all_hear(sim), 4096)
         self.infos = bus.queue(keys.info(sim), 16)
+        self.verdicts = bus.queue(keys.verdict(sim), 64)  # which collisions were walls, which robots
+        self._hits: dict[int, dict[int, tuple[bool, bool]]] = {}  # tick -> robot -> (wall, robot)
+        self._space: tuple[LabMsg, list[FreeSpace]] | None = None
         self._rate: dict[tuple[str, int], tuple[float, int]] = {}
         self._hit: dict[int, bool] = {}
         self._collisions: dict[int, int] = {}
@@ -231,9 +245,13 @@ class Bridge:
             sock.close()
             return
         c = Client("robot", peer, sock, robot_id=reply.robot_id, name=spec.name)
+        placed = reply.spec
+        if placed is not None and placed.x is not None and placed.y is not None:
+            c.start = (placed.x, placed.y)
         self.clients[peer] = c
         self.by_robot[c.robot_id] = c
         self.sel.register(sock, selectors.EVENT_READ, c)
+        self._game(c)  # its state machine and score, from its first step
         sock.sendto(build_reply(params, n_beacons=nb), peer)
         logger.info("legacy robot %s from %s:%d is robot %d", spec.name, peer[0], peer[1], c.robot_id)
 
@@ -252,6 +270,8 @@ class Bridge:
             c.left = a.left if a.left is not None else c.left
             c.right = a.right if a.right is not None else c.right
             c.leds.update(a.leds)
+            if a.leds.get("ReturningLed"):
+                c.returning_now = True
             if c.leds.get("EndLed"):
                 c.finished = True
             if c.finished:  # a Finished robot never moves again (legacy state machine)
@@ -343,8 +363,22 @@ class Bridge:
             messages=tuple(c.heard),
             leds=(c.leds.get("EndLed", False), c.leds.get("ReturningLed", False), c.leds.get("VisitingLed", False)),
             buttons=buttons,
+            score=self._score(c) if p.score_sensor else None,
         )
         return bytes(build_measures(m))
+
+    def _score(self, c: Client) -> Score | None:
+        g = c.game
+        if g is None:
+            return None
+        return Score(
+            g.score,
+            arrival_time=g.arrival_time,
+            returning_time=g.returning_time,
+            collisions=g.collisions,
+            collision=g.collision,
+            visited_mask=g.visited_mask,
+        )
 
     def pump_bus(self) -> None:
         """Takes new readings, hear lists, states and ticks; sends Measures and viewer states."""
@@ -353,16 +387,42 @@ class Bridge:
                 self.info = decode(data, WorldInfo)
             except IwError:
                 continue
-        for key, data, _ in self.readings.drain():
-            rid = keys.robot_id_of(key)
-            c = self.by_robot.get(rid) if rid is not None else None
-            if c is None:
-                continue
+        for _, data, _ in self.verdicts.drain():
             try:
-                c.reading = decode(data, SensorReading)
+                v = decode(data, Verdict)
             except IwError:
                 continue
-            self._send_measures(c, c.reading.tick)
+            kinds: dict[int, tuple[bool, bool]] = {}
+            for hit in v.hits:
+                wall, robot = kinds.get(hit.robot_id, (False, False))
+                kinds[hit.robot_id] = (wall or hit.wall >= 0, robot or hit.other >= 0)
+            self._hits[v.tick] = kinds
+            for old in [t for t in self._hits if t < v.tick - 20]:
+                del self._hits[old]
+        states: list[WorldState] = []
+        for _, data, _ in self.states.drain():
+            try:
+                states.append(decode(data, WorldState))
+            except IwError:
+                continue
+        for st in states:  # every step counts for the scores
+            self._step_games(st)
+        viewers = [c for c in self.clients.values() if c.kind == "viewer"]
+        if states and viewers:
+            self._send_robot_states(states[-1], viewers)
+
+        newest: dict[int, bytes] = {}
+        for key, data, _ in self.readings.drain():
+            rid = keys.robot_id_of(key)
+            if rid is not None and rid in self.by_robot:
+                newest[rid] = data  # after a stall, only the newest: one Measures a cycle, never a burst
+        for rid, data in newest.items():
+            client = self.by_robot[rid]
+            try:
+                client.reading = decode(data, SensorReading)
+            except IwError:
+                continue
+            self._send_measures(client, client.reading.tick)
         for key, data, _ in self.hears.drain():
             rid = keys.robot_id_of(key)
             c = self.by_robot.get(rid) if rid is not None else None
@@ -378,39 +438,107 @@ class Bridge:
                 continue
             self.running = t.running
             if not t.running:  # stopped: Measures keep coming, as the legacy server sends them
+                self._pause_games(t.tick)
                 for c in list(self.by_robot.values()):
                     self._send_measures(c, t.tick, force=True)
-        for _, data, _ in self.states.drain()[-1:]:
-            try:
-                st = decode(data, WorldState)
-            except IwError:
+
+    def _game(self, c: Client) -> RobotGame | None:
+        """The robot's legacy game, made once the world's lab is known."""
+        if c.game is None:
+            info = self._world_info()
+            if info is None:
+                return None
+            p = self.params
+            lab = lab_from_msg(info.lab)
+            c.game = RobotGame(
+                lab,
+                mode=self.scoring,
+                sim_time=p.sim_time,
+                wall_penalty=p.collision_wall_penalty,
+                robot_penalty=p.collision_robot_penalty,
+                start=c.start,
+            )
+        return c.game
+
+    def _free_space(self) -> FreeSpace | None:
+        """The lab's free space for D(p), built once in a thread of its own (part of a second for
+        a Ciber-Rato lab, and the UDP loop must not stall); None until it is ready."""
+        info = self.info
+        if info is None:
+            return None
+        if self._space is None or self._space[0] != info.lab:
+            box: list[FreeSpace] = []
+            lab = lab_from_msg(info.lab)
+            t = threading.Thread(target=lambda: box.append(FreeSpace(lab)), name="free-space", daemon=True)
+            self._space = (info.lab, box)
+            t.start()
+        return self._space[1][0] if self._space[1] else None
+
+    def _step_games(self, st: WorldState) -> None:
+        """One committed step of every legacy robot's state machine and score."""
+        hits = self._hits.pop(st.tick, {})
+        for rid, x, y, hit in zip(st.ids, st.x, st.y, st.collided, strict=True):
+            c = self.by_robot.get(rid)
+            game = self._game(c) if c is not None else None
+            if c is None or game is None:
                 continue
-            viewers = [c for c in self.clients.values() if c.kind == "viewer"]
-            if not viewers:
-                continue
-            names = {c.robot_id: c.name for c in self.by_robot.values()}
-            specs = {s.id: s.name for s in (self.info.robots if self.info else [])}
-            for rid, x, y, h, hit in zip(st.ids, st.x, st.y, st.heading, st.collided, strict=True):
-                if hit and not self._hit.get(rid, False):
-                    self._collisions[rid] = self._collisions.get(rid, 0) + 1  # rising edges, as legacy counts
-                self._hit[rid] = hit
-                client = self.by_robot.get(rid)
-                state = (
-                    "Finished" if client is not None and client.finished else "Running" if self.running else "Stopped"
-                )
-                data_out = build_robot_state(
-                    name=names.get(rid) or specs.get(rid, f"robot{rid}"),
-                    robot_id=rid,
-                    time=st.tick,
+            if game.path is None and self.scoring != Mode.CONTROL:
+                space = self._free_space()
+                if space is not None:
+                    game.path = PathLength(game.lab, c.start, space=space)
+            wall, robot = hits.get(rid, (hit, False))
+            game.step(
+                StepInput(
+                    now=st.tick,
+                    running=True,
                     x=x,
                     y=y,
-                    dir_deg=math.degrees(h),
                     collision=hit,
-                    collisions=self._collisions.get(rid, 0),
-                    state=state,
+                    hit_wall=wall,
+                    hit_robot=robot,
+                    end_led=c.leds.get("EndLed", False),
+                    returning_led=c.leds.get("ReturningLed", False),
+                    visiting_led=c.leds.get("VisitingLed", False),
+                    returning_now=c.returning_now,
                 )
-                for v in viewers:
-                    v.sock.sendto(data_out, v.addr)
+            )
+            c.returning_now = False
+            c.pose = (x, y)
+            c.finished = c.finished or game.finished
+
+    def _pause_games(self, tick: int) -> None:
+        """A step of the state machines while the simulator is stopped (nothing scores)."""
+        for c in self.by_robot.values():
+            if c.game is not None:
+                c.game.step(StepInput(now=tick, running=False, x=c.pose[0], y=c.pose[1]))
+
+    def _send_robot_states(self, st: WorldState, viewers: list[Client]) -> None:
+        names = {c.robot_id: c.name for c in self.by_robot.values()}
+        specs = {s.id: s.name for s in (self.info.robots if self.info else [])}
+        for rid, x, y, h, hit in zip(st.ids, st.x, st.y, st.heading, st.collided, strict=True):
+            c = self.by_robot.get(rid)
+            g = c.game if c is not None else None
+            if g is None:  # a native robot: no legacy game, its collisions counted here
+                if hit and not self._hit.get(rid, False):
+                    self._collisions[rid] = self._collisions.get(rid, 0) + 1
+                self._hit[rid] = hit
+            data_out = build_robot_state(
+                name=names.get(rid) or specs.get(rid, f"robot{rid}"),
+                robot_id=rid,
+                time=st.tick,
+                x=x,
+                y=y,
+                dir_deg=math.degrees(h),
+                collision=hit,
+                collisions=g.collisions if g is not None else self._collisions.get(rid, 0),
+                state=g.state if g is not None else ("Running" if self.running else "Stopped"),
+                score=g.score if g is not None else 0,
+                arrival_time=g.arrival_time if g is not None else st.tick,
+                returning_time=g.returning_time if g is not None else 0,
+                visited_mask=g.visited_mask if g is not None else "0" * len(self.info.lab.targets if self.info else ()),
+            )
+            for v in viewers:
+                v.sock.sendto(data_out, v.addr)
 
     def _send_measures(self, c: Client, tick: int, *, force: bool = False) -> None:
         if tick == c.sent_tick and not force:
@@ -472,6 +600,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--bind", default="127.0.0.1", help="address to listen on (default loopback only; 0.0.0.0 to open it)"
     )
     p.add_argument("--param", help="a Ciber-Rato parameters file (what clients are told: sensors on/off, noise)")
+    p.add_argument(
+        "--scoring",
+        type=int,
+        choices=[0, 1, 2, 3],
+        default=0,
+        help="the legacy --scoring: 0 competitive (default), 1 control (C1), 2 mapping, 3 planning (C2-C5); "
+        "scores go to viewers, and in Measures when the parameters' ScoreSensor is On",
+    )
     p.add_argument("--name", default="ciberrato", help="process name (liveliness)")
     add_common_arguments(p)
     args = p.parse_args(args_in[1:])
@@ -484,7 +620,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     try:
         bridge = Bridge(
-            bus, keys.chunk(args.sim), bind=args.bind, port=args.port, params=params, name=keys.chunk(args.name)
+            bus,
+            keys.chunk(args.sim),
+            bind=args.bind,
+            port=args.port,
+            params=params,
+            name=keys.chunk(args.name),
+            scoring=Mode(args.scoring),
         )
     except OSError as e:
         bus.close()

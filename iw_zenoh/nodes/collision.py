@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import time
 from collections.abc import Sequence
 
 import numpy as np
@@ -77,7 +78,15 @@ def run(bus: Bus, sim: str, *, name: str = "collision", io: NodeIO | None = None
                 "tick %d: no world info for revision %d; no verdict (the world holds robots)", msg.tick, msg.revision
             )
             continue
-        io.send(keys.verdict(sim), node.on_proposed(msg, view))
+        verdict = node.on_proposed(msg, view)
+        io.send(keys.verdict(sim), verdict)
+        if logger.isEnabledFor(logging.DEBUG):
+            logger.debug(
+                "tick %d: proposal received at %d, verdict sent at %d (wall ns)",
+                msg.tick,
+                pending[-1][2],
+                time.time_ns(),
+            )
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -179,6 +179,7 @@ class Launcher:
             self._child("radio", "radio")
         if sc.bridge_port is not None:
             extra = ["--param", str(sc.bridge_params)] if sc.bridge_params else []
+            extra += ["--scoring", str(sc.bridge_scoring)]
             self._child("bridge", "bridge", "ciberrato", "--port", str(sc.bridge_port), *extra)
         for i, a in enumerate(sc.agents):
             name = a.name or f"agent-{i + 1}-{a.program}"

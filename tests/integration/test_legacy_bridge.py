@@ -5,7 +5,7 @@ from __future__ import annotations
 import socket
 import subprocess
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -328,3 +328,42 @@ def test_end_led_finishes_a_legacy_robot_for_good(net: Net, clients: list[Legacy
         if data.startswith(b"<Robot"):
             finished |= etree.fromstring(data[:-1]).get("State") == "Finished"
     assert finished
+
+
+def _recv_until(client: LegacyClient, pred: Callable[[etree._Element], bool], tries: int = 200) -> etree._Element:
+    for _ in range(tries):
+        data = client.recv(65536)
+        el = etree.fromstring(data[:-1])
+        if pred(el):
+            return el
+    raise AssertionError("never saw the expected datagram")
+
+
+def test_scores_and_states_follow_the_legacy_game(net: Net, clients: list[LegacyClient]) -> None:
+    (net.tmp / "lab.xml").write_text('<Lab Name="home" Width="28" Height="14"><Target X="5" Y="7" Radius="1"/></Lab>')
+    (net.tmp / "grid.xml").write_text('<Grid><Position X="5" Y="7" Dir="0"/></Grid>')
+    params = (MAPS / "ciberrato" / "C1-config.xml").read_text().replace('ScoreSensor="Off"', 'ScoreSensor="On"')
+    (net.tmp / "params.xml").write_text(params)
+    port = _udp_port()
+    net.spawn("world", str(net.tmp / "lab.xml"), "--grid", str(net.tmp / "grid.xml"), "--profile", "ciberrato")
+    net.spawn("collision")
+    net.spawn("sensors")
+    net.spawn("bridge", "ciberrato", "--port", str(port), "--param", str(net.tmp / "params.xml"), "--scoring", "0")
+    robot = LegacyClient(port)
+    clients.append(robot)
+    robot.register(b'<Robot Id="1" Name="home"/>')
+    viewer = LegacyClient(port)
+    clients.append(viewer)
+    viewer.register(b"<View/>\n\x00")
+    # competitive: the penalty starts at 100 + 100 per target; a visit at the start takes 100 off
+    robot.send(b'<Actions LeftMotor="0" RightMotor="0" VisitingLed="On"/>')
+    m = _recv_until(
+        robot, lambda el: el.find("Sensors/Score") is not None and el.find("Sensors/Score").get("VisitedMask") == "1"
+    )
+    assert m.find("Sensors/Score").get("Score") == "200"  # 100 + pen, pen = 200 - 100
+    # home (a target), every target visited: ReturningLed starts the return
+    robot.send(b'<Actions LeftMotor="0" RightMotor="0" VisitingLed="Off" ReturningLed="On"/>')
+    st = _recv_until(viewer, lambda el: el.tag == "Robot" and el.get("State") == "Returning")
+    assert st.get("VisitedMask") == "1"
+    robot.send(b'<Actions LeftMotor="0" RightMotor="0" EndLed="On"/>')
+    _recv_until(viewer, lambda el: el.tag == "Robot" and el.get("State") == "Finished")
