@@ -74,6 +74,7 @@ RECV_BYTES = 4096
 GPS_OFFSET = (840.1877, 394.3829)  # the legacy simulator's GPS origin on glibc, until a reset
 NO_MEASUREMENT: dict[str, Any] = {"ir": 0.0, "compass": 0.0, "ground": -1, "collision": False, "beacon": None}
 FLOOD_PER_S = 400  # datagrams a second one peer (address and port) may send before the rest are dropped
+CATCH_UP = 2  # readings of one robot sent at once after a stall (the rest are stale)
 POLL_S = 0.001  # the loop looks at the bus queues at least this often
 EVENT_EVERY_S = 1.0  # at most one refusal event a second per peer
 
@@ -411,18 +412,21 @@ class Bridge:
         if states and viewers:
             self._send_robot_states(states[-1], viewers)
 
-        newest: dict[int, bytes] = {}
+        newest: dict[int, list[bytes]] = {}
         for key, data, _ in self.readings.drain():
             rid = keys.robot_id_of(key)
             if rid is not None and rid in self.by_robot:
-                newest[rid] = data  # after a stall, only the newest: one Measures a cycle, never a burst
-        for rid, data in newest.items():
+                newest.setdefault(rid, []).append(data)
+        for rid, datas in newest.items():
             client = self.by_robot[rid]
-            try:
-                client.reading = decode(data, SensorReading)
-            except IwError:
-                continue
-            self._send_measures(client, client.reading.tick)
+            # a tick late is caught up; after a longer stall only the newest goes (never a burst
+            # of stale Measures that a client would read one by one)
+            for data in datas[-CATCH_UP:]:
+                try:
+                    client.reading = decode(data, SensorReading)
+                except IwError:
+                    continue
+                self._send_measures(client, client.reading.tick)
         for key, data, _ in self.hears.drain():
             rid = keys.robot_id_of(key)
             c = self.by_robot.get(rid) if rid is not None else None
