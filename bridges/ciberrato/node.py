@@ -79,6 +79,29 @@ POLL_S = 0.001  # the loop looks at the bus queues at least this often
 EVENT_EVERY_S = 1.0  # at most one refusal event a second per peer
 
 
+class FloodGuard:
+    """Counts each peer's datagrams per second. Per address *and port*: a course's agents all
+    send from one machine's address, and must not share one budget.
+
+    Args:
+        per_s: Datagrams a peer may send in a second before the rest are refused.
+    """
+
+    def __init__(self, per_s: int) -> None:
+        self.per_s = per_s
+        self._rate: dict[tuple[str, int], tuple[float, int]] = {}
+
+    def over(self, peer: tuple[str, int], now: float) -> bool:
+        """Counts one datagram from ``peer`` at ``now`` (seconds); whether it is over the limit."""
+        if len(self._rate) > 4096:  # forget peers quiet for a second (spoofed ports cost no memory)
+            self._rate = {p: v for p, v in self._rate.items() if now - v[0] < 1.0}
+        start, n = self._rate.get(peer, (now, 0))
+        if now - start >= 1.0:
+            start, n = now, 0
+        self._rate[peer] = (start, n + 1)
+        return n + 1 > self.per_s
+
+
 @dataclass
 class Client:
     """One legacy client and its own socket."""
@@ -155,7 +178,7 @@ class Bridge:
         self.verdicts = bus.queue(keys.verdict(sim), 64)  # which collisions were walls, which robots
         self._hits: dict[int, dict[int, tuple[bool, bool]]] = {}  # tick -> robot -> (wall, robot)
         self._space: tuple[LabMsg, list[FreeSpace]] | None = None
-        self._rate: dict[tuple[str, int], tuple[float, int]] = {}
+        self._flood = FloodGuard(FLOOD_PER_S)
         self._hit: dict[int, bool] = {}
         self._collisions: dict[int, int] = {}
         self._last_event: dict[tuple[str, str], float] = {}
@@ -173,18 +196,6 @@ class Bridge:
             self._last_event[key] = now
             logger.warning("refused a datagram from %s:%d: %s", peer[0], peer[1], reason)
             self.io.event("legacy-refused", f"{peer[0]}:{peer[1]}: {reason}", peer=f"{peer[0]}:{peer[1]}")
-
-    def _flooding(self, peer: tuple[str, int]) -> bool:
-        """Whether this peer sent more than FLOOD_PER_S datagrams in its current second. Counted
-        per address *and port*: a course's agents all share one machine's address."""
-        now = time.monotonic()
-        if len(self._rate) > 4096:  # forget peers quiet for a second (spoofed ports cost no memory)
-            self._rate = {p: v for p, v in self._rate.items() if now - v[0] < 1.0}
-        start, n = self._rate.get(peer, (now, 0))
-        if now - start >= 1.0:
-            start, n = now, 0
-        self._rate[peer] = (start, n + 1)
-        return n + 1 > FLOOD_PER_S
 
     def _new_socket(self) -> socket.socket:
         s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -568,7 +579,7 @@ class Bridge:
                     except OSError as e:
                         logger.warning("receive failed: %s", e)
                         break
-                    if self._flooding(peer):
+                    if self._flood.over(peer, time.monotonic()):
                         self._refuse(peer, f"more than {FLOOD_PER_S} datagrams a second: dropped")
                         continue
                     if key.data is None:

@@ -292,7 +292,9 @@ class RobotGame:
         if self.mode == Mode.CONTROL:
             self._score_control(s)
             return
-        here = target_at(self.lab, s.x, s.y)
+        # where it stands matters only to a lit LED (this runs for every robot every step)
+        leds = s.end_led or s.returning_led or s.visiting_led or s.returning_now
+        here = target_at(self.lab, s.x, s.y) if leds else -1
         all_visited = all(self.visited)
         phase = self.remembered if self.state == "Stopped" else self.state
         if phase == "Returning":

@@ -127,8 +127,6 @@ class _World:
             for d in self.verdicts.drain():
                 v = self.io.decode(d, Verdict)
                 if v is not None and self.core.verdict_ok(v):
-                    if logger.isEnabledFor(logging.DEBUG):
-                        logger.debug("verdict received %.2f ms before it was taken", (time.time_ns() - d[2]) / 1e6)
                     return v
             if not self.core.collision_alive or self.io.stop.is_set():
                 return None
@@ -152,10 +150,7 @@ class _World:
                 next_ns = self.clock.now_ns()
                 continue
             start = self.clock.now_ns()
-            wall = self.clock.wall_ns()
-            io.send_all(core.begin_tick(start, wall))
-            if logger.isEnabledFor(logging.DEBUG):
-                logger.debug("tick %d began at %d (wall ns)", core.tick, wall)
+            io.send_all(core.begin_tick(start, self.clock.wall_ns()))
             verdict_wait = int(cfg.verdict_timeout_ms * MS) if lockstep else period // 2
             verdict = self.take_verdict(start + verdict_wait)
             t_verdict = self.clock.now_ns()

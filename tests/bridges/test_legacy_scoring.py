@@ -135,3 +135,18 @@ def test_mapping_mode_never_returns_and_starts_from_zero() -> None:
 def test_the_first_target_holding_the_whole_disc() -> None:
     assert target_at(OPEN, 8.4, 8.0) == 0
     assert target_at(OPEN, 8.6, 8.0) == -1  # the disc sticks out
+
+
+def test_removal_ends_every_state_and_nothing_scores_after() -> None:
+    for last in ("Stopped", "Running", "Finished"):
+        g = RobotGame(OPEN, start=(2.0, 2.0))
+        if last != "Stopped":
+            _run(g, 1, 5.0, 5.0)
+        if last == "Finished":
+            _run(g, 2, 5.0, 5.0, end_led=True)
+        assert g.state == last
+        g.step(StepInput(now=3, running=True, x=8.0, y=8.0, removed=True))
+        score = g.score
+        _run(g, 4, 8.0, 8.0, visiting_led=True)
+        assert g.state == "Removed"
+        assert g.score == score

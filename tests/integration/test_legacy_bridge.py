@@ -64,22 +64,31 @@ def clients() -> Iterator[list[LegacyClient]]:
         c.close()
 
 
-def _world(net: Net, params: Path = MAPS / "ciberrato" / "C1-config.xml") -> int:
-    """A C1 world in the ciberrato profile with the bridge on a free UDP port (returned)."""
+def _world(
+    net: Net,
+    params: Path | None = MAPS / "ciberrato" / "C1-config.xml",
+    *,
+    lab: str | None = None,
+    grid: str | None = None,
+    radio: bool = False,
+    bridge: tuple[str, ...] = (),
+) -> int:
+    """A ciberrato-profile world (C1's lab and grid unless given as XML text) with the bridge on a
+    free UDP port (returned)."""
+    lab_path, grid_path = MAPS / "ciberrato" / "C1-lab.xml", MAPS / "ciberrato" / "C1-grid.xml"
+    if lab is not None:
+        lab_path = net.tmp / "lab.xml"
+        lab_path.write_text(lab)
+    if grid is not None:
+        grid_path = net.tmp / "grid.xml"
+        grid_path.write_text(grid)
     port = _udp_port()
-    net.spawn(
-        "world",
-        str(MAPS / "ciberrato" / "C1-lab.xml"),
-        "--grid",
-        str(MAPS / "ciberrato" / "C1-grid.xml"),
-        "--profile",
-        "ciberrato",
-        "--period-ms",
-        "50",
-    )
+    net.spawn("world", str(lab_path), "--grid", str(grid_path), "--profile", "ciberrato", "--period-ms", "50")
     net.spawn("collision")
     net.spawn("sensors")
-    net.spawn("bridge", "ciberrato", "--port", str(port), "--param", str(params))
+    if radio:
+        net.spawn("radio")
+    net.spawn("bridge", "ciberrato", "--port", str(port), *(["--param", str(params)] if params else []), *bridge)
     return port
 
 
@@ -196,23 +205,7 @@ TWO = '<Grid><Position X="5" Y="7" Dir="0"/><Position X="7.2" Y="7" Dir="180"/><
 
 
 def test_a_legacy_robot_and_a_native_one_see_hear_and_hit_each_other(net: Net, clients: list[LegacyClient]) -> None:
-    (net.tmp / "lab.xml").write_text(OPEN_LAB)
-    (net.tmp / "grid.xml").write_text(TWO)
-    port = _udp_port()
-    net.spawn(
-        "world",
-        str(net.tmp / "lab.xml"),
-        "--grid",
-        str(net.tmp / "grid.xml"),
-        "--profile",
-        "ciberrato",
-        "--period-ms",
-        "50",
-    )
-    net.spawn("collision")
-    net.spawn("sensors")
-    net.spawn("radio")
-    net.spawn("bridge", "ciberrato", "--port", str(port))
+    port = _world(net, None, lab=OPEN_LAB, grid=TWO, radio=True)
     bus = net.client()
     events = subscribe(bus, keys.event(net.sim, "collision"))
     robot = LegacyClient(port)
@@ -340,15 +333,17 @@ def _recv_until(client: LegacyClient, pred: Callable[[etree._Element], bool], tr
 
 
 def test_scores_and_states_follow_the_legacy_game(net: Net, clients: list[LegacyClient]) -> None:
-    (net.tmp / "lab.xml").write_text('<Lab Name="home" Width="28" Height="14"><Target X="5" Y="7" Radius="1"/></Lab>')
-    (net.tmp / "grid.xml").write_text('<Grid><Position X="5" Y="7" Dir="0"/></Grid>')
-    params = (MAPS / "ciberrato" / "C1-config.xml").read_text().replace('ScoreSensor="Off"', 'ScoreSensor="On"')
-    (net.tmp / "params.xml").write_text(params)
-    port = _udp_port()
-    net.spawn("world", str(net.tmp / "lab.xml"), "--grid", str(net.tmp / "grid.xml"), "--profile", "ciberrato")
-    net.spawn("collision")
-    net.spawn("sensors")
-    net.spawn("bridge", "ciberrato", "--port", str(port), "--param", str(net.tmp / "params.xml"), "--scoring", "0")
+    params = net.tmp / "params.xml"
+    params.write_text(
+        (MAPS / "ciberrato" / "C1-config.xml").read_text().replace('ScoreSensor="Off"', 'ScoreSensor="On"')
+    )
+    port = _world(
+        net,
+        params,
+        lab='<Lab Name="home" Width="28" Height="14"><Target X="5" Y="7" Radius="1"/></Lab>',
+        grid='<Grid><Position X="5" Y="7" Dir="0"/></Grid>',
+        bridge=("--scoring", "0"),
+    )
     robot = LegacyClient(port)
     clients.append(robot)
     robot.register(b'<Robot Id="1" Name="home"/>')
