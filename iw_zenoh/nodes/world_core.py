@@ -200,7 +200,15 @@ class WorldCore:
             placed = self.registry.place(spec, self.poses_by_id())
         except Refused as e:
             return self._refuse(req, str(e))
-        self.registry.add(placed, req.agent, now_ns)
+        entry = self.registry.add(placed, req.agent, now_ns)
+        # lock-step: its first readings are of the next tick, so it owes nothing for this one;
+        # and its agent is alive (an agent declares its token before it registers), whether or
+        # not the token has reached us yet: waiting for it from the first tick keeps a run the
+        # same every time
+        entry.last_action_tick = self.tick
+        if req.agent:
+            self.agents_alive.add(req.agent)
+            self._awaiting = None
         pose = np.array([placed.x_m or 0.0, placed.y_m or 0.0, np.radians(placed.dir_deg or 0.0)])
         self._rebuild({placed.id: pose})
         msg = spec_to_msg(placed)
@@ -227,8 +235,12 @@ class WorldCore:
             return []
         e.cmd = (msg.left, msg.right)
         e.last_action_ns = now_ns
-        e.last_action_tick = max(e.last_action_tick, msg.tick)
-        self._mark_answered(msg.robot_id, msg.tick)
+        if e.spec.type != RobotType.REAL:
+            # a Real robot answers a tick with its pose report: its actions and its report are
+            # two messages on two keys that may arrive in either order, and stepping on the
+            # actions alone would use the pose of the tick before (differently each run)
+            e.last_action_tick = max(e.last_action_tick, msg.tick)
+            self._mark_answered(msg.robot_id, msg.tick)
         e.leds = {"end": msg.end_led, "returning": msg.returning_led, "visiting": msg.visiting_led}
         if e.watchdog:
             e.watchdog = False

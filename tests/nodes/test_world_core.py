@@ -8,6 +8,7 @@ from iw_zenoh.messages import (
     Control,
     Event,
     Obstacle,
+    PoseReport,
     Proposed,
     RegisterRequest,
     RobotSpecMsg,
@@ -124,9 +125,33 @@ def test_lockstep_waits_only_for_live_agents_that_have_not_answered() -> None:
     core.register(RegisterRequest(spec=RobotSpecMsg(name="a"), agent="ag"), 0)
     core.register(RegisterRequest(spec=RobotSpecMsg(name="b"), agent="gone"), 0)
     core.on_alive("agent", "ag", True, 0)
+    core.on_alive("agent", "gone", False, 0)
     assert core.expected(1) == [1]
     core.on_actions(Actions(tick=1, robot_id=1), 0)
     assert core.expected(1) == []
+
+
+def test_lockstep_waits_for_a_new_robot_from_its_first_readings_before_its_agent_token_arrives() -> None:
+    # the token is declared before the agent registers but may reach the world later: a world
+    # that waited only for agents it had seen alive ran its first ticks without the new robot,
+    # differently each run
+    core = _core(mode="lockstep")
+    core.register(RegisterRequest(spec=RobotSpecMsg(name="a"), agent="ag"), 0)
+    assert core.expected(core.tick) == []  # it has no readings of the tick it registered in
+    assert core.expected(core.tick + 1) == [1]
+    assert core.waiting(core.tick + 1)
+    core.on_actions(Actions(tick=core.tick + 1, robot_id=1), 0)
+    assert not core.waiting(core.tick + 1)
+
+
+def test_lockstep_a_real_robot_answers_with_its_pose_report_not_its_actions() -> None:
+    core = _core(mode="lockstep")
+    core.register(RegisterRequest(spec=RobotSpecMsg(name="r", type="Real"), agent="ag"), 0)
+    n = core.tick + 1
+    core.on_actions(Actions(tick=n, robot_id=1), 0)  # arrived first: the pose is not here yet
+    assert core.waiting(n)
+    core.on_pose_report(PoseReport(tick=n, robot_id=1, x=3.0, y=4.0, dir_deg=0.0), 0)
+    assert not core.waiting(n)
 
 
 def test_obstacles_are_added_moved_and_refused_outside_the_lab() -> None:
