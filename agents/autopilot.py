@@ -13,6 +13,11 @@ the sonars find, replan when the plan is blocked.
 * Reactive safety: something nearer than ``stop_m`` ahead (a chair crossing, a closing door)
   stops the chair whatever the plan says; it goes on once the way is clear, and plans again if
   it stays blocked.
+* Guard: no command is sent whose next ``GUARD_S`` would bring the chair's bare outline onto
+  its map where it is not already (the follower strays from what the planner checked: a
+  corrective turn on the spot swings the front 0.84 m out); the chair stops and plans again.
+* Tight spots: the plan may back up (straight, dearly), and a chair that stands inside its own
+  margin plans from there with its bare outline.
 """
 
 from __future__ import annotations
@@ -37,10 +42,13 @@ __all__ = ["MAPPING_SENSORS", "Autopilot", "Drive", "cones_of", "mapping_chair"]
 FloatArray = npt.NDArray[np.float64]
 
 CELL_M = 0.05
-MARK_M = 3.0  # narrow cones: a reading this near marks its arc (5 degrees at 3 m is 0.26 m)
+MARK_M = 1.5  # narrow cones: a reading this near marks its arc (5 degrees at 1.5 m is 0.13 m); farther ones carve
 LOOKAHEAD_M = 0.3
 TURN_IN_PLACE_DEG = 25.0  # off the plan by more than this (not a planned turn): turn on the spot
 CRUISE_MPS = 0.2
+BACK_MPS = 0.08  # backing up, slowly (one sensor behind)
+GUARD_S = 0.3  # look this far ahead in time for a motion that would touch the map
+BACK_STOP_M = 0.2  # backing up: stop when something unexplained is this near behind
 SLOW_SHARE = 0.35  # the slowest share of cruise speed, when something is within 0.24 m
 TURN_RADPS = 0.35
 WINDOW_M = 4.0  # plan inside the box round start and goal grown by this much (the whole lab if that fails)
@@ -141,6 +149,7 @@ class Autopilot:
     _fails: int = field(default=0, init=False, repr=False)
     movers: list[tuple[float, float, float]] = field(default_factory=list)
     _unwrapped: FloatArray = field(default_factory=lambda: np.zeros(0), init=False, repr=False)
+    _back: npt.NDArray[np.bool_] = field(default_factory=lambda: np.zeros(0, dtype=bool), init=False, repr=False)
     sonar: SonarMap = field(init=False, repr=False)
     fp: Footprint = field(init=False, repr=False)
 
@@ -148,7 +157,10 @@ class Autopilot:
         self._occ = occupancy(self.known, CELL_M)
         self.sonar = SonarMap(self._occ, CELL_M, mark_m=MARK_M)
         self.fp = Footprint.of(self.spec.width_m, self.spec.height_m, self.spec.com, self.margin_m)
+        self._bare = Footprint.of(self.spec.width_m, self.spec.height_m, self.spec.com, 0.0)
+        self._bare_points = self._bare.points(0.5 * CELL_M)
         self._front = {m.id for m in self.spec.sensors if abs(m.angle_deg) <= 10.0}
+        self._rear = {m.id for m in self.spec.sensors if abs(m.angle_deg) >= 150.0}
         self._scene = Scene(self.known)
         self._bodies = Bodies.from_specs([self.spec])
         self._sensor_ids = self._bodies.ir_id.tolist()
@@ -198,20 +210,33 @@ class Autopilot:
         assert self.goal is not None
         start = (pose[0], pose[1], math.radians(pose[2]))
         (x0, x1), (y0, y1) = sorted((pose[0], self.goal[0])), sorted((pose[1], self.goal[1]))
-        # with every mark first; if that leaves no way, with the confirmed (near) ones only:
-        # far arcs are wide and the chair will see better when nearer
-        for seen in (self.sonar.occupied, self.sonar.confirmed):
-            occ = self._occ | seen
-            box = (x0 - WINDOW_M, y0 - WINDOW_M, x1 + WINDOW_M, y1 + WINDOW_M)
-            whole = box[0] <= 0 and box[1] <= 0 and box[2] >= self.known.width_m and box[3] >= self.known.height_m
+        box = (x0 - WINDOW_M, y0 - WINDOW_M, x1 + WINDOW_M, y1 + WINDOW_M)
+        whole = box[0] <= 0 and box[1] <= 0 and box[2] >= self.known.width_m and box[3] >= self.known.height_m
+        # with every mark first; if that leaves no way, with the confirmed (near) ones only
+        # (far arcs are wide and the chair will see better when nearer)
+        seen = [self.sonar.occupied]
+        if not np.array_equal(self.sonar.occupied, self.sonar.confirmed):
+            seen.append(self.sonar.confirmed)
+        # the chair's margin first; when the chair itself is inside it (squeezed between two
+        # things, or pushed there by the follower), without it: the bare outline still never
+        # touches what is mapped, and the next plan from a roomier pose has its margin again
+        for fp in (self.fp, self._bare):
+            fits = False
             for window in (box,) if whole else (box, None):
-                space = PoseSpace(occ, CELL_M, self.fp, window=window)
-                found = pose_plan(space, start, self.goal, reach_m=self.reach_m, max_expand=PLAN_EXPAND)
-                if found is not None:
-                    self._space, self.path, self.index = space, found.poses, 0
-                    self._unwrapped = np.unwrap(found.poses[:, 2])
-                    self.status = "driving"
-                    return
+                for occ_seen in seen:
+                    space = PoseSpace(self._occ | occ_seen, CELL_M, fp, window=window)
+                    if not space.free(*start):
+                        continue
+                    fits = True
+                    found = pose_plan(space, start, self.goal, reach_m=self.reach_m, max_expand=PLAN_EXPAND)
+                    if found is not None:
+                        self._space, self.path, self.index = space, found.poses, 0
+                        self._unwrapped = np.unwrap(found.poses[:, 2])
+                        self._back = _backing(found.poses)
+                        self.status = "driving"
+                        return
+            if fits:
+                break  # the margin was not what stood in the way
         self._space, self.path = None, None
         self.status = "no path"
 
@@ -273,8 +298,10 @@ class Autopilot:
             ),
             default=math.inf,
         )
+        behind = min((d for i, d in zip(ids, news, strict=True) if d is not None and i in self._rear), default=math.inf)
         forward = drive.left_mps + drive.right_mps > 0.0
-        if (front < self.stop_m and forward) or collided:
+        backing = drive.status == "backing"
+        if (front < self.stop_m and forward) or (behind < BACK_STOP_M and backing) or collided:
             self.blocked_ticks += 1
             if self.blocked_ticks >= BLOCKED_REPLAN_TICKS:
                 self.blocked_ticks = 0
@@ -287,7 +314,40 @@ class Autopilot:
             near = min((d for d in dists if d is not None), default=math.inf)
             k = min(1.0, max(SLOW_SHARE, (near - 0.1) / 0.4))
             drive = Drive(drive.left_mps * k, drive.right_mps * k, drive.status)
+        if self.touches(pose, drive):
+            # the follower strays from what the plan checked (a corrective turn on the spot swings
+            # the front 0.84 m out): never into what is mapped; stop and plan from here
+            self.replans += 1
+            self._replan = True
+            return Drive(0.0, 0.0, "guarded")
         return drive
+
+    def touches(self, pose: tuple[float, float, float], drive: Drive) -> bool:
+        """Whether the next ``GUARD_S`` of this drive would bring the chair's bare outline onto a
+        cell of its map (known walls or marks) that it does not already overlap."""
+        if drive.left_mps == 0.0 and drive.right_mps == 0.0:
+            return False
+        occ = self._occ | self.sonar.occupied
+        x, y, th = pose[0], pose[1], math.radians(pose[2])
+        v = 0.5 * (drive.left_mps + drive.right_mps)
+        w = (drive.right_mps - drive.left_mps) / self.spec.height_m
+        ts = np.linspace(0.0, GUARD_S, 4)
+        if abs(w) < 1e-9:
+            xs, ys, hs = x + v * ts * math.cos(th), y + v * ts * math.sin(th), np.full(len(ts), th)
+        else:
+            hs = th + w * ts
+            xs = x + v / w * (np.sin(hs) - math.sin(th))
+            ys = y - v / w * (np.cos(hs) - math.cos(th))
+        pts = self._bare_points
+        c, s = np.cos(hs)[:, None], np.sin(hs)[:, None]
+        wx = xs[:, None] + c * pts[None, :, 0] - s * pts[None, :, 1]
+        wy = ys[:, None] + s * pts[None, :, 0] + c * pts[None, :, 1]
+        rr = np.clip((wy / CELL_M).astype(np.int64), 0, occ.shape[0] - 1)
+        cc = np.clip((wx / CELL_M).astype(np.int64), 0, occ.shape[1] - 1)
+        hit = occ[rr, cc]
+        now = set(zip(rr[0][hit[0]].tolist(), cc[0][hit[0]].tolist(), strict=True))
+        later = set(zip(rr[1:][hit[1:]].tolist(), cc[1:][hit[1:]].tolist(), strict=True))
+        return bool(later - now)
 
     def _follow(self, pose: tuple[float, float, float]) -> Drive:
         assert self.path is not None
@@ -312,19 +372,38 @@ class Autopilot:
             if abs(err) > math.radians(3.0):
                 w = math.copysign(min(TURN_RADPS, 1.5 * abs(err) + 0.05), err)
                 return Drive(-w * base / 2, w * base / 2, "turning")
-        # pure pursuit to a point ahead, stopping short of the next turn
+        # pure pursuit to a point ahead (behind, backing up), stopping short of the next turn
+        # or change of direction
+        back = bool(self._back[i])
         k = i
-        while k + 1 < len(p) and math.hypot(p[k, 0] - x, p[k, 1] - y) < LOOKAHEAD_M and abs(hu[k + 1] - hu[i]) < 0.2:
+        while (
+            k + 1 < len(p)
+            and math.hypot(p[k, 0] - x, p[k, 1] - y) < LOOKAHEAD_M
+            and abs(hu[k + 1] - hu[i]) < 0.2
+            and self._back[k + 1] == back
+        ):
             k += 1
         tx, ty = p[k, 0], p[k, 1]
         dist = math.hypot(tx - x, ty - y)
         if dist < 0.03 or (k == len(p) - 1 and dist < 0.1):
             self._replan = True  # the plan is used up short of the goal: plan the rest
             return Drive(0.0, 0.0, "replanning")
-        err = math.remainder(math.atan2(ty - y, tx - x) - th, 2 * math.pi)
+        facing = th + math.pi if back else th  # backing up: steer the rear as if it were the front
+        err = math.remainder(math.atan2(ty - y, tx - x) - facing, 2 * math.pi)
         if abs(math.degrees(err)) > (45.0 if self.careful else TURN_IN_PLACE_DEG):
             w = math.copysign(min(TURN_RADPS, 1.5 * abs(err) + 0.05), err)
             return Drive(-w * base / 2, w * base / 2, "turning")
+        if back:
+            v = BACK_MPS
+            w = v * 2.0 * math.sin(err) / max(dist, 0.05)
+            return Drive(-(v + w * base / 2), -(v - w * base / 2), "backing")
         v = CRUISE_MPS * min(1.0, 0.3 + dist / LOOKAHEAD_M)
         w = v * 2.0 * math.sin(err) / max(dist, 0.05)
         return Drive(v - w * base / 2, v + w * base / 2, "driving")
+
+
+def _backing(poses: FloatArray) -> npt.NDArray[np.bool_]:
+    """For each pose of a path, whether the chair leaves it backwards (moving against its heading)."""
+    d = np.diff(poses[:, :2], axis=0)
+    along = d[:, 0] * np.cos(poses[:-1, 2]) + d[:, 1] * np.sin(poses[:-1, 2])
+    return np.append(along < -1e-9, False)

@@ -3,11 +3,12 @@
 A chair 1.04 m long that turns about a point near its front axle sweeps far more room than a
 disc of its half width: planning it as such a disc (:mod:`iw_zenoh.core.planning`) lets its
 corners graze what it passes. Here the configuration space is three-dimensional: for each of
-32 headings the walls are grown by the chair's own outline at that heading (a dilation of the
-occupancy grid by the rotated rectangle, margin included). A* moves over 8 headings: one cell
-forward along the heading, or a turn on the spot of 45 degrees, allowed only when every
-intermediate heading is free too (the turn's swept area). The follower drives the straight runs
-and turns on the spot at their ends, which is what the lattice checked.
+48 headings the walls are grown by the chair's own outline at that heading (a dilation of the
+occupancy grid by the rotated rectangle, margin included). A* moves by 0.2 m arcs of five
+curvatures (straight included), by turns on the spot of 15 degrees, allowed only when every
+intermediate heading is free too (the turn's swept area), or straight back (dearly: a way out
+of a tight spot, not a way to travel). Every move is checked against the outline every 5 cm,
+and the follower drives what the lattice checked.
 
 Obstacles that the sensors find later are added as occupied cells and dilated the same way, so a
 new plan goes round them with the chair's real shape.
@@ -37,6 +38,8 @@ CURVATURES = (0.0, 1.2, -1.2, 3.0, -3.0)  # 1/m; 3/m is a 0.33 m radius, inside 
 TURN_BINS = 2  # a turn on the spot turns this many heading bins (15 degrees)
 TURN_COST_M = 0.25  # and costs as much as this much driving
 CURVE_COST = 0.1  # extra cost per metre per unit of |curvature| (prefer straight)
+REVERSE_COST = 3.0  # backing up (straight) costs this many times as much as driving ahead: a
+# way out when the chair is wedged, not a way to travel (it has one sensor behind)
 SAMPLE_M = 0.05  # check the footprint this often along a primitive
 
 
@@ -227,6 +230,8 @@ def _primitives() -> list[tuple[FloatArray, float]]:
             th = k * s
             pts = np.column_stack([np.sin(th) / k, (1.0 - np.cos(th)) / k, th])
         out.append((pts, STEP_M * (1.0 + CURVE_COST * abs(k))))
+    s = np.linspace(SAMPLE_M, STEP_M, n)
+    out.append((np.column_stack([-s, np.zeros(n), np.zeros(n)]), STEP_M * REVERSE_COST))
     for d in (1, -1):
         step = 2 * math.pi / NH
         th = d * step * TURN_BINS * np.linspace(1.0 / n, 1.0, n)  # n samples, like the arcs

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 import pytest
-from iw_zenoh.agents.autopilot import Autopilot, mapping_chair
+from iw_zenoh.agents.autopilot import Autopilot, Drive, mapping_chair
 from iw_zenoh.agents.emulated import LocalWorld, Odometry
 
 from iw_zenoh.core.lab import Lab
@@ -80,3 +80,43 @@ def test_odometry_follows_the_encoders_and_drifts_only_when_wheels_slip(slip: fl
         assert err < 0.01
     else:
         assert err > 0.01  # slip: the odometry pose drifts from the truth
+
+
+DEAD_END = Lab(
+    "dead end",
+    6.0,
+    3.0,
+    (box_wall(2.0, 0.0, 6.0, 1.05), box_wall(2.0, 1.95, 6.0, 3.0), box_wall(5.0, 1.05, 6.0, 1.95)),
+)  # a corridor too narrow to turn the chair in, closed at x = 5
+
+
+def test_a_chair_nose_in_to_a_dead_end_backs_out_to_a_goal_behind_it_without_touching() -> None:
+    spec = mapping_chair("c", id=1, x_m=4.0, y_m=1.5, dir_deg=0.0)
+    world = LocalWorld(DEAD_END, [spec], seed=1)
+    ap = Autopilot(spec, DEAD_END)
+    ap.set_goal((1.0, 1.5))
+    r = world.step({})[1]
+    seen = set()
+    scale = MAX_POWER / spec.max_speed_mps
+    for _ in range(1500):
+        d = ap.step(r.gps, r.proximity_ids, r.proximity_m, collided=r.collision)
+        seen.add(d.status)
+        if d.status == "arrived":
+            break
+        r = world.step({1: (d.left_mps * scale, d.right_mps * scale)})[1]
+    assert d.status == "arrived", seen
+    assert "backing" in seen
+    assert world.collisions == 0
+    x, _, _ = world.pose(1)
+    assert x < 1.6
+
+
+def test_the_guard_refuses_a_turn_that_would_swing_the_front_into_a_wall() -> None:
+    # along a wall, 6 cm from it: driving on is fine, turning towards it on the spot is not
+    lab = Lab("wall", 8.0, 4.0, (box_wall(0.0, 0.0, 8.0, 1.0),))
+    spec = mapping_chair("c", id=1, x_m=3.0, y_m=1.4, dir_deg=0.0)
+    ap = Autopilot(spec, lab)
+    pose = (3.0, 1.0 + 0.33 + 0.06, 0.0)
+    assert not ap.touches(pose, Drive(0.2, 0.2, "driving"))
+    assert ap.touches(pose, Drive(0.08, -0.08, "turning"))  # clockwise: the front-right corner dips
+    assert not ap.touches(pose, Drive(-0.08, 0.08, "turning"))  # away from the wall

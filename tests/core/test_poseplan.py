@@ -82,3 +82,23 @@ def test_obstacles_added_later_block_the_states_they_touch() -> None:
     found = pose_plan(space, (2.0, 3.0, 0.0), (8.0, 3.0))
     assert found is not None
     assert all(space.path_free(found.poses))
+
+
+DEAD_END = Lab(
+    "dead end",
+    6.0,
+    3.0,
+    (box_wall(2.0, 0.0, 6.0, 1.05), box_wall(2.0, 1.95, 6.0, 3.0), box_wall(5.0, 1.05, 6.0, 1.95)),
+)  # a 0.9 m corridor from the open end at x = 2 to a wall at x = 5: too narrow to turn the chair in
+
+
+def test_a_chair_nose_in_to_a_dead_end_backs_out() -> None:
+    space = PoseSpace(occupancy(DEAD_END, 0.05), 0.05, CHAIR)
+    found = pose_plan(space, (4.0, 1.5, 0.0), (1.0, 1.5), reach_m=0.3)
+    assert found is not None
+    p = found.poses
+    step = p[1:, :2] - p[:-1, :2]
+    along = step[:, 0] * [math.cos(h) for h in p[:-1, 2]] + step[:, 1] * [math.sin(h) for h in p[:-1, 2]]
+    assert (along < -1e-9).sum() * 0.05 >= 1.5  # it backed out of the corridor (2 m deep, less its nose)
+    assert all(space.path_free(p))
+    assert _clearance(DEAD_END, [tuple(q) for q in p]) > 0.03
