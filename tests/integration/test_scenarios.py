@@ -64,3 +64,78 @@ def test_the_autonomous_chair_finds_the_unknown_box_and_arrives_without_touching
                 ys.append(st.y[0])
     assert ys
     assert min(abs(y - 3.0) for y in ys) > 0.8  # it went round the box (0.8 m half height)
+
+
+def _track(rec: Path, robot: int) -> list[tuple[float, float]]:
+    out = []
+    with rec.open("rb") as f:
+        for _, _, m in make_reader(f).iter_messages(topics=[keys.state("sc")]):
+            st = decode(m.data, WorldState)
+            if robot in st.ids:
+                i = st.ids.index(robot)
+                out.append((st.x[i], st.y[i]))
+    return out
+
+
+def _through_the_slalom(track: list[tuple[float, float]]) -> None:
+    # below A (17, 6.1)-(17.6, 6.4), then up between A and B, ending above B (19.4, 5.5)-(20, 5.9)
+    under_a = [y for x, y in track if 17.0 <= x <= 17.6]
+    assert under_a
+    assert max(under_a) < 6.1 - 0.3  # the chair's centre of movement, 0.33 m from its side
+    x, y = track[-1]
+    assert x > 19.4
+    assert y > 5.9 + 0.3
+
+
+def test_the_seed_slalom_the_chair_finds_a_and_b_with_its_cones_and_passes_without_touching(tmp_path: Path) -> None:
+    r, rec = _run("slalom.toml", tmp_path)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "PASS collisions 0" in r.stdout
+    assert "PASS robot 1 within 0.5 m of (20, 6.1)" in r.stdout
+    assert "laggard" not in r.stdout  # every tick waited for the chair: the run is the same every time
+    _through_the_slalom(_track(rec, 1))
+
+
+def test_the_augmented_slalom_a_drifting_real_chair_merges_its_own_cones_and_passes(tmp_path: Path) -> None:
+    r, rec = _run("slalom-augmented.toml", tmp_path)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "PASS collisions 0" in r.stdout  # the world's check, at the pose the chair reports
+    assert "PASS robot 1 within 0.5 m of (20, 6.1)" in r.stdout
+    assert "laggard" not in r.stdout
+    _through_the_slalom(_track(rec, 1))
+    logs = "".join(p.read_text() for p in tmp_path.glob("agent-*.log"))
+    assert "the real chair touched something" not in logs  # nor did the emulated hardware, truly
+
+
+def test_find_the_box_augmented_the_real_chair_misses_the_virtual_box_and_its_own(tmp_path: Path) -> None:
+    r, rec = _run("find-the-box-augmented.toml", tmp_path)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "PASS collisions 0" in r.stdout  # the virtual box, at the pose the chair reports
+    assert "PASS robot 1 within 0.5 m of (10.5, 3)" in r.stdout
+    assert "laggard" not in r.stdout
+    logs = "".join(p.read_text() for p in tmp_path.glob("agent-*.log"))
+    assert "the real chair touched something" not in logs  # the real box, only in the chair's room
+    track = _track(rec, 1)
+    assert min(abs(y - 3.0) for x, y in track if 5.0 < x < 7.0) > 0.8  # round the virtual box
+
+
+def test_two_chairs_negotiate_one_doorway_one_at_a_time(tmp_path: Path) -> None:
+    r, rec = _run("negotiated-door.toml", tmp_path)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "PASS collisions 0" in r.stdout
+    assert "PASS robot 2 within 0.5 m of (16, 7)" in r.stdout
+    assert "PASS robot 3 within 0.5 m of (4, 3)" in r.stdout
+    assert "laggard" not in r.stdout
+    door: list[float] = []
+    apart = math.inf  # the farther chair's distance to the doorway's middle (10, 5), at its least
+    with rec.open("rb") as f:
+        for _, _, m in make_reader(f).iter_messages(topics=[keys.state("sc")]):
+            st = decode(m.data, WorldState)
+            if not {1, 2, 3} <= set(st.ids):
+                continue
+            door.append(math.degrees(st.heading[st.ids.index(1)]))
+            d = [math.hypot(st.x[st.ids.index(k)] - 10.0, st.y[st.ids.index(k)] - 5.0) for k in (2, 3)]
+            apart = min(apart, max(d))
+    assert door[0] == pytest.approx(-90.0, abs=1.0)
+    assert max(door) > -10.0  # it opened
+    assert apart > 1.0  # never both chairs in the doorway
