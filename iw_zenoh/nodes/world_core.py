@@ -371,6 +371,7 @@ class WorldCore:
         """Applies commands and watchdogs, proposes next poses; returns the proposal to publish."""
         out: list[Outgoing] = []
         timeout_ns = int(self.cfg.action_timeout_ms * MS)
+        lockstep = self.cfg.mode == "lockstep"
         for rid, e in list(self.registry.entries.items()):
             if e.lost_ns is not None and now_ns - e.lost_ns > self.cfg.grace_ms * MS:
                 out += self.remove(
@@ -381,7 +382,11 @@ class WorldCore:
         report = np.full((len(ids), 3), np.nan)
         for i, rid in enumerate(ids):
             e = self.registry.entries[rid]
-            stale = now_ns - e.last_action_ns > timeout_ns
+            # lock-step: a robot that answered the last tick is on time however long the
+            # others took (a wall-clock watchdog there zeroed a door that had answered while a
+            # chair planned, differently each run)
+            answered = lockstep and e.last_action_tick >= self.tick
+            stale = now_ns - e.last_action_ns > timeout_ns and not answered
             if stale and not e.watchdog and e.lost_ns is None and e.spec.type != RobotType.REAL:
                 e.watchdog = True
                 out.append(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import signal
 import subprocess
 from pathlib import Path
 
@@ -13,13 +14,24 @@ from iw_zenoh import keys
 from iw_zenoh.messages import WorldState, decode
 from tests.integration.harness import MAPS, iwz_run_argv
 
-pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(200)]
+pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(500)]
 
 
-def _run(scenario: str, tmp: Path) -> tuple[subprocess.CompletedProcess[str], Path]:
-    out = tmp / "run.mcap"
-    argv = iwz_run_argv(MAPS / scenario, tmp, "sc", record=out)
-    return subprocess.run(argv, capture_output=True, text=True, timeout=180), out
+def _run(scenario: str, tmp: Path, timeout_s: float = 400) -> tuple[subprocess.CompletedProcess[str], Path]:
+    rec = tmp / "run.mcap"
+    argv = iwz_run_argv(MAPS / scenario, tmp, "sc", record=rec)
+    p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        out, err = p.communicate(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        p.send_signal(signal.SIGINT)  # the launcher stops every process it started
+        try:
+            out, err = p.communicate(timeout=30)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            out, err = p.communicate()
+        pytest.fail(f"{scenario} still running after {timeout_s:g} s, stopped:\n{out}{err}")
+    return subprocess.CompletedProcess(argv, p.returncode, out, err), rec
 
 
 def test_automatic_door_opens_for_the_chair_and_closes_after(tmp_path: Path) -> None:

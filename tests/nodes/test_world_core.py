@@ -82,6 +82,19 @@ def test_actions_move_the_chair_at_the_next_tick_and_stale_ones_trip_the_watchdo
     assert core.state.cmd.tolist() == [[0.0, 0.0]]
 
 
+def test_lockstep_a_robot_that_answered_the_last_tick_is_on_time_however_long_the_tick_took() -> None:
+    core = _core(mode="lockstep", action_timeout_ms=500.0)
+    core.collision_alive.add("c")
+    core.register(RegisterRequest(spec=RobotSpecMsg(name="door"), agent="d"), 0)
+    core.register(RegisterRequest(spec=RobotSpecMsg(name="slow"), agent="s"), 0)
+    s = _tick(core, 100 * MS)
+    core.on_actions(Actions(tick=s.tick, robot_id=1, left=0.15, right=0.15), 100 * MS)
+    core.on_actions(Actions(tick=s.tick, robot_id=2, left=0.1, right=0.1), 3000 * MS)  # planned for 3 s
+    out = core.begin_tick(3000 * MS)
+    assert "watchdog" not in _kinds(out)
+    assert core.state.cmd.tolist() == [[0.15, 0.15], [0.1, 0.1]]
+
+
 def test_a_lost_agent_zeroes_its_robots_at_once_and_removes_them_after_the_grace() -> None:
     core = _core(grace_ms=1000.0)
     core.register(RegisterRequest(spec=RobotSpecMsg(name="a"), agent="ag"), 0)
