@@ -70,6 +70,7 @@ class Gate:
     y: float
     near: bool = False
     waiting: bool = False
+    wanted: bool = False  # asked and not through yet: keep asking while near, plan or no plan
 
 
 def merge_nearer(a: list[float | None], b: list[float | None]) -> list[float | None]:
@@ -265,7 +266,11 @@ class Wheelchair:
             through = g.near and d > THROUGH_M
             if through:
                 g.near = False
-            wants = d < ASK_M and (g.near or self.pilot.passes_near(g.x, g.y, 1.0)) and not through
+            # once it has asked, a chair keeps asking until it is through (or has gone away): a
+            # chair that stops to plan again has no path for a moment, and falling silent then
+            # lost it the doorway while it stood in the leaf's way
+            wants = d < ASK_M and (g.near or g.wanted or self.pilot.passes_near(g.x, g.y, 1.0)) and not through
+            g.wanted = wants
             text = g.client.say(now_s, wants=wants, eta_s=d / 0.2, through=through)
             say = say or text
             limit = WAIT_M + (HYSTERESIS_M if g.waiting else 0.0)

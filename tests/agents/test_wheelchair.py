@@ -10,9 +10,11 @@ import threading
 import time
 from collections.abc import Iterator
 
+import numpy as np
 import pytest
 from iw_zenoh.agents.autopilot import mapping_chair
-from iw_zenoh.agents.wheelchair import EmulatedChair, KeyReader, Teleop, merge_nearer
+from iw_zenoh.agents.passage import Ask, parse_all
+from iw_zenoh.agents.wheelchair import EmulatedChair, KeyReader, Teleop, Wheelchair, merge_nearer
 
 from iw_zenoh.core.lab import Lab
 
@@ -120,3 +122,20 @@ def test_the_wheelchair_needs_a_goal_or_teleop() -> None:
     r = _agent("--start", "1,3,0")
     assert r.returncode == 2
     assert "--goal X,Y" in r.stdout
+
+
+def test_a_chair_that_has_asked_a_door_keeps_asking_while_it_plans_again() -> None:
+    # silent for 3 s, a chair loses its place (or the doorway it holds): a chair stopped to plan
+    # again (no path for a moment) must not fall silent
+    spec = mapping_chair("c", id=2, x_m=6.0, y_m=3.0, dir_deg=0.0)
+    chair = Wheelchair(spec, Lab("room", 12.0, 6.0), goal=(11.0, 3.0), doors=[(1, 8.0, 3.0)])
+    chair.on_registered(2, spec)
+    chair.pilot.path = np.array([[6.0, 3.0, 0.0], [8.0, 3.0, 0.0], [11.0, 3.0, 0.0]])
+    say, _ = chair._negotiate((6.0, 3.0, 0.0), [], 0.0)
+    assert say is not None
+    assert isinstance(parse_all(say)[0], Ask)
+    chair.pilot.path = None  # planning again
+    for t in (1.0, 2.0, 3.0, 4.0):
+        say, _ = chair._negotiate((6.0, 3.0, 0.0), [], t)
+        assert say is not None
+        assert isinstance(parse_all(say)[0], Ask)
