@@ -217,26 +217,33 @@ class Autopilot:
         seen = [self.sonar.occupied]
         if not np.array_equal(self.sonar.occupied, self.sonar.confirmed):
             seen.append(self.sonar.confirmed)
-        # the chair's margin first; when the chair itself is inside it (squeezed between two
-        # things, or pushed there by the follower), without it: the bare outline still never
-        # touches what is mapped, and the next plan from a roomier pose has its margin again
-        for fp in (self.fp, self._bare):
-            fits = False
-            for window in (box,) if whole else (box, None):
-                for occ_seen in seen:
-                    space = PoseSpace(self._occ | occ_seen, CELL_M, fp, window=window)
-                    if not space.free(*start):
-                        continue
-                    fits = True
-                    found = pose_plan(space, start, self.goal, reach_m=self.reach_m, max_expand=PLAN_EXPAND)
-                    if found is not None:
-                        self._space, self.path, self.index = space, found.poses, 0
-                        self._unwrapped = np.unwrap(found.poses[:, 2])
-                        self._back = _backing(found.poses)
-                        self.status = "driving"
-                        return
-            if fits:
+        # the chair's margin first: in the window, then the whole lab; when the chair itself is
+        # inside its margin (squeezed between two things, or pushed there by the follower), once
+        # more in the window without it: the bare outline still never touches what is mapped,
+        # and the next plan from a roomier pose has its margin again. At most four searches, so
+        # a plan stays within seconds even when there is no way.
+        attempts: list[tuple[Footprint, tuple[float, float, float, float] | None, npt.NDArray[np.bool_]]]
+        attempts = [(self.fp, box, occ) for occ in seen]
+        if not whole:
+            attempts.append((self.fp, None, seen[0]))
+        fits = squeezed = False
+        for i, (fp, window, occ_seen) in enumerate([*attempts, (self._bare, box, seen[0])]):
+            if i == len(attempts) and fits:
                 break  # the margin was not what stood in the way
+            if fp is self.fp and squeezed:
+                continue  # the same cells round the chair in every window: no need to look again
+            space = PoseSpace(self._occ | occ_seen, CELL_M, fp, window=window)
+            if not space.free(*start):
+                squeezed = squeezed or (fp is self.fp and occ_seen is seen[0])
+                continue
+            fits = fits or fp is self.fp
+            found = pose_plan(space, start, self.goal, reach_m=self.reach_m, max_expand=PLAN_EXPAND)
+            if found is not None:
+                self._space, self.path, self.index = space, found.poses, 0
+                self._unwrapped = np.unwrap(found.poses[:, 2])
+                self._back = _backing(found.poses)
+                self.status = "driving"
+                return
         self._space, self.path = None, None
         self.status = "no path"
 
