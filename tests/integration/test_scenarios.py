@@ -14,7 +14,7 @@ from iw_zenoh import keys
 from iw_zenoh.messages import WorldState, decode
 from tests.integration.harness import MAPS, iwz_run_argv
 
-pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(500)]
+pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(960)]
 
 
 def _run(scenario: str, tmp: Path, timeout_s: float = 400) -> tuple[subprocess.CompletedProcess[str], Path]:
@@ -151,3 +151,21 @@ def test_two_chairs_negotiate_one_doorway_one_at_a_time(tmp_path: Path) -> None:
     assert door[0] == pytest.approx(-90.0, abs=1.0)
     assert max(door) > -10.0  # it opened
     assert apart > 1.0  # never both chairs in the doorway
+
+
+def test_hospital_five_chairs_do_their_tasks_through_two_negotiated_doors(tmp_path: Path) -> None:
+    r, rec = _run("hospital.toml", tmp_path, timeout_s=900)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "PASS collisions 0" in r.stdout
+    for robot, goal in ((3, "(5, 15.5)"), (4, "(5, 4.5)"), (5, "(25, 15.5)"), (6, "(25, 4.5)"), (7, "(15, 15.5)")):
+        assert f"PASS robot {robot} within 0.5 m of {goal}" in r.stdout  # every task done: no deadlock
+    assert "laggard" not in r.stdout
+    opened = set()
+    with rec.open("rb") as f:
+        for _, _, m in make_reader(f).iter_messages(topics=[keys.state("sc")]):
+            st = decode(m.data, WorldState)
+            for door in (d for d in (1, 2) if d in st.ids):
+                shut = math.remainder(st.heading[st.ids.index(door)] - math.pi, 2 * math.pi)
+                if abs(shut) > math.radians(45.0):
+                    opened.add(door)
+    assert opened == {1, 2}  # both doors let chairs through
