@@ -130,9 +130,12 @@ class AgentHost:
             RegistrationRefused: With the world's reason, or when no world answers.
         """
         self._requests += 1
-        req = RegisterRequest(
-            spec=spec_to_msg(agent.spec()), agent=self.name, request_id=f"{os.getpid()}-{self._requests}"
-        )
+        asked = agent.spec()
+        req = RegisterRequest(spec=spec_to_msg(asked), agent=self.name, request_id=f"{os.getpid()}-{self._requests}")
+        # listen before asking when the id is known: in lock-step the world waits for this robot
+        # from the first tick after it is accepted, and readings published before a subscription
+        # made after the answer would be lost (the world then waits out its whole timeout)
+        early = self.io.bus.subscribe(keys.sensors(self.sim, asked.id), self.readings) if asked.id > 0 else None
         deadline = time.monotonic() + timeout_s
         answers: list[bytes] = []
         while not answers and time.monotonic() < deadline and not self.io.stop.is_set():
@@ -141,11 +144,16 @@ class AgentHost:
             if not answers:
                 self.io.stop.wait(0.2)
         if not answers:
+            if early is not None:
+                early.undeclare()
             raise RegistrationRefused(
                 f"no world answered on {keys.register(self.sim)} within {timeout_s:g} s; "
                 f"is `iwz world` running with --sim {self.sim}?"
             )
         reply = decode(answers[0], RegisterReply)
+        if early is not None and (not reply.ok or reply.robot_id != asked.id):
+            early.undeclare()
+            early = None
         if not reply.ok or reply.spec is None:
             raise RegistrationRefused(reply.reason)
         spec = spec_from_msg(reply.spec)
@@ -153,7 +161,8 @@ class AgentHost:
             for data in self.io.bus.query(keys.info(self.sim), timeout_s=timeout_s):
                 self.lockstep = decode(data, WorldInfo).mode == "lockstep"
         self.hosted[reply.robot_id] = _Hosted(agent, reply.robot_id, spec)
-        self.io.bus.subscribe(keys.sensors(self.sim, reply.robot_id), self.readings)
+        if early is None:
+            self.io.bus.subscribe(keys.sensors(self.sim, reply.robot_id), self.readings)
         on_reg = getattr(agent, "on_registered", None)
         if callable(on_reg):
             on_reg(reply.robot_id, spec)
