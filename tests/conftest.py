@@ -17,6 +17,14 @@ def box_wall(x0: float, y0: float, x1: float, y1: float, height_m: float = 4.0) 
     return Wall(((x0, y0), (x1, y0), (x1, y1), (x0, y1)), height_m)
 
 
+DEAD_END = Lab(
+    "dead end",
+    6.0,
+    3.0,
+    (box_wall(2.0, 0.0, 6.0, 1.05), box_wall(2.0, 1.95, 6.0, 3.0), box_wall(5.0, 1.05, 6.0, 1.95)),
+)  # a 0.9 m corridor from the open end at x = 2 to a wall at x = 5: too narrow to turn the chair in
+
+
 @pytest.fixture
 def rng() -> np.random.Generator:
     """A seeded generator, the same in every run."""

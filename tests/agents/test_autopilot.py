@@ -10,7 +10,7 @@ from iw_zenoh.agents.emulated import LocalWorld, Odometry
 
 from iw_zenoh.core.lab import Lab
 from iw_zenoh.core.motor import MAX_POWER
-from tests.conftest import box_wall
+from tests.conftest import DEAD_END, box_wall
 
 KNOWN = Lab("open", 12.0, 6.0)
 ROOM = KNOWN.with_walls((box_wall(5.5, 2.2, 6.5, 3.8),))  # a box in the way
@@ -80,14 +80,6 @@ def test_odometry_follows_the_encoders_and_drifts_only_when_wheels_slip(slip: fl
         assert err < 0.01
     else:
         assert err > 0.01  # slip: the odometry pose drifts from the truth
-
-
-DEAD_END = Lab(
-    "dead end",
-    6.0,
-    3.0,
-    (box_wall(2.0, 0.0, 6.0, 1.05), box_wall(2.0, 1.95, 6.0, 3.0), box_wall(5.0, 1.05, 6.0, 1.95)),
-)  # a corridor too narrow to turn the chair in, closed at x = 5
 
 
 def test_a_chair_nose_in_to_a_dead_end_backs_out_to_a_goal_behind_it_without_touching() -> None:

@@ -7,7 +7,7 @@ import shapely
 from iw_zenoh.core.lab import Lab
 from iw_zenoh.core.poseplan import Footprint, PoseSpace, occupancy, pose_plan
 from iw_zenoh.maps import load_lab
-from tests.conftest import box_wall
+from tests.conftest import DEAD_END, box_wall
 
 CHAIR = Footprint.of(1.04, 0.66, 0.81, margin_m=0.04)  # the LIACC prototype
 BARE = Footprint.of(1.04, 0.66, 0.81, margin_m=0.0)
@@ -82,14 +82,6 @@ def test_obstacles_added_later_block_the_states_they_touch() -> None:
     found = pose_plan(space, (2.0, 3.0, 0.0), (8.0, 3.0))
     assert found is not None
     assert all(space.path_free(found.poses))
-
-
-DEAD_END = Lab(
-    "dead end",
-    6.0,
-    3.0,
-    (box_wall(2.0, 0.0, 6.0, 1.05), box_wall(2.0, 1.95, 6.0, 3.0), box_wall(5.0, 1.05, 6.0, 1.95)),
-)  # a 0.9 m corridor from the open end at x = 2 to a wall at x = 5: too narrow to turn the chair in
 
 
 def test_a_chair_nose_in_to_a_dead_end_backs_out() -> None:
