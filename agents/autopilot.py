@@ -334,7 +334,6 @@ class Autopilot:
         cell of its map (known walls or marks) that it does not already overlap."""
         if drive.left_mps == 0.0 and drive.right_mps == 0.0:
             return False
-        occ = self._occ | self.sonar.occupied
         x, y, th = pose[0], pose[1], math.radians(pose[2])
         v = 0.5 * (drive.left_mps + drive.right_mps)
         w = (drive.right_mps - drive.left_mps) / self.spec.height_m
@@ -349,9 +348,10 @@ class Autopilot:
         c, s = np.cos(hs)[:, None], np.sin(hs)[:, None]
         wx = xs[:, None] + c * pts[None, :, 0] - s * pts[None, :, 1]
         wy = ys[:, None] + s * pts[None, :, 0] + c * pts[None, :, 1]
-        rr = np.clip((wy / CELL_M).astype(np.int64), 0, occ.shape[0] - 1)
-        cc = np.clip((wx / CELL_M).astype(np.int64), 0, occ.shape[1] - 1)
-        hit = occ[rr, cc]
+        rows, cols = self._occ.shape
+        rr = np.clip((wy / CELL_M).astype(np.int64), 0, rows - 1)
+        cc = np.clip((wx / CELL_M).astype(np.int64), 0, cols - 1)
+        hit = self._occ[rr, cc] | self.sonar.occupied[rr, cc]  # only the cells under the outline, not the grid
         now = set(zip(rr[0][hit[0]].tolist(), cc[0][hit[0]].tolist(), strict=True))
         later = set(zip(rr[1:][hit[1:]].tolist(), cc[1:][hit[1:]].tolist(), strict=True))
         return bool(later - now)

@@ -296,16 +296,31 @@ def test_requestable_sensors_the_request_limit_and_the_gps_origin(net: Net, clie
     assert all(ids in ([], ["0"]) for ids in got)
 
 
+def _recv_until(client: LegacyClient, pred: Callable[[etree._Element], bool], tries: int = 200) -> etree._Element:
+    for _ in range(tries):
+        data = client.recv(65536)
+        el = etree.fromstring(data[:-1])
+        if pred(el):
+            return el
+    raise AssertionError("never saw the expected datagram")
+
+
+def _robot_and_viewer(port: int, clients: list[LegacyClient], robot_xml: bytes) -> tuple[LegacyClient, LegacyClient]:
+    """A registered legacy robot and a registered viewer (both stopped by the fixture)."""
+    robot = LegacyClient(port)
+    clients.append(robot)
+    robot.register(robot_xml)
+    viewer = LegacyClient(port)
+    clients.append(viewer)
+    viewer.register(b"<View/>\n\x00")
+    return robot, viewer
+
+
 def test_end_led_finishes_a_legacy_robot_for_good(net: Net, clients: list[LegacyClient]) -> None:
     port = _world(net)
     bus = net.client()
     states = subscribe(bus, keys.state(net.sim), maxlen=1)
-    robot = LegacyClient(port)
-    clients.append(robot)
-    robot.register(b'<Robot Id="1" Name="done"/>')
-    viewer = LegacyClient(port)
-    clients.append(viewer)
-    viewer.register(b"<View/>\n\x00")
+    robot, viewer = _robot_and_viewer(port, clients, b'<Robot Id="1" Name="done"/>')
     robot.recv()
     robot.send(b'<Actions LeftMotor="0.0" RightMotor="0.0" EndLed="On"/>')
     for _ in range(30):  # whatever it asks afterwards, it does not move
@@ -315,21 +330,8 @@ def test_end_led_finishes_a_legacy_robot_for_good(net: Net, clients: list[Legacy
     a = wait_msg(states, WorldState, lambda s: 1 in s.ids)
     b = wait_msg(states, WorldState, lambda s: s.tick >= a.tick + 10)
     assert b.x[b.ids.index(1)] == pytest.approx(a.x[a.ids.index(1)], abs=1e-6)
-    finished = False
-    for _ in range(40):
-        data = viewer.recv(65536)
-        if data.startswith(b"<Robot"):
-            finished |= etree.fromstring(data[:-1]).get("State") == "Finished"
-    assert finished
-
-
-def _recv_until(client: LegacyClient, pred: Callable[[etree._Element], bool], tries: int = 200) -> etree._Element:
-    for _ in range(tries):
-        data = client.recv(65536)
-        el = etree.fromstring(data[:-1])
-        if pred(el):
-            return el
-    raise AssertionError("never saw the expected datagram")
+    finished = _recv_until(viewer, lambda el: el.tag == "Robot" and el.get("State") == "Finished", tries=40)
+    assert finished.get("State") == "Finished"
 
 
 def test_scores_and_states_follow_the_legacy_game(net: Net, clients: list[LegacyClient]) -> None:
@@ -344,12 +346,7 @@ def test_scores_and_states_follow_the_legacy_game(net: Net, clients: list[Legacy
         grid='<Grid><Position X="5" Y="7" Dir="0"/></Grid>',
         bridge=("--scoring", "0"),
     )
-    robot = LegacyClient(port)
-    clients.append(robot)
-    robot.register(b'<Robot Id="1" Name="home"/>')
-    viewer = LegacyClient(port)
-    clients.append(viewer)
-    viewer.register(b"<View/>\n\x00")
+    robot, viewer = _robot_and_viewer(port, clients, b'<Robot Id="1" Name="home"/>')
     # competitive: the penalty starts at 100 + 100 per target; a visit at the start takes 100 off
     robot.send(b'<Actions LeftMotor="0" RightMotor="0" VisitingLed="On"/>')
     m = _recv_until(
