@@ -73,7 +73,14 @@ class Run:
         return p
 
     def start(
-        self, *, lockstep: bool, chairs: int, hosts: int, duration_s: float, probe_out: str | None = None
+        self,
+        *,
+        lockstep: bool,
+        chairs: int,
+        hosts: int,
+        duration_s: float,
+        shards: int = 1,
+        probe_out: str | None = None,
     ) -> subprocess.Popen[bytes]:
         self.spawn("router", "router", client=False)
         deadline = time.monotonic() + 20
@@ -96,7 +103,14 @@ class Run:
             world_args += ["--lockstep", "--lockstep-timeout-ms", "10000"]
         world = self.spawn("world", *world_args)
         self.spawn("collision", "collision")
-        self.spawn("sensors", "sensors", *(["-vv"] if os.environ.get("IWZ_BENCH_DEBUG") else []))
+        for k in range(1, shards + 1):
+            self.spawn(
+                f"sensors{k}",
+                "sensors",
+                "--shard",
+                f"{k}/{shards}",
+                *(["-vv"] if os.environ.get("IWZ_BENCH_DEBUG") else []),
+            )
         per = [chairs // hosts + (1 if i < chairs % hosts else 0) for i in range(hosts)]
         for i, c in enumerate(per):
             extra = ["--latency-out", f"{probe_out}.{i}"] if probe_out else []

@@ -11,6 +11,8 @@ one network::
     iw/{sim}/world/state             committed poses (batched)
     iw/{sim}/world/control           start, pause, step, stop, remove robot, obstacles
     iw/{sim}/world/radio             everything the radio delivered in a tick (batched)
+    iw/{sim}/world/sensors/{K}-{N}   every reading one sensors shard computed in a tick (batched)
+    iw/{sim}/agent/{name}/actions    every hosted robot's actions of one agent process (batched)
     iw/{sim}/events/{kind}           what happened, for people and tools
     iw/{sim}/robot/{id}/spec         the accepted spec
     iw/{sim}/robot/{id}/actions      motor powers, leds
@@ -28,14 +30,18 @@ import re
 __all__ = [
     "ROLES",
     "actions",
+    "agent_actions",
+    "agent_of",
     "alive",
     "all_actions",
+    "all_agent_actions",
     "all_alive",
     "all_events",
     "all_hear",
     "all_pose_reports",
     "alive_parts",
     "all_say",
+    "all_sensor_batches",
     "all_sensors",
     "chunk",
     "control",
@@ -49,6 +55,7 @@ __all__ = [
     "register",
     "robot_id_of",
     "say",
+    "sensor_batch",
     "sensors",
     "spec",
     "state",
@@ -142,6 +149,37 @@ def control(sim: str) -> str:
 def radio(sim: str) -> str:
     """Everything the radio delivered in a tick (batched, for agent hosts)."""
     return f"iw/{chunk(sim)}/world/radio"
+
+
+def sensor_batch(sim: str, shard: tuple[int, int]) -> str:
+    """Every reading one sensors shard ``(K, N)`` computed in a tick (batched)."""
+    k, n = shard
+    if not (isinstance(k, int) and isinstance(n, int) and 1 <= k <= n):
+        raise ValueError(f"a shard is K/N with 1 <= K <= N, got {shard!r}")
+    return f"iw/{chunk(sim)}/world/sensors/{k}-{n}"
+
+
+def all_sensor_batches(sim: str) -> str:
+    """Every shard's sensor batches."""
+    return f"iw/{chunk(sim)}/world/sensors/*"
+
+
+def agent_actions(sim: str, agent: str) -> str:
+    """Every hosted robot's actions of one agent process (batched)."""
+    return f"iw/{chunk(sim)}/agent/{chunk(agent)}/actions"
+
+
+def agent_of(key: str) -> str | None:
+    """The agent name in an ``agent/{name}/actions`` key, or ``None`` for any other key."""
+    parts = str(key).split("/")
+    if len(parts) == 5 and parts[0] == "iw" and parts[2] == "agent" and parts[4] == "actions":
+        return parts[3]
+    return None
+
+
+def all_agent_actions(sim: str) -> str:
+    """Every agent process's batched actions."""
+    return f"iw/{chunk(sim)}/agent/*/actions"
 
 
 def event(sim: str, kind: str) -> str:
@@ -251,6 +289,10 @@ def topic_kind(key: str) -> str | None:
         return _TOPICS[(parts[2], parts[3])]
     if len(parts) == 4 and parts[2] == "events":
         return "event"
+    if len(parts) == 5 and parts[2] == "world" and parts[3] == "sensors":
+        return "sensor_batch"
+    if len(parts) == 5 and parts[2] == "agent" and parts[4] == "actions":
+        return "action_batch"
     if len(parts) == 5 and parts[2] == "robot" and parts[3].isdigit():
         return parts[4] if parts[4] in ("spec", "actions", "pose_report", "sensors", "say", "hear") else None
     return None

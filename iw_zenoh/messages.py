@@ -52,11 +52,13 @@ __all__ = [
     "Obstacle",
     "PoseReport",
     "Proposed",
+    "ActionBatch",
     "RadioBatch",
     "RegisterReply",
     "RegisterRequest",
     "RobotSpecMsg",
     "Say",
+    "SensorBatch",
     "SensorReading",
     "TOPIC_TYPES",
     "Tick",
@@ -65,6 +67,7 @@ __all__ = [
     "WorldState",
     "decode",
     "encode",
+    "encode_sensor_batch",
     "grid_from_msg",
     "grid_to_msg",
     "json_schema",
@@ -299,6 +302,16 @@ class Actions(Message, frozen=True, kw_only=True):
     visiting_led: bool = False
 
 
+class ActionBatch(Message, frozen=True, kw_only=True):
+    """Every hosted robot's actions for tick n from one agent process (an agent host with many
+    robots sends one message a tick instead of one per robot; the world checks that each robot
+    belongs to ``agent``)."""
+
+    schema: ClassVar[str] = "iw.ActionBatch/1"
+    agent: str
+    actions: list[Actions] = []
+
+
 class PoseReport(Message, frozen=True, kw_only=True):
     """A Real robot's own pose from its odometry (augmented reality)."""
 
@@ -326,6 +339,27 @@ class SensorReading(Message, frozen=True, kw_only=True):
     encoders: tuple[int, int] = (0, 0)
     bumpers: list[bool] = []
     tick_wall_ns: NonNeg = 0  # the world's tick start, copied from the state
+
+
+class SensorBatch(Message, frozen=True, kw_only=True):
+    """Every reading of tick n that one sensors shard computed (for agent hosts and bridges with
+    many robots: one message a tick instead of one per robot). The per-robot keys carry the same
+    readings."""
+
+    schema: ClassVar[str] = "iw.SensorBatch/1"
+    shard: str
+    readings: list[SensorReading] = []
+    tick_wall_ns: NonNeg = 0
+
+
+class _SensorBatchOut(msgspec.Struct, frozen=True, kw_only=True):
+    """SensorBatch with its readings already encoded (each is also published on its own key)."""
+
+    tick: int
+    sim_time_ns: int
+    shard: str
+    readings: list[msgspec.Raw]
+    tick_wall_ns: int
 
 
 class Say(Message, frozen=True, kw_only=True):
@@ -511,8 +545,10 @@ MESSAGE_TYPES: tuple[type[Message], ...] = (
     Verdict,
     WorldState,
     Actions,
+    ActionBatch,
     PoseReport,
     SensorReading,
+    SensorBatch,
     Say,
     Hear,
     RadioBatch,
@@ -528,6 +564,8 @@ TOPIC_TYPES: dict[str, type[Message]] = {
     "state": WorldState,
     "control": Control,
     "radio": RadioBatch,
+    "sensor_batch": SensorBatch,
+    "action_batch": ActionBatch,
     "event": Event,
     "spec": RegisterReply,
     "actions": Actions,
@@ -566,6 +604,19 @@ def encode(msg: Message | FgSceneUpdate | FgFrameTransform) -> bytes:
     plain float field (fields that may be unknown are ``float | None``).
     """
     return _ENCODER.encode(msg)
+
+
+def encode_sensor_batch(tick: int, sim_time_ns: int, shard: str, readings: list[bytes], tick_wall_ns: int) -> bytes:
+    """A :class:`SensorBatch` from readings encoded once already (no second encoding)."""
+    return _ENCODER.encode(
+        _SensorBatchOut(
+            tick=tick,
+            sim_time_ns=sim_time_ns,
+            shard=shard,
+            readings=[msgspec.Raw(r) for r in readings],
+            tick_wall_ns=tick_wall_ns,
+        )
+    )
 
 
 def decode(data: bytes, kind: type[T]) -> T:

@@ -19,6 +19,8 @@ from iw_zenoh import keys
         (keys.state("s"), keys.everything("s")),
         (keys.spec("s", 1), keys.everything("s")),
         (keys.radio("s"), keys.everything("s")),
+        (keys.sensor_batch("s", (2, 3)), keys.all_sensor_batches("s")),
+        (keys.agent_actions("s", "host1"), keys.all_agent_actions("s")),
     ],
 )
 def test_every_builder_matches_its_pattern(key: str, pattern: str) -> None:
@@ -41,3 +43,15 @@ def test_robot_ids_are_checked_and_read_back() -> None:
     assert keys.robot_id_of(keys.actions("s", 42)) == 42
     assert keys.robot_id_of(keys.state("s")) is None
     assert keys.alive_parts(keys.alive("s", "collision", "c1")) == ("collision", "c1")
+
+
+def test_batched_keys_say_what_they_carry() -> None:
+    assert keys.sensor_batch("s", (2, 3)) == "iw/s/world/sensors/2-3"
+    with pytest.raises(ValueError, match="1 <= K <= N"):
+        keys.sensor_batch("s", (4, 3))
+    assert keys.topic_kind(keys.sensor_batch("s", (1, 1))) == "sensor_batch"
+    assert keys.topic_kind(keys.agent_actions("s", "h")) == "action_batch"
+    assert keys.agent_of(keys.agent_actions("s", "h")) == "h"
+    assert keys.agent_of(keys.actions("s", 1)) is None
+    # a batch is not mistaken for a robot's own key
+    assert keys.robot_id_of(keys.sensor_batch("s", (1, 1))) is None

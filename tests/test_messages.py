@@ -13,10 +13,12 @@ from iw_zenoh.messages import (
     Hear,
     Heard,
     RobotSpecMsg,
+    SensorBatch,
     SensorReading,
     WorldState,
     decode,
     encode,
+    encode_sensor_batch,
     json_schema,
     spec_from_msg,
     spec_to_msg,
@@ -82,6 +84,25 @@ def test_every_message_type_round_trips_and_has_a_schema() -> None:
         schema = json_schema(kind)
         assert "$defs" in schema or "properties" in schema
         assert kind.schema.endswith("/1")
+
+
+def test_a_sensor_batch_of_encoded_readings_decodes_to_the_readings() -> None:
+    readings = [
+        SensorReading(
+            tick=4,
+            robot_id=i,
+            proximity_ids=[0, 1],
+            proximity_m=[None, 0.5],
+            proximity_legacy=[100.0, 2.0],
+            compass_deg=3.0,
+            gps=(1.0, 2.0, 3.0),
+        )
+        for i in (1, 2)
+    ]
+    data = encode_sensor_batch(4, 400_000_000, "1-2", [encode(r) for r in readings], 9)
+    got = decode(data, SensorBatch)
+    assert (got.tick, got.sim_time_ns, got.shard, got.tick_wall_ns) == (4, 400_000_000, "1-2", 9)
+    assert got.readings == readings
 
 
 @pytest.mark.parametrize(

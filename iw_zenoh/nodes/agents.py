@@ -11,7 +11,7 @@ import pkgutil
 from collections.abc import Sequence
 
 from iw_zenoh import keys
-from iw_zenoh.agent import AgentHost, RegistrationRefused
+from iw_zenoh.agent import BATCH_FROM, AgentHost, RegistrationRefused
 from iw_zenoh.bus import ZenohBus
 from iw_zenoh.cliargs import add_common_arguments, net_from_args
 from iw_zenoh.errors import IwError
@@ -46,6 +46,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog=f"iwz agent {name}", description=(module.__doc__ or "").strip().splitlines()[0])
     module.add_arguments(p)
     p.add_argument("--name", default="", help="agent process name (liveliness; default NAME-PID)")
+    p.add_argument(
+        "--batch",
+        choices=["auto", "on", "off"],
+        default="auto",
+        help=(
+            "read sensor batches and answer all robots in one message a tick (auto: when hosting "
+            f"{BATCH_FROM} robots or more; off: each robot's own keys)"
+        ),
+    )
     add_common_arguments(p)
     args = p.parse_args(rest)
     setup_logging(args.verbose, f"agent {name}")
@@ -55,7 +64,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (IwError, ValueError) as e:
         print(f"iwz agent {name}: {e}")
         return 2
-    host = AgentHost(bus, keys.chunk(args.sim), keys.chunk(args.name or f"{name}-{os.getpid()}"))
+    batched = args.batch == "on" or (args.batch == "auto" and len(agents) >= BATCH_FROM)
+    host = AgentHost(bus, keys.chunk(args.sim), keys.chunk(args.name or f"{name}-{os.getpid()}"), batched=batched)
     install_stop_signals(host.io.stop, host.io.wake.set)
     try:
         for a in agents:

@@ -1,5 +1,8 @@
 """``iwz sensors [--shard K/N]``: every robot's readings each tick.
 
+Each reading goes out twice from one encoding: on its robot's key, and in the shard's batch
+(``world/sensors/K-N``) that agent hosts and bridges with many robots read instead.
+
 With ``--shard K/N`` this process computes the robots whose id is K modulo N (K from 1), so
 several sensor processes, on several hosts, split the robots; every robot is still an obstacle
 to every sensor. Noise comes from each robot's own seeded stream, so a robot's readings are the
@@ -21,7 +24,7 @@ from iw_zenoh.cliargs import add_common_arguments, net_from_args
 from iw_zenoh.core.noise import Stream, rng_for
 from iw_zenoh.core.sensors import SensorParams, noise_layout, read_sensors
 from iw_zenoh.errors import IwError
-from iw_zenoh.messages import SensorReading, WorldState
+from iw_zenoh.messages import SensorReading, WorldState, encode, encode_sensor_batch
 from iw_zenoh.nodes.base import NodeIO, Outgoing, install_stop_signals, setup_logging
 from iw_zenoh.nodes.info import InfoCache, WorldView
 
@@ -61,6 +64,7 @@ class SensorsNode:
         self.shard = shard
         self._rngs: dict[int, np.random.Generator] = {}
         self._encoders: dict[int, np.ndarray] = {}
+        self._keys: dict[int, str] = {}  # robot id -> its sensors key (built once)
 
     def mine(self, robot_id: int) -> bool:
         """Whether this shard computes ``robot_id``."""
@@ -137,7 +141,10 @@ class SensorsNode:
                 bumpers=bumpers[int(b_first[i]) : int(b_last[i])],
                 tick_wall_ns=msg.tick_wall_ns,
             )
-            out.append((keys.sensors(self.sim, rid), reading))
+            key = self._keys.get(rid)
+            if key is None:
+                key = self._keys[rid] = keys.sensors(self.sim, rid)
+            out.append((key, reading))
         return out
 
 
@@ -168,7 +175,15 @@ def run(
             t0 = time.perf_counter()
             out = node.on_state(msg, view)
             t1 = time.perf_counter()
-            io.send_all(out)
+            # each reading is encoded once: on its robot's key (agents, recorders, viewers) and
+            # inside the shard's batch (hosts and bridges with many robots read one message)
+            encoded = [encode(m) for _, m in out]
+            for (key, _), data in zip(out, encoded, strict=True):
+                bus.publish(key, data)
+            bus.publish(
+                keys.sensor_batch(sim, shard),
+                encode_sensor_batch(msg.tick, msg.sim_time_ns, f"{shard[0]}-{shard[1]}", encoded, msg.tick_wall_ns),
+            )
             if msg.tick_wall_ns:
                 logger.debug(
                     "tick %d: state arrived %.2f ms after the tick began, computed in %.2f ms, published in %.2f ms",

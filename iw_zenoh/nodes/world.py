@@ -19,6 +19,7 @@ from iw_zenoh.core.lab import Grid
 from iw_zenoh.errors import IwError
 from iw_zenoh.maps import load_grid, load_lab
 from iw_zenoh.messages import (
+    ActionBatch,
     Actions,
     Control,
     Obstacle,
@@ -46,6 +47,7 @@ class _World:
         sim = core.cfg.sim
         self.io = NodeIO(bus, sim, "world", name)
         self.actions = self.io.inbox(keys.all_actions(sim))
+        self.batches = self.io.inbox(keys.all_agent_actions(sim))
         self.reports = self.io.inbox(keys.all_pose_reports(sim))
         self.control = self.io.inbox(keys.control(sim))
         self.verdicts = self.io.inbox(keys.verdict(sim))
@@ -105,6 +107,21 @@ class _World:
                 io.send_all(core.on_actions(a, now))
             elif a is not None:
                 io.event("bad-message", f"actions for robot {a.robot_id} on another robot's key", key=d[0])
+        for d in self.batches.drain():
+            b = io.decode(d, ActionBatch)
+            if b is None:
+                continue
+            if keys.agent_of(d[0]) != b.agent:
+                io.event("bad-message", f"actions of agent {b.agent!r} on another agent's key", key=d[0])
+                continue
+            for a in b.actions:
+                entry = core.registry.entries.get(a.robot_id)
+                if entry is not None and entry.agent == b.agent:
+                    io.send_all(core.on_actions(a, now))
+                elif entry is not None:
+                    io.event(
+                        "bad-message", f"agent {b.agent!r} sent actions for robot {a.robot_id}, not its own", key=d[0]
+                    )
         for d in self.reports.drain():
             r = io.decode(d, PoseReport)
             if r is not None and keys.robot_id_of(d[0]) == r.robot_id:

@@ -26,7 +26,7 @@ from mcap.reader import make_reader  # noqa: E402
 from iw_zenoh import keys  # noqa: E402
 from iw_zenoh.core.bodies import Bodies  # noqa: E402
 from iw_zenoh.errors import IwError  # noqa: E402
-from iw_zenoh.messages import Actions, Event, SensorReading, WorldInfo, WorldState, decode, spec_from_msg  # noqa: E402
+from iw_zenoh.messages import ActionBatch, Actions, Event, SensorReading, WorldInfo, WorldState, decode, spec_from_msg  # noqa: E402
 
 __all__ = ["main", "render"]
 
@@ -72,11 +72,12 @@ def render(f: IO[bytes], out: Path, *, at_s: float, window_s: float = 10.0, robo
                 if r.robot_id == robot:
                     near = [d for d in r.proximity_m if d is not None]
                     series["nearest"].append((t, min(near) if near else math.nan))
-            elif kind == "actions" and robot is not None:
-                a = decode(msg.data, Actions)
-                if a.robot_id == robot:
-                    series["left"].append((t, a.left))
-                    series["right"].append((t, a.right))
+            elif kind in ("actions", "action_batch") and robot is not None:
+                acts = [decode(msg.data, Actions)] if kind == "actions" else decode(msg.data, ActionBatch).actions
+                for a in acts:
+                    if a.robot_id == robot:
+                        series["left"].append((t, a.left))
+                        series["right"].append((t, a.right))
             elif kind == "event":
                 e = decode(msg.data, Event)
                 if e.kind in INCIDENTS:

@@ -23,6 +23,7 @@ from iw_zenoh import keys
 from iw_zenoh.core.lab import Scene
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import (
+    ActionBatch,
     Actions,
     Event,
     Proposed,
@@ -80,6 +81,11 @@ def load_run(f: IO[bytes]) -> RecordedRun:
             elif kind == "actions":
                 a = decode(msg.data, Actions)
                 actions.setdefault(a.tick, {})[a.robot_id] = a
+            elif kind == "action_batch":  # an agent host of many robots answered in one message
+                b = decode(msg.data, ActionBatch)
+                if keys.agent_of(ch.topic) == b.agent:
+                    for a in b.actions:
+                        actions.setdefault(a.tick, {})[a.robot_id] = a
             elif kind == "state":
                 s = decode(msg.data, WorldState)
                 states[s.tick] = s

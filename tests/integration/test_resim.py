@@ -23,8 +23,12 @@ seed = 5
 duration_s = 4
 [[agents]]
 program = "wanderer"
-args = ["--count", "2", "--seed", "3"]
-robots = 2
+args = ["--count", "1", "--seed", "3"]
+robots = 1
+[[agents]]  # answers in action batches (as hosts of many robots do): re-simulated all the same
+program = "wanderer"
+args = ["--count", "1", "--seed", "4", "--batch", "on"]
+robots = 1
 """
 
 

@@ -9,7 +9,17 @@ from pathlib import Path
 import pytest
 
 from iw_zenoh import keys
-from iw_zenoh.messages import Actions, RobotSpecMsg, WorldState, encode
+from iw_zenoh.messages import (
+    ActionBatch,
+    Actions,
+    Event,
+    RobotSpecMsg,
+    SensorBatch,
+    SensorReading,
+    WorldState,
+    decode,
+    encode,
+)
 from iw_zenoh.record.tools import check
 from tests.integration.harness import MAPS, Net, iwz_run_argv, register, state_of, subscribe, wait_event, wait_msg
 
@@ -76,8 +86,6 @@ def _lockstep_run(net: Net, seed: int) -> list[tuple[int, tuple[float, ...]]]:
     assert world.popen.wait(90) == 0, world.output()
     out = []
     while (d := states.get(timeout_s=0.5)) is not None:
-        from iw_zenoh.messages import decode
-
         m = decode(d[1], WorldState)
         out.append((m.tick, tuple(m.x + m.y + m.heading)))
     return out
@@ -169,3 +177,60 @@ def test_demo_scenario_runs_meets_its_criteria_and_is_recorded(tmp_path: Path) -
     health = check(tmp_path / "demo.mcap")  # recorded by default, whole, nothing missing
     assert health.whole, health.reason
     assert health.counts_match
+
+
+def test_a_batched_agent_host_reads_sensor_batches_and_answers_in_one_message(net: Net) -> None:
+    lab, grid = _maps(net.tmp)
+    bus = net.client()
+    states = subscribe(bus, keys.state(net.sim))
+    batches = subscribe(bus, keys.all_agent_actions(net.sim))
+    per_robot_actions = subscribe(bus, keys.all_actions(net.sim))
+    sensor_batches = subscribe(bus, keys.all_sensor_batches(net.sim))
+    own = subscribe(bus, keys.sensors(net.sim, 2))
+    events = subscribe(bus, keys.all_events(net.sim))
+    world = net.spawn("world", lab, "--grid", grid, "--lockstep", "--expect", "2", "--duration", "3")
+    net.spawn("collision")
+    net.spawn("sensors")
+    net.spawn("agent", "wanderer", "--count", "2", "--seed", "3", "--batch", "on", "--name", "herd")
+    assert world.popen.wait(90) == 0, world.output()
+    ticks = []
+    while (d := states.get(timeout_s=0.5)) is not None:
+        ticks.append(decode(d[1], WorldState))
+    assert [m.tick for m in ticks] == list(range(1, 31))  # every tick answered, none waited out
+    assert ticks[-1].x != ticks[0].x or ticks[-1].heading != ticks[0].heading
+    got = wait_msg(batches, ActionBatch, lambda b: b.tick == 5)
+    assert got.agent == "herd"
+    assert sorted(a.robot_id for a in got.actions) == [1, 2]
+    assert per_robot_actions.get(timeout_s=0.5) is None  # the batch replaced them
+    # the shard's batch carries exactly what the robot's own key carries
+    batch = wait_msg(sensor_batches, SensorBatch, lambda b: b.tick == 7)
+    mine = wait_msg(own, SensorReading, lambda r: r.tick == 7)
+    assert batch.shard == "1-1"
+    assert [r for r in batch.readings if r.robot_id == 2] == [mine]
+    while (d := events.get(timeout_s=0.2)) is not None:
+        assert decode(d[1], Event).kind != "laggard"
+
+
+def test_the_world_takes_a_batch_only_for_the_senders_own_robots(net: Net) -> None:
+    lab, grid = _maps(net.tmp)
+    bus = net.client()
+    events = subscribe(bus, keys.all_events(net.sim))
+    states = subscribe(bus, keys.state(net.sim), maxlen=1)
+    net.spawn("world", lab, "--grid", grid)
+    net.spawn("collision")
+    mine = register(bus, net.sim, RobotSpecMsg(name="mine"), agent="tester").robot_id
+    theirs = register(bus, net.sim, RobotSpecMsg(name="theirs"), agent="someone").robot_id
+
+    def go(agent: str, on_key_of: str, rid: int) -> None:
+        batch = ActionBatch(agent=agent, actions=[Actions(robot_id=rid, left=0.1, right=0.1)])
+        bus.publish(keys.agent_actions(net.sim, on_key_of), encode(batch))
+
+    go("tester", "tester", theirs)
+    ev = wait_event(events, "bad-message", timeout_s=10)
+    assert f"robot {theirs}, not its own" in ev.reason
+    go("tester", "impostor", mine)
+    ev = wait_event(events, "bad-message", timeout_s=10)
+    assert "another agent's key" in ev.reason
+    go("tester", "tester", mine)
+    moving = wait_msg(states, WorldState, lambda m: mine in m.ids and m.speed[m.ids.index(mine)] > 0.05)
+    assert abs(moving.speed[moving.ids.index(theirs)]) < 1e-9  # the refused batches moved nothing
