@@ -80,7 +80,6 @@ class _World:
         """Handles every input waiting now (not verdicts: the tick takes those)."""
         now = self.clock.now_ns()
         core, io = self.core, self.io
-        self._publish_info()
         while self.alive_changes:
             key, alive = self.alive_changes.pop(0)
             parts = keys.alive_parts(key)

@@ -34,6 +34,7 @@ from iw_zenoh.messages import (
     Proposed,
     RegisterReply,
     RegisterRequest,
+    RobotSpecMsg,
     Tick,
     Verdict,
     WorldInfo,
@@ -125,6 +126,9 @@ class WorldCore:
         self._awaiting: tuple[int, set[int]] | None = None
         self._pending: tuple[int, Proposal] | None = None
         self._ids: list[int] = []
+        self._stale = False  # the roster changed since the arrays were built
+        self._new_poses: dict[int, np.ndarray] = {}  # start poses of robots not yet in the arrays
+        self._robot_msgs: tuple[int, list[RobotSpecMsg]] = (-1, [])  # info's robots, by revision
         self._tick_wall_ns = 0
         self._answered: dict[tuple[str, str], RegisterReply] = {}
         self.collisions = 0
@@ -153,8 +157,19 @@ class WorldCore:
         )
 
     def _rebuild(self, keep_pose: dict[int, np.ndarray]) -> None:
-        """Rebuilds arrays after the roster changed, keeping every surviving robot's state."""
+        """Notes that the roster changed; the arrays are rebuilt once, when the next tick begins
+        (a thousand robots registering one by one rebuilt them a thousand times: minutes)."""
         self._awaiting = None
+        self._new_poses.update(keep_pose)
+        self._stale = True
+        self.revision += 1
+
+    def _build(self) -> None:
+        """Rebuilds the arrays for the current roster, keeping every surviving robot's state."""
+        if not self._stale:
+            return
+        self._stale = False
+        keep_pose, self._new_poses = self._new_poses, {}
         old = {rid: i for i, rid in enumerate(self._ids)}
         ids = self.registry.ids
         n = len(ids)
@@ -172,11 +187,19 @@ class WorldCore:
         self._ids = ids
         self.state = WorldState(self.state.tick, pose, out, np.zeros((n, 2)), col, np.zeros((n, 2)))
         self.bodies = Bodies.from_specs(self.registry.specs())
-        self.revision += 1
 
     def poses_by_id(self) -> dict[int, tuple[float, float, float]]:
-        """Current pose of every robot by id."""
-        return {rid: (float(p[0]), float(p[1]), float(p[2])) for rid, p in zip(self._ids, self.state.pose, strict=True)}
+        """Current pose of every registered robot by id (newcomers at their start pose)."""
+        entries = self.registry.entries
+        out = {
+            rid: (float(p[0]), float(p[1]), float(p[2]))
+            for rid, p in zip(self._ids, self.state.pose, strict=True)
+            if rid in entries
+        }
+        for rid, p in self._new_poses.items():
+            if rid in entries:
+                out[rid] = (float(p[0]), float(p[1]), float(p[2]))
+        return out
 
     # --- inputs ----------------------------------------------------------------------------
 
@@ -377,6 +400,7 @@ class WorldCore:
                 out += self.remove(
                     rid, f"robot {rid} removed: its agent {e.agent!r} has been gone {self.cfg.grace_ms:g} ms"
                 )
+        self._build()
         ids = self._ids
         cmd = np.zeros((len(ids), 2))
         report = np.full((len(ids), 3), np.nan)
@@ -530,6 +554,12 @@ class WorldCore:
             revision=self.revision,
         )
 
+    def _robots_msg(self) -> list[RobotSpecMsg]:
+        """Every robot's spec as sent in info (built once per revision)."""
+        if self._robot_msgs[0] != self.revision:
+            self._robot_msgs = (self.revision, [spec_to_msg(s) for s in self.registry.specs()])
+        return self._robot_msgs[1]
+
     def info(self) -> WorldInfo:
         """Everything a late joiner needs."""
         lab = self.scene.lab
@@ -543,7 +573,7 @@ class WorldCore:
             mode="lockstep" if self.cfg.mode == "lockstep" else "realtime",
             period_ns=self.cfg.period_ns,
             seed=self.cfg.seed,
-            robots=[spec_to_msg(s) for s in self.registry.specs()],
+            robots=self._robots_msg(),
             obstacles=list(self.obstacles.values()),
             sim=self.cfg.sim,
         )

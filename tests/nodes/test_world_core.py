@@ -210,3 +210,29 @@ def test_a_registration_asked_again_gets_its_first_answer() -> None:
     assert again == first
     assert out == []
     assert core.registry.ids == [1]
+
+
+def test_robots_registered_between_ticks_are_built_once_and_placed_apart(monkeypatch: pytest.MonkeyPatch) -> None:
+    from iw_zenoh.nodes import world_core
+
+    core = _core()
+    builds: list[int] = []  # sizes of roster builds (placing one newcomer builds just its body)
+    real = world_core.Bodies.from_specs
+
+    def counted(specs: list[object]) -> object:
+        if len(specs) > 1:
+            builds.append(len(specs))
+        return real(specs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(world_core.Bodies, "from_specs", staticmethod(counted))
+    assert core.register(RegisterRequest(spec=RobotSpecMsg(name="a", x=4.0, y=8.0)), 0)[0].ok
+    # the second asks for the first one's place before any tick: still refused (it is there)
+    on_it = core.register(RegisterRequest(spec=RobotSpecMsg(name="b", x=4.2, y=8.0)), 0)[0]
+    assert not on_it.ok
+    assert "robot" in on_it.reason
+    assert core.register(RegisterRequest(spec=RobotSpecMsg(name="c", x=7.0, y=8.0)), 0)[0].ok
+    assert builds == []  # nothing rebuilt per registration
+    st = _tick(core, 100 * MS)
+    assert builds == [2]  # once, when the tick began
+    assert sorted(zip(st.ids, st.x, st.y)) == [(3, 4.0, 8.0), (4, 7.0, 8.0)]
+    assert core.info().revision == st.revision
