@@ -31,14 +31,16 @@ from iw_zenoh.core.params import SimParameters
 from iw_zenoh.errors import IwError, ProtocolError
 from iw_zenoh.maps import grid_to_xml, lab_to_xml, load_parameters
 from iw_zenoh.messages import (
+    ActionBatch,
     Actions,
     Control,
-    Hear,
     LabMsg,
     PoseReport,
+    RadioBatch,
     RegisterReply,
     RegisterRequest,
     Say,
+    SensorBatch,
     SensorReading,
     Tick,
     Verdict,
@@ -172,8 +174,10 @@ class Bridge:
         # not the work, was most of the Measures jitter at 100 robots)
         self.states = bus.queue(keys.state(sim), 64)
         self.ticks = bus.queue(keys.tick(sim), 64)
-        self.readings = bus.queue(keys.all_sensors(sim), 4096)
-        self.hears = bus.queue(keys.all_hear(sim), 4096)
+        # every shard's batch: one message a tick instead of one per robot
+        self.readings = bus.queue(keys.all_sensor_batches(sim), 256)
+        self._outbox: dict[int, Actions] = {}  # robot -> newest actions not yet sent
+        self.hears = bus.queue(keys.radio(sim), 256)  # the radio's batch: one message a tick
         self.infos = bus.queue(keys.info(sim), 16)
         self.verdicts = bus.queue(keys.verdict(sim), 64)  # which collisions were walls, which robots
         self._hits: dict[int, dict[int, tuple[bool, bool]]] = {}  # tick -> robot -> (wall, robot)
@@ -310,7 +314,7 @@ class Bridge:
                 returning_led=c.leds.get("ReturningLed", False),
                 visiting_led=c.leds.get("VisitingLed", False),
             )
-            self.io.send(keys.actions(self.sim, c.robot_id), act)
+            self._outbox[c.robot_id] = act  # sent with the others of this pass, in one batch
         elif c.kind == "viewer":
             try:
                 cmd = parse_viewer_command(data)
@@ -423,29 +427,31 @@ class Bridge:
         if states and viewers:
             self._send_robot_states(states[-1], viewers)
 
-        newest: dict[int, list[bytes]] = {}
-        for key, data, _ in self.readings.drain():
-            rid = keys.robot_id_of(key)
-            if rid is not None and rid in self.by_robot:
-                newest.setdefault(rid, []).append(data)
-        for rid, datas in newest.items():
+        newest: dict[int, list[SensorReading]] = {}
+        for _, data, _ in self.readings.drain():
+            try:
+                batch = decode(data, SensorBatch)
+            except IwError:
+                continue
+            for r in batch.readings:
+                if r.robot_id in self.by_robot:
+                    newest.setdefault(r.robot_id, []).append(r)
+        for rid, readings in newest.items():
             client = self.by_robot[rid]
             # a tick late is caught up; after a longer stall only the newest goes (never a burst
             # of stale Measures that a client would read one by one)
-            for data in datas[-CATCH_UP:]:
-                try:
-                    client.reading = decode(data, SensorReading)
-                except IwError:
-                    continue
-                self._send_measures(client, client.reading.tick)
-        for key, data, _ in self.hears.drain():
-            rid = keys.robot_id_of(key)
-            c = self.by_robot.get(rid) if rid is not None else None
-            if c is not None:
-                try:
-                    c.heard = [(h.sender, h.text) for h in decode(data, Hear).messages]
-                except IwError:
-                    continue
+            for reading in readings[-CATCH_UP:]:
+                client.reading = reading
+                self._send_measures(client, reading.tick)
+        for _, data, _ in self.hears.drain():
+            try:
+                delivered = decode(data, RadioBatch)
+            except IwError:
+                continue
+            for hear in delivered.hear:
+                c = self.by_robot.get(hear.robot_id)
+                if c is not None:
+                    c.heard = [(h.sender, h.text) for h in hear.messages]
         for _, data, _ in self.ticks.drain()[-1:]:
             try:
                 t = decode(data, Tick)
@@ -586,7 +592,19 @@ class Bridge:
                         self.on_registration(data, peer)
                     else:
                         self.on_client_datagram(key.data, data, peer)
+            self.flush_actions()
             self.pump_bus()
+
+    def flush_actions(self) -> None:
+        """Sends the actions that arrived in this pass, every robot's in one message."""
+        if self._outbox:
+            acts = list(self._outbox.values())
+            self._outbox.clear()
+            last = max(acts, key=lambda a: a.tick)
+            self.io.send(
+                keys.agent_actions(self.sim, self.name),
+                ActionBatch(tick=last.tick, sim_time_ns=last.sim_time_ns, agent=self.name, actions=acts),
+            )
 
     def close(self) -> None:
         """Closes every socket."""
