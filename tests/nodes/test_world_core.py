@@ -234,5 +234,5 @@ def test_robots_registered_between_ticks_are_built_once_and_placed_apart(monkeyp
     assert builds == []  # nothing rebuilt per registration
     st = _tick(core, 100 * MS)
     assert builds == [2]  # once, when the tick began
-    assert sorted(zip(st.ids, st.x, st.y)) == [(3, 4.0, 8.0), (4, 7.0, 8.0)]
+    assert sorted(zip(st.ids, st.x, st.y, strict=True)) == [(3, 4.0, 8.0), (4, 7.0, 8.0)]
     assert core.info().revision == st.revision
