@@ -20,7 +20,7 @@ import zenoh
 from iw_zenoh.errors import IwError
 from iw_zenoh.net import NetConfig, zenoh_config
 
-__all__ = ["Bus", "Delivery", "Handle", "Inbox", "PendingQuery", "QueryInbox", "Queue", "ZenohBus"]
+__all__ = ["Asked", "Bus", "Delivery", "Handle", "Inbox", "PendingQuery", "QueryInbox", "Queue", "ZenohBus"]
 
 logger = logging.getLogger(__name__)
 
@@ -123,6 +123,18 @@ class PendingQuery:
         self._reply(data)
 
 
+class Asked:
+    """A query sent without waiting: its answers come in while the asker goes on with its loop."""
+
+    def __init__(self) -> None:
+        self.replies: list[bytes] = []  # appended by the network's thread (list.append is atomic)
+        self.done = threading.Event()  # every answer is in, or the query timed out
+
+    def answered(self) -> bool:
+        """Whether an answer is in, or none will come."""
+        return bool(self.replies) or self.done.is_set()
+
+
 class QueryInbox(Protocol):
     """Queries to one queryable, answered from the node's loop."""
 
@@ -147,6 +159,9 @@ class Bus(Protocol):
 
     def query(self, key: str, payload: bytes = b"", timeout_s: float = 2.0) -> list[bytes]:
         """Asks every queryable matching ``key``; their answers (possibly none)."""
+
+    def ask(self, key: str, payload: bytes = b"", timeout_s: float = 2.0) -> Asked:
+        """Sends a query and returns at once; the answers arrive in the returned object."""
 
     def token(self, key: str) -> Handle:
         """Declares a liveliness token that lives as long as the process."""
@@ -240,6 +255,16 @@ class ZenohBus:
             if reply.ok is not None:
                 out.append(reply.ok.payload.to_bytes())
         return out
+
+    def ask(self, key: str, payload: bytes = b"", timeout_s: float = 2.0) -> Asked:
+        asked = Asked()
+
+        def on_reply(reply: zenoh.Reply) -> None:
+            if reply.ok is not None:
+                asked.replies.append(reply.ok.payload.to_bytes())
+
+        self.session.get(key, zenoh.handlers.Callback(on_reply, asked.done.set), payload=payload, timeout=timeout_s)
+        return asked
 
     def token(self, key: str) -> Handle:
         tok = self.session.liveliness().declare_token(key)

@@ -25,9 +25,10 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from iw_zenoh import keys
-from iw_zenoh.bus import ZenohBus
+from iw_zenoh.bus import Asked, ZenohBus
 from iw_zenoh.cliargs import add_common_arguments, net_from_args
 from iw_zenoh.core.params import SimParameters
+from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import IwError, ProtocolError
 from iw_zenoh.maps import grid_to_xml, lab_to_xml, load_parameters
 from iw_zenoh.messages import (
@@ -66,6 +67,7 @@ from .codec import (
     parse_viewer_command,
     registration_spec,
 )
+from .pacing import Pacer
 from .scoring import FreeSpace, Mode, PathLength, RobotGame, StepInput
 
 __all__ = ["Bridge", "main"]
@@ -78,6 +80,7 @@ NO_MEASUREMENT: dict[str, Any] = {"ir": 0.0, "compass": 0.0, "ground": -1, "coll
 FLOOD_PER_S = 400  # datagrams a second one peer (address and port) may send before the rest are dropped
 CATCH_UP = 2  # readings of one robot sent at once after a stall (the rest are stale)
 POLL_S = 0.001  # the loop looks at the bus queues at least this often
+MIN_LEAD_NS = 2_000_000  # paced Measures are built at least this long before they are due
 EVENT_EVERY_S = 1.0  # at most one refusal event a second per peer
 
 
@@ -138,6 +141,9 @@ class Bridge:
         port: Registration port (6000 for unmodified clients).
         params: The legacy parameters clients are told.
         name: Process name (its liveliness token drives the world's safety rules).
+        scoring: The legacy scoring mode.
+        pace: In a real-time world, send each tick's Measures at a steady offset from the tick's
+            start (see :mod:`.pacing`) rather than as soon as the readings arrive.
     """
 
     def __init__(
@@ -150,6 +156,7 @@ class Bridge:
         params: SimParameters | None = None,
         name: str = "ciberrato",
         scoring: Mode = Mode.COMPETITIVE,
+        pace: bool = True,
     ) -> None:
         self.bus = bus
         self.sim = sim
@@ -177,6 +184,13 @@ class Bridge:
         # every shard's batch: one message a tick instead of one per robot
         self.readings = bus.queue(keys.all_sensor_batches(sim), 256)
         self._outbox: dict[int, Actions] = {}  # robot -> newest actions not yet sent
+        self._registering: dict[tuple[str, int], tuple[Asked, RobotSpec, SimParameters, int]] = {}
+        self.pace = pace
+        self._pacer: Pacer | None = None
+        self._paced_tick = -1
+        self._due: dict[int, tuple[int, list[tuple[Client, SensorReading]]]] = {}  # tick -> (when, to send)
+        self._built: dict[int, list[tuple[Client, bytes]]] = {}  # tick -> its Measures, built ahead
+        self._lead_ns = MIN_LEAD_NS  # how long before their time Measures are built
         self.hears = bus.queue(keys.radio(sim), 256)  # the radio's batch: one message a tick
         self.infos = bus.queue(keys.info(sim), 16)
         self.verdicts = bus.queue(keys.verdict(sim), 64)  # which collisions were walls, which robots
@@ -247,13 +261,32 @@ class Bridge:
             sock.sendto(build_refusal(), peer)
             sock.close()
             return
+        if peer in self._registering:
+            return  # asked already; the answer is on its way (a client repeating itself)
         req = RegisterRequest(
             spec=spec_to_msg(spec),
             agent=self.name,
             request_id=f"{os.getpid()}-{peer[0]}-{peer[1]}-{time.monotonic_ns()}",
         )
-        answers = self.bus.query(keys.register(self.sim), encode(req), timeout_s=2.0)
-        reply = decode(answers[0], RegisterReply) if answers else None
+        # the world's answer is awaited by the loop, not here: the other clients' Measures go on
+        self._registering[peer] = (self.bus.ask(keys.register(self.sim), encode(req), timeout_s=2.0), spec, params, nb)
+
+    def _answer_registrations(self) -> None:
+        """Finishes every registration the world has answered (or left unanswered)."""
+        for peer, (asked, spec, params, nb) in list(self._registering.items()):
+            if asked.answered():
+                del self._registering[peer]
+                try:
+                    reply = decode(asked.replies[0], RegisterReply) if asked.replies else None
+                except IwError as e:
+                    logger.warning("the world's registration answer does not decode: %s", e)
+                    reply = None
+                self._registered(peer, reply, spec, params, nb)
+
+    def _registered(
+        self, peer: tuple[str, int], reply: RegisterReply | None, spec: RobotSpec, params: SimParameters, nb: int
+    ) -> None:
+        """Tells a legacy robot the world's answer, from a socket of its own."""
         sock = self._new_socket()
         if reply is None or not reply.ok:
             self._refuse(peer, reply.reason if reply else "no world answered the registration")
@@ -428,11 +461,16 @@ class Bridge:
             self._send_robot_states(states[-1], viewers)
 
         newest: dict[int, list[SensorReading]] = {}
+        pacer = self._pacer_now()
+        now = time.time_ns()
         for _, data, _ in self.readings.drain():
             try:
                 batch = decode(data, SensorBatch)
             except IwError:
                 continue
+            if pacer is not None and batch.tick_wall_ns and batch.tick > self._paced_tick:
+                self._paced_tick = batch.tick  # the tick's first batch tells how late it came
+                pacer.observe(now - batch.tick_wall_ns)
             for r in batch.readings:
                 if r.robot_id in self.by_robot:
                     newest.setdefault(r.robot_id, []).append(r)
@@ -441,8 +479,13 @@ class Bridge:
             # a tick late is caught up; after a longer stall only the newest goes (never a burst
             # of stale Measures that a client would read one by one)
             for reading in readings[-CATCH_UP:]:
-                client.reading = reading
-                self._send_measures(client, reading.tick)
+                if pacer is None:
+                    client.reading = reading
+                    self._send_measures(client, reading.tick)
+                else:
+                    due = self._due.setdefault(reading.tick, (pacer.due_ns(reading.tick_wall_ns), []))
+                    due[1].append((client, reading))
+        self._send_due(now)
         for _, data, _ in self.hears.drain():
             try:
                 delivered = decode(data, RadioBatch)
@@ -462,6 +505,56 @@ class Bridge:
                 self._pause_games(t.tick)
                 for c in list(self.by_robot.values()):
                     self._send_measures(c, t.tick, force=True)
+
+    def _pacer_now(self) -> Pacer | None:
+        """The pacer of a real-time world when pacing is on (lock-step waits for nobody's clock)."""
+        info = self.info
+        if not self.pace or info is None or info.mode != "realtime":
+            return None
+        if self._pacer is None or self._pacer.period_ns != info.period_ns:
+            self._pacer = Pacer(info.period_ns)
+        return self._pacer
+
+    def _send_due(self, now_ns: int) -> None:
+        """Builds each tick's Measures shortly before their time and sends them all at it.
+
+        Building a hundred takes several milliseconds, and how many varies: built first and then
+        sent in one tight loop, every robot's Measures leaves at the same point of each cycle."""
+        for tick in sorted(self._due):
+            due, items = self._due[tick]
+            if due - self._lead_ns > now_ns:
+                break
+            built = self._built.get(tick)
+            if built is None:
+                t0 = time.time_ns()
+                built = self._built[tick] = []
+                for c, r in items:
+                    if c.robot_id in self.by_robot and r.tick != c.sent_tick:
+                        c.reading = r
+                        c.sent_tick = r.tick
+                        built.append((c, self._measures(c, r.tick)))
+                        c.heard = []
+                now_ns = time.time_ns()
+                self._lead_ns = max(MIN_LEAD_NS, (now_ns - t0) * 3 // 2 + MIN_LEAD_NS // 2)
+            if due > now_ns:
+                break  # built; the loop comes back within a millisecond to send
+            del self._due[tick]
+            del self._built[tick]
+            for c, data in built:
+                if c.robot_id in self.by_robot:
+                    try:
+                        c.sock.sendto(data, c.addr)
+                    except OSError as e:
+                        logger.warning("cannot send to %s:%d: %s", c.addr[0], c.addr[1], e)
+            if logger.isEnabledFor(logging.DEBUG) and items:
+                logger.debug(
+                    "tick %d: %d Measures due %.1f ms after the tick began, sent %.1f ms after that, in %.1f ms",
+                    tick,
+                    len(built),
+                    (due - items[0][1].tick_wall_ns) / 1e6,
+                    (now_ns - due) / 1e6,
+                    (time.time_ns() - now_ns) / 1e6,
+                )
 
     def _game(self, c: Client) -> RobotGame | None:
         """The robot's legacy game, made once the world's lab is known."""
@@ -593,6 +686,7 @@ class Bridge:
                     else:
                         self.on_client_datagram(key.data, data, peer)
             self.flush_actions()
+            self._answer_registrations()
             self.pump_bus()
 
     def flush_actions(self) -> None:
@@ -641,6 +735,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="the legacy --scoring: 0 competitive (default), 1 control (C1), 2 mapping, 3 planning (C2-C5); "
         "scores go to viewers, and in Measures when the parameters' ScoreSensor is On",
     )
+    p.add_argument(
+        "--pace",
+        choices=["auto", "off"],
+        default="auto",
+        help="real-time worlds: send every Measures of a cycle at a steady offset from the cycle's start, "
+        "learned from how late readings come (auto, default: one period between Measures as the legacy "
+        "server keeps it); off: send each as soon as its readings arrive",
+    )
     p.add_argument("--name", default="ciberrato", help="process name (liveliness)")
     add_common_arguments(p)
     args = p.parse_args(args_in[1:])
@@ -660,6 +762,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             params=params,
             name=keys.chunk(args.name),
             scoring=Mode(args.scoring),
+            pace=args.pace == "auto",
         )
     except OSError as e:
         bus.close()

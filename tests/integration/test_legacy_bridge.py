@@ -8,12 +8,25 @@ import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
+import msgspec
 import numpy as np
 import pytest
 from lxml import etree
 
 from iw_zenoh import keys
-from iw_zenoh.messages import Event, Hear, RobotSpecMsg, SensorReading, WorldState
+from iw_zenoh.bus import PendingQuery
+from iw_zenoh.messages import (
+    Event,
+    Hear,
+    RegisterReply,
+    RegisterRequest,
+    RobotSpecMsg,
+    SensorReading,
+    WorldState,
+    decode,
+    encode,
+    encode_sensor_batch,
+)
 from tests.integration.harness import MAPS, Net, iwz_run_argv, register, subscribe, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(150)]
@@ -359,3 +372,62 @@ def test_scores_and_states_follow_the_legacy_game(net: Net, clients: list[Legacy
     assert st.get("VisitedMask") == "1"
     robot.send(b'<Actions LeftMotor="0" RightMotor="0" EndLed="On"/>')
     _recv_until(viewer, lambda el: el.tag == "Robot" and el.get("State") == "Finished")
+
+
+def _reading(robot_id: int, tick: int) -> bytes:
+    r = SensorReading(
+        tick=tick,
+        robot_id=robot_id,
+        proximity_ids=[0, 1, 2, 3],
+        proximity_m=[None] * 4,
+        proximity_legacy=[0.5] * 4,
+        compass_deg=10.0,
+        gps=(1.0, 2.0, 0.0),
+    )
+    return encode(r)
+
+
+def test_a_registration_the_world_is_slow_to_answer_stalls_no_other_client(
+    net: Net, clients: list[LegacyClient]
+) -> None:
+    # the test plays the world: it answers registrations when it chooses and sends readings
+    bus = net.client()
+    registrations = bus.serve(keys.register(net.sim))
+    port = _udp_port()
+    net.spawn("bridge", "ciberrato", "--port", str(port))
+
+    def ask(c: LegacyClient, xml: bytes, timeout_s: float = 30.0) -> PendingQuery:
+        """Registers (again every half second, as croblink would while the bridge starts) until
+        the bridge asks the world."""
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            c.sock.sendto(xml, c.server)
+            again = time.monotonic() + 0.5
+            while time.monotonic() < again:
+                got = registrations.poll()
+                if got:
+                    return got[0]
+                time.sleep(0.01)  # polling the test's own queryable: there is no event to wait on
+        raise AssertionError("the bridge asked the world nothing")
+
+    def accept(q: PendingQuery, robot_id: int) -> None:
+        req = decode(q.payload, RegisterRequest)
+        spec = RobotSpecMsg(**{**msgspec.structs.asdict(req.spec), "id": robot_id, "x": 2.0, "y": 2.0 * robot_id})
+        q.reply(encode(RegisterReply(ok=True, robot_id=robot_id, spec=spec)))
+
+    a = LegacyClient(port)
+    clients.append(a)
+    accept(ask(a, b'<Robot Id="1" Name="a"/>'), 1)
+    reply, a.server = a.sock.recvfrom(1024)
+    assert reply.startswith(b'<Reply Status="Ok"')
+    b = LegacyClient(port)
+    clients.append(b)
+    slow = ask(b, b'<Robot Id="2" Name="b"/>')  # asked, and left unanswered for now
+    a.sock.settimeout(1.0)
+    for tick in (5, 6, 7):  # robot a's readings keep coming and so do its Measures
+        batch = encode_sensor_batch(tick, tick * 50_000_000, "1-1", [_reading(1, tick)], 0)
+        bus.publish(keys.sensor_batch(net.sim, (1, 1)), batch)
+        assert a.recv().startswith(f'<Measures Time="{tick}"'.encode())
+    accept(slow, 2)
+    reply, _ = b.sock.recvfrom(1024)
+    assert reply.startswith(b'<Reply Status="Ok"')
