@@ -156,6 +156,7 @@ class RobotSpecMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     ticks_per_m: float = 2000.0
     noise: SensorNoiseMsg | None = None
     legacy: bool = False
+    beacon_height: float | None = None  # carries a beacon (Ciber-Rato RobotBeacon)
 
 
 class RegisterRequest(Message, frozen=True, kw_only=True):
@@ -699,6 +700,7 @@ def spec_from_msg(m: RobotSpecMsg) -> RobotSpec:
         encoder=EncoderSpec(m.ticks_per_m),
         noise=noise,
         legacy=m.legacy,
+        beacon_height_m=m.beacon_height,
     )
 
 
@@ -739,6 +741,7 @@ def spec_to_msg(s: RobotSpec) -> RobotSpecMsg:
             motion=_noise_msg(n.motion),
         ),
         legacy=s.legacy,
+        beacon_height=s.beacon_height_m,
     )
 
 

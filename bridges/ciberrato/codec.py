@@ -220,7 +220,15 @@ def registration_spec(reg: Registration, params: SimParameters | None = None) ->
             )
             for i, a in sorted(angles.items())
         )
-        return RobotSpec(name, id=reg.robot_id, shape=BodyShape.CIRCLE, ir_sensors=sensors, legacy=True, noise=noise)
+        return RobotSpec(
+            name,
+            id=reg.robot_id,
+            shape=BodyShape.CIRCLE,
+            ir_sensors=sensors,
+            legacy=True,
+            noise=noise,
+            beacon_height_m=(reg.beacon_height or 0.0) if reg.kind == "beacon" else None,
+        )
     try:
         rtype = RobotType(reg.type) if reg.type else RobotType.SIMULATED
     except ValueError:

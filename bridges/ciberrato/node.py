@@ -129,6 +129,7 @@ class Client:
     returning_now: bool = False  # a ReturningLed="On" arrived this cycle
     pose: tuple[float, float] = (0.0, 0.0)  # its last committed centre
     fifos: dict[str, collections.deque[Any]] = field(default_factory=dict)  # latency queues
+    n_beacons: int = 0  # beacon sensors: the beacons there were when it registered (legacy)
 
 
 class Bridge:
@@ -184,7 +185,8 @@ class Bridge:
         # every shard's batch: one message a tick instead of one per robot
         self.readings = bus.queue(keys.all_sensor_batches(sim), 256)
         self._outbox: dict[int, Actions] = {}  # robot -> newest actions not yet sent
-        self._registering: dict[tuple[str, int], tuple[Asked, RobotSpec, SimParameters, int]] = {}
+        # peer -> (the world's answer to come, spec, parameters, NBeacons, beacons it will sense)
+        self._registering: dict[tuple[str, int], tuple[Asked, RobotSpec, SimParameters, int, int]] = {}
         self.pace = pace
         self._pacer: Pacer | None = None
         self._paced_tick = -1
@@ -263,17 +265,33 @@ class Bridge:
             return
         if peer in self._registering:
             return  # asked already; the answer is on its way (a client repeating itself)
+        carried = [r.id for r in info.robots if r.beacon_height is not None] if info else []
+        if reg.kind == "beacon" and info is not None and (info.lab.beacons or carried):
+            # the legacy rule: one beacon at most, and a RobotBeacon becomes the lab's beacon
+            self._refuse(peer, "a RobotBeacon is refused when the lab already has a beacon")
+            sock = self._new_socket()
+            sock.sendto(build_refusal(), peer)
+            sock.close()
+            return
+        # beacon sensors are made for the beacons there are now (later RobotBeacons: none)
+        nb_sensed = nb + len(carried)
         req = RegisterRequest(
             spec=spec_to_msg(spec),
             agent=self.name,
             request_id=f"{os.getpid()}-{peer[0]}-{peer[1]}-{time.monotonic_ns()}",
         )
         # the world's answer is awaited by the loop, not here: the other clients' Measures go on
-        self._registering[peer] = (self.bus.ask(keys.register(self.sim), encode(req), timeout_s=2.0), spec, params, nb)
+        self._registering[peer] = (
+            self.bus.ask(keys.register(self.sim), encode(req), timeout_s=2.0),
+            spec,
+            params,
+            nb,
+            nb_sensed,
+        )
 
     def _answer_registrations(self) -> None:
         """Finishes every registration the world has answered (or left unanswered)."""
-        for peer, (asked, spec, params, nb) in list(self._registering.items()):
+        for peer, (asked, spec, params, nb, nb_sensed) in list(self._registering.items()):
             if asked.answered():
                 del self._registering[peer]
                 try:
@@ -281,10 +299,16 @@ class Bridge:
                 except IwError as e:
                     logger.warning("the world's registration answer does not decode: %s", e)
                     reply = None
-                self._registered(peer, reply, spec, params, nb)
+                self._registered(peer, reply, spec, params, nb, nb_sensed)
 
     def _registered(
-        self, peer: tuple[str, int], reply: RegisterReply | None, spec: RobotSpec, params: SimParameters, nb: int
+        self,
+        peer: tuple[str, int],
+        reply: RegisterReply | None,
+        spec: RobotSpec,
+        params: SimParameters,
+        nb: int,
+        nb_sensed: int,
     ) -> None:
         """Tells a legacy robot the world's answer, from a socket of its own."""
         sock = self._new_socket()
@@ -293,7 +317,7 @@ class Bridge:
             sock.sendto(build_refusal(), peer)
             sock.close()
             return
-        c = Client("robot", peer, sock, robot_id=reply.robot_id, name=spec.name)
+        c = Client("robot", peer, sock, robot_id=reply.robot_id, name=spec.name, n_beacons=nb_sensed)
         placed = reply.spec
         if placed is not None and placed.x is not None and placed.y is not None:
             c.start = (placed.x, placed.y)
@@ -399,7 +423,9 @@ class Bridge:
         collision = self._delayed(c, "collision", r.collision, p.collision_latency)
         beacons = None
         if p.beacon_sensor and (not p.beacon_requestable or any(n.startswith("Beacon") for n in granted)):
-            now = tuple(None if b is None else float(int(b + 0.5 if b >= 0 else b - 0.5)) for b in r.beacons_deg)
+            now = tuple(
+                None if b is None else float(int(b + 0.5 if b >= 0 else b - 0.5)) for b in r.beacons_deg[: c.n_beacons]
+            )
             beacons = tuple(self._delayed(c, f"beacon{i}", v, p.beacon_latency) for i, v in enumerate(now))
         m = Measures(
             time=tick,

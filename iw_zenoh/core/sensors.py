@@ -368,19 +368,30 @@ def _ground(scene: Scene, bodies: Bodies, pose: FloatArray) -> IntArray:
 
 
 def _beacons(
-    scene: Scene, pose: FloatArray, z: FloatArray, mean: FloatArray, std: FloatArray, aperture: float
+    scene: Scene,
+    pose: FloatArray,
+    z: FloatArray,
+    mean: FloatArray,
+    std: FloatArray,
+    aperture: float,
+    moving: tuple[tuple[int, float], ...] = (),
 ) -> FloatArray:
-    beacons = scene.lab.beacons
+    """Bearings to the lab's beacons, then to the beacons robots carry (``moving``: robot index
+    and height; the carrier does not see its own)."""
+    fixed = [(bc.x, bc.y, bc.height_m, -1) for bc in scene.lab.beacons]
+    carried = [(float(pose[i, 0]), float(pose[i, 1]), h, i) for i, h in moving]
     n = len(pose)
-    out = np.full((n, len(beacons)), np.nan)
-    for j, bc in enumerate(beacons):
-        dx = bc.x - pose[:, 0]
-        dy = bc.y - pose[:, 1]
+    out = np.full((n, len(fixed) + len(carried)), np.nan)
+    for j, (bx, by, height, carrier) in enumerate(fixed + carried):
+        dx = bx - pose[:, 0]
+        dy = by - pose[:, 1]
         true = np.degrees(np.arctan2(dy, dx) - pose[:, 2])
         val = wrap_deg(true + mean + std * z[:, j])
-        lines = shapely.linestrings(np.stack([pose[:, :2], np.broadcast_to([bc.x, bc.y], (n, 2))], axis=1))
-        blocked = shapely.intersects(lines, scene.walls_at_least(bc.height_m))
+        lines = shapely.linestrings(np.stack([pose[:, :2], np.broadcast_to([bx, by], (n, 2))], axis=1))
+        blocked = shapely.intersects(lines, scene.walls_at_least(height))
         visible = ~blocked & (np.abs(val) <= np.degrees(aperture))
+        if carrier >= 0:
+            visible[carrier] = False
         out[:, j] = np.where(visible, val, np.nan)
     return out
 
@@ -412,6 +423,7 @@ def read_sensors(
     params: SensorParams | None = None,
     only: BoolArray | None = None,
     legacy_ir: bool = False,
+    moving_beacons: tuple[tuple[int, float], ...] = (),
 ) -> Readings:
     """Computes every sensor of every robot for one tick.
 
@@ -428,13 +440,15 @@ def read_sensors(
         only: (N,) robots whose proximity sensors to compute (a shard); others read ``inf``.
         legacy_ir: Compute the legacy reading with Ciber-Rato's own IR model (three rays,
             corners, its robot formula) instead of from the exact cone distance.
+        moving_beacons: Beacons robots carry, as (robot index, height), after the lab's in
+            ``beacon_deg`` (and in the noise layout: count them in ``n_beacons``).
 
     Returns:
         The readings.
     """
     p = params or SensorParams()
     n = bodies.n
-    nbeac = len(scene.lab.beacons)
+    nbeac = len(scene.lab.beacons) + len(moving_beacons)
     counts, starts = noise_layout(bodies, nbeac)
     own = bodies.ir_owner
     first = np.searchsorted(own, np.arange(n))
@@ -469,7 +483,7 @@ def read_sensors(
     legacy = legacy_ir_value(legacy_d, zm, ns["proximity_legacy"][own])
     heading_deg = np.degrees(pose[:, 2])
     compass = wrap_deg(heading_deg + nm["compass_deg"] + ns["compass_deg"] * z_comp)
-    beacon = _beacons(scene, pose, z_beac, nm["beacon_deg"], ns["beacon_deg"], p.beacon_aperture_rad)
+    beacon = _beacons(scene, pose, z_beac, nm["beacon_deg"], ns["beacon_deg"], p.beacon_aperture_rad, moving_beacons)
     gps = (
         np.stack(
             [

@@ -262,6 +262,8 @@ class RobotSpec:
         encoder: Wheel encoder parameters.
         noise: Sensor and movement noise.
         legacy: A Ciber-Rato / Intellwheels registration: at most 8 sensors with ids 0..7.
+        beacon_height_m: The robot carries a beacon of this height (Ciber-Rato's RobotBeacon):
+            other robots' beacon sensors point at it as it moves. ``None``: no beacon.
     """
 
     name: str
@@ -281,6 +283,7 @@ class RobotSpec:
     encoder: EncoderSpec = field(default_factory=EncoderSpec)
     noise: SensorNoise = field(default_factory=SensorNoise)
     legacy: bool = False
+    beacon_height_m: float | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
@@ -326,6 +329,8 @@ class RobotSpec:
                 f"a circle's width and height are its diameter and must match, "
                 f"got {self.width_m!r} and {self.height_m!r}",
             )
+        if self.beacon_height_m is not None:
+            _within("beacon_height", self.beacon_height_m, 0.0, 1e3, lo_open=False, hi_open=False)
         if len({b.id for b in self.bumpers}) != len(self.bumpers):
             raise SpecError("bumpers", "bumper ids must be unique")
 

@@ -79,7 +79,9 @@ class SensorsNode:
         bodies = view.bodies_for(ids)
         pose = np.column_stack([msg.x, msg.y, msg.heading])
         only = np.asarray([self.mine(i) for i in ids], dtype=bool)
-        nb = len(view.scene.lab.beacons)
+        # robots that carry a beacon (Ciber-Rato's RobotBeacon), in id order after the lab's
+        moving = tuple((i, h) for i, rid in enumerate(ids) if (h := view.specs[rid].beacon_height_m) is not None)
+        nb = len(view.scene.lab.beacons) + len(moving)
         counts, starts = noise_layout(bodies, nb)
         z = np.zeros(int(counts.sum()))
         enc = np.zeros((len(ids), 2))
@@ -102,6 +104,7 @@ class SensorsNode:
             params=params,
             only=only,
             legacy_ir=view.info.profile == "ciberrato",
+            moving_beacons=moving,
         )
         out: list[Outgoing] = []
         # whole arrays to Python lists once; each robot's sensors are a contiguous run

@@ -25,7 +25,9 @@ def test_the_offset_moves_only_every_few_ticks() -> None:
         p.observe(30 * MS)
     assert p.offset_ns == first  # one step every ten arrivals, not at each
     p.observe(30 * MS)
-    assert p.offset_ns is not None and first is not None and p.offset_ns > first
+    assert p.offset_ns is not None
+    assert first is not None
+    assert p.offset_ns > first
 
 
 def test_agents_keep_the_rest_of_the_cycle_whatever_the_delays() -> None:

@@ -229,6 +229,33 @@ def test_beacon_bearing_aperture_and_occlusion_by_tall_walls() -> None:
     assert math.isnan(r.beacon_deg[1, 1])  # a 5 m wall does
 
 
+def test_a_beacon_a_robot_carries_is_seen_where_the_robot_is_and_walls_as_tall_hide_it() -> None:
+    walls = (box_wall(9.0, 14.0, 9.5, 16.0, height_m=5.0),)
+    lab = Lab("carried", 20.0, 20.0, walls, (Beacon(15.0, 5.0, 2.0),))
+    specs = [
+        RobotSpec("carrier", id=1, noise=EXACT, beacon_height_m=2.0),
+        RobotSpec("c", id=2, noise=EXACT),
+        RobotSpec("d", id=3, noise=EXACT),
+    ]
+    pose = np.asarray([[12.0, 15.0, 0.0], [5.0, 5.0, 0.0], [5.0, 15.0, 0.0]])
+    b = Bodies.from_specs(specs)
+    r = read_sensors(
+        Scene(lab),
+        b,
+        pose,
+        collided=np.zeros(3, bool),
+        encoder_acc=np.zeros((3, 2)),
+        rolled_m=np.zeros((3, 2)),
+        z=noise_bank(b, 2, 1).next(),
+        moving_beacons=((0, 2.0),),
+    )
+    assert r.beacon_deg.shape == (3, 2)  # the lab's beacon, then the carried one
+    assert r.beacon_deg[1, 0] == pytest.approx(0.0)
+    assert r.beacon_deg[1, 1] == pytest.approx(math.degrees(math.atan2(10, 7)))  # where the carrier is
+    assert math.isnan(r.beacon_deg[2, 1])  # the 5 m wall between them hides it
+    assert math.isnan(r.beacon_deg[0, 1])  # the carrier does not see its own
+
+
 def test_ground_reads_the_last_target_wholly_under_the_body() -> None:
     lab = Lab("t", 20.0, 20.0, targets=(Target(5.0, 5.0, 2.0), Target(5.5, 5.0, 2.0), Target(15.0, 15.0, 0.5)))
     r = _read(

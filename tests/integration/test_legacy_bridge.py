@@ -431,3 +431,49 @@ def test_a_registration_the_world_is_slow_to_answer_stalls_no_other_client(
     accept(slow, 2)
     reply, _ = b.sock.recvfrom(1024)
     assert reply.startswith(b'<Reply Status="Ok"')
+
+
+def test_a_robot_beacon_moves_with_its_robot_and_only_one_beacon_is_allowed(
+    net: Net, clients: list[LegacyClient]
+) -> None:
+    params = net.tmp / "beacons.xml"
+    params.write_text(
+        (MAPS / "ciberrato" / "C1-config.xml").read_text().replace('BeaconSensor="Off"', 'BeaconSensor="On"')
+    )
+    port = _world(
+        net,
+        params,
+        lab='<Lab Name="open" Width="20" Height="10"></Lab>',
+        grid='<Grid><Position X="3" Y="2" Dir="0"/><Position X="10" Y="5" Dir="0"/><Position X="3" Y="8" Dir="0"/></Grid>',
+    )
+    early, carrier, second, late = (LegacyClient(port) for _ in range(4))
+    clients += [early, carrier, second, late]
+    assert b'NBeacons="0"' in early.register(b'<Robot Id="1" Name="early"/>')
+    assert b'Status="Ok"' in carrier.register(b'<RobotBeacon Name="B" Id="2" Height="4"/>\x00')
+    # the legacy rule: a RobotBeacon is refused once the lab has a beacon (the first one is it)
+    assert b'Status="Refused"' in second.register(b'<RobotBeacon Name="C" Id="3" Height="4"/>\x00')
+    reply = late.register(b'<Robot Id="3" Name="late"/>')
+    assert b'NBeacons="0"' in reply  # the reply's count leaves it out, as the legacy server's did
+
+    def beacon(c: LegacyClient) -> str | None:
+        for _ in range(60):
+            sensors = etree.fromstring(c.recv()[:-1]).find("Sensors")
+            got = sensors.find("BeaconSensor") if sensors is not None else None
+            if got is not None and got.get("Value") != "NotVisible":
+                return str(got.get("Value"))
+        return None
+
+    # the late robot at (3, 8) heading east sees the carrier at (10, 5): atan2(-3, 7) = -23 degrees
+    value = beacon(late)
+    assert value is not None
+    assert float(value) == pytest.approx(-23.2, abs=8.0)
+    # it moves with its robot: the carrier drives east, so its bearing from (3, 8) nears 0
+    for _ in range(40):
+        carrier.send(b'<Actions LeftMotor="0.1" RightMotor="0.1"/>')
+        carrier.recv()
+    moved = beacon(late)
+    assert moved is not None
+    assert float(moved) > float(value) + 3.0
+    # a robot registered before the beacon has no sensor for it
+    m = etree.fromstring(early.recv()[:-1])
+    assert m.find("Sensors") is None or m.find("Sensors").find("BeaconSensor") is None
