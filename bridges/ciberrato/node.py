@@ -188,6 +188,7 @@ class Bridge:
         # peer -> (the world's answer to come, spec, parameters, NBeacons, beacons it will sense)
         self._registering: dict[tuple[str, int], tuple[Asked, RobotSpec, SimParameters, int, int]] = {}
         self.pace = pace
+        self.finished_at: int | None = None  # the simulator's Time frozen at SimTime, once reached
         self._pacer: Pacer | None = None
         self._paced_tick = -1
         self._due: dict[int, tuple[int, list[tuple[Client, SensorReading]]]] = {}  # tick -> (when, to send)
@@ -347,7 +348,7 @@ class Bridge:
                 c.returning_now = True
             if c.leds.get("EndLed"):
                 c.finished = True
-            if c.finished:  # a Finished robot never moves again (legacy state machine)
+            if c.finished or self.finished_at is not None:  # a Finished robot never moves again
                 c.left = c.right = 0.0
             tick = c.reading.tick if c.reading else 0
             sim_ns = c.reading.sim_time_ns if c.reading else 0
@@ -383,7 +384,7 @@ class Bridge:
                 c.sock.sendto(lab_to_xml(lab_from_msg(info.lab), legacy=True) + b"\x00", peer)
             elif cmd.kind == "gridreq" and info is not None:
                 c.sock.sendto(grid_to_xml(grid_from_msg(info.grid), legacy=True) + b"\x00", peer)
-            elif cmd.kind in ("start", "stop"):
+            elif cmd.kind in ("start", "stop") and self.finished_at is None:  # Finished is terminal
                 self.io.send(keys.control(self.sim), Control(command="start" if cmd.kind == "start" else "pause"))
             elif cmd.kind == "remove":
                 self.io.send(keys.control(self.sim), Control(command="remove", robot_id=cmd.robot_id))
@@ -403,6 +404,9 @@ class Bridge:
         r = c.reading
         p = self.params
         buttons = (self.running, not self.running)
+        if self.finished_at is not None:  # the simulator finished: Time frozen, both buttons Off
+            tick = min(tick, self.finished_at)
+            buttons = (False, False)
         if r is None:
             return bytes(build_measures(Measures(time=tick, collision=False, ir=(0.0,) * 4, buttons=buttons)))
         # requests: at most NRequestsPerCycle honoured, in order, across the cycle's datagrams
@@ -482,6 +486,7 @@ class Bridge:
                 continue
         for st in states:  # every step counts for the scores
             self._step_games(st)
+            self._check_finished(st.tick)
         viewers = [c for c in self.clients.values() if c.kind == "viewer"]
         if states and viewers:
             self._send_robot_states(states[-1], viewers)
@@ -581,6 +586,22 @@ class Bridge:
                     (now_ns - due) / 1e6,
                     (time.time_ns() - now_ns) / 1e6,
                 )
+
+    def _check_finished(self, tick: int) -> None:
+        """Ciber-Rato's simulator finishes when its Time reaches SimTime (SimTime > 0): in a world
+        of the ciberrato profile the bridge then pauses the world for good; robots and viewers go
+        on receiving every cycle with Time frozen and both buttons Off, and Start is ignored."""
+        sim_time = self.params.sim_time
+        info = self.info
+        if self.finished_at is not None or sim_time <= 0 or tick < sim_time:
+            return
+        if info is None or info.profile != "ciberrato":
+            return  # a native world's length is its own (a legacy viewer may watch a long run)
+        self.finished_at = sim_time
+        for c in self.by_robot.values():
+            c.left = c.right = 0.0
+        self.io.send(keys.control(self.sim), Control(command="pause"))
+        self.io.event("legacy-finished", f"Time reached SimTime {sim_time}: the simulation is finished", tick=tick)
 
     def _game(self, c: Client) -> RobotGame | None:
         """The robot's legacy game, made once the world's lab is known."""

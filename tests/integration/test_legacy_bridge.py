@@ -477,3 +477,28 @@ def test_a_robot_beacon_moves_with_its_robot_and_only_one_beacon_is_allowed(
     # a robot registered before the beacon has no sensor for it
     m = etree.fromstring(early.recv()[:-1])
     assert m.find("Sensors") is None or m.find("Sensors").find("BeaconSensor") is None
+
+
+def test_the_simulation_finishes_at_sim_time_and_stays_finished(net: Net, clients: list[LegacyClient]) -> None:
+    params = net.tmp / "short.xml"
+    params.write_text((MAPS / "ciberrato" / "C1-config.xml").read_text().replace('SimTime="5000"', 'SimTime="40"'))
+    port = _world(net, params)
+    bus = net.client()
+    events = subscribe(bus, keys.event(net.sim, "legacy-finished"))
+    robot, viewer = _robot_and_viewer(port, clients, b'<Robot Id="1" Name="late"/>')
+
+    def measures() -> tuple[int, str, str]:
+        m = etree.fromstring(robot.recv()[:-1])
+        b = m.find("Buttons")
+        return int(m.get("Time")), b.get("Start"), b.get("Stop")
+
+    for _ in range(200):  # drive until the Time limit
+        robot.send(b'<Actions LeftMotor="0.1" RightMotor="0.1"/>')
+        if measures()[0] >= 40:
+            break
+    wait_msg(events, Event, timeout_s=10)
+    later = [measures() for _ in range(8)]  # still sent every cycle...
+    assert later[-1] == (40, "Off", "Off")  # ...with Time frozen and both buttons Off
+    viewer.send(b"<Start/>\n\x00")  # Finished is terminal: Start is ignored
+    after = [measures() for _ in range(8)]
+    assert all(m == (40, "Off", "Off") for m in after)
