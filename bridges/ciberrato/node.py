@@ -187,6 +187,7 @@ class Bridge:
         self._outbox: dict[int, Actions] = {}  # robot -> newest actions not yet sent
         # peer -> (the world's answer to come, spec, parameters, NBeacons, beacons it will sense)
         self._registering: dict[tuple[str, int], tuple[Asked, RobotSpec, SimParameters, int, int]] = {}
+        self._carriers: set[int] = set()  # legacy robots accepted here that carry a beacon
         self.pace = pace
         self.finished_at: int | None = None  # the simulator's Time frozen at SimTime, once reached
         self._pacer: Pacer | None = None
@@ -266,8 +267,12 @@ class Bridge:
             return
         if peer in self._registering:
             return  # asked already; the answer is on its way (a client repeating itself)
-        carried = [r.id for r in info.robots if r.beacon_height is not None] if info else []
-        if reg.kind == "beacon" and info is not None and (info.lab.beacons or carried):
+        # beacons robots carry: those the world's description lists, and those accepted or being
+        # registered here since (the description is published a moment later)
+        carried = {r.id for r in info.robots if r.beacon_height is not None} if info else set()
+        carried |= self._carriers & set(self.by_robot)
+        n_carried = len(carried) + sum(1 for _, s, *_ in self._registering.values() if s.beacon_height_m is not None)
+        if reg.kind == "beacon" and (nb or n_carried):
             # the legacy rule: one beacon at most, and a RobotBeacon becomes the lab's beacon
             self._refuse(peer, "a RobotBeacon is refused when the lab already has a beacon")
             sock = self._new_socket()
@@ -275,7 +280,7 @@ class Bridge:
             sock.close()
             return
         # beacon sensors are made for the beacons there are now (later RobotBeacons: none)
-        nb_sensed = nb + len(carried)
+        nb_sensed = nb + n_carried
         req = RegisterRequest(
             spec=spec_to_msg(spec),
             agent=self.name,
@@ -319,6 +324,8 @@ class Bridge:
             sock.close()
             return
         c = Client("robot", peer, sock, robot_id=reply.robot_id, name=spec.name, n_beacons=nb_sensed)
+        if spec.beacon_height_m is not None:
+            self._carriers.add(reply.robot_id)
         placed = reply.spec
         if placed is not None and placed.x is not None and placed.y is not None:
             c.start = (placed.x, placed.y)
@@ -510,7 +517,7 @@ class Bridge:
             # a tick late is caught up; after a longer stall only the newest goes (never a burst
             # of stale Measures that a client would read one by one)
             for reading in readings[-CATCH_UP:]:
-                if pacer is None:
+                if pacer is None or pacer.offset_ns is None:  # not paced, or nothing learned yet
                     client.reading = reading
                     self._send_measures(client, reading.tick)
                 else:
