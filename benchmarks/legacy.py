@@ -3,8 +3,9 @@
     python benchmarks/legacy.py            # 1, 20 and 100 legacy robots
     python benchmarks/legacy.py --json
 
-Every client registers like croblink.py, answers each Measures with an Actions (as agents do),
-and timestamps every Measures it receives. Printed: p50 / p99 inter-arrival (ms) over all
+Every client registers like croblink.py, answers the Measures it reads with an Actions (as agents
+do; once for all it finds waiting, so the backlog of the registration phase is not answered
+datagram by datagram, which flooded the bridge at the start), and timestamps every Measures. Printed: p50 / p99 inter-arrival (ms) over all
 clients, and how many cycles the robots missed (a Time skipped between a robot's first and last
 Measures) or received twice.
 
@@ -120,6 +121,7 @@ def measure(n: int, seconds: float) -> dict[str, float]:
                     k, server = key.data
                     sock = key.fileobj
                     assert isinstance(sock, socket.socket)
+                    fresh = False
                     while True:
                         try:
                             data, _ = sock.recvfrom(4096)
@@ -129,7 +131,9 @@ def measure(n: int, seconds: float) -> dict[str, float]:
                             arrivals[k].append(time.monotonic())
                             m = TIME_RE.search(data)
                             stamps[k].append(int(m.group(1)) if m else -1)
-                            sock.sendto(b'<Actions LeftMotor="0" RightMotor="0"/>', server)
+                            fresh = True
+                    if fresh:  # one answer to what was read (a backlog is not answered datagram by datagram)
+                        sock.sendto(b'<Actions LeftMotor="0" RightMotor="0"/>', server)
         finally:
             for s in socks:
                 s.close()

@@ -32,6 +32,8 @@ __all__ = ["SensorsNode", "main", "parse_shard", "run"]
 
 logger = logging.getLogger(__name__)
 
+CATCH_UP = 2  # states computed at once after a stall: the newest and the one before
+
 
 def parse_shard(text: str) -> tuple[int, int]:
     """Parses ``K/N`` (1 <= K <= N).
@@ -165,10 +167,11 @@ def run(
         if not pending:
             io.wait(0.2)
             continue
-        # a stale state is worth nothing (agents act on the newest), but every message is
-        # decoded so a bad one is always reported
+        # one tick of backlog (a slow tick: a new robot's bodies, a busy machine) is caught up,
+        # so legacy clients and recordings get every tick; after a longer stall only the newest
+        # are worth computing. Every message is decoded so a bad one is always reported.
         decoded = [m for m in (io.decode(d, WorldState) for d in pending) if m is not None]
-        for msg in decoded[-1:]:
+        for msg in decoded[-CATCH_UP:]:
             view = cache.get(msg.revision)
             if view is None or any(i not in view.specs for i in msg.ids):
                 logger.warning("tick %d: no world info for revision %d", msg.tick, msg.revision)

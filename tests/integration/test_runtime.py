@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import signal
 import subprocess
+import time
 from pathlib import Path
 
 import pytest
@@ -21,7 +22,17 @@ from iw_zenoh.messages import (
     encode,
 )
 from iw_zenoh.record.tools import check
-from tests.integration.harness import MAPS, Net, iwz_run_argv, register, state_of, subscribe, wait_event, wait_msg
+from tests.integration.harness import (
+    MAPS,
+    Net,
+    iwz_run_argv,
+    register,
+    state_of,
+    subscribe,
+    wait_alive,
+    wait_event,
+    wait_msg,
+)
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(120)]
 
@@ -234,3 +245,42 @@ def test_the_world_takes_a_batch_only_for_the_senders_own_robots(net: Net) -> No
     go("tester", "tester", mine)
     moving = wait_msg(states, WorldState, lambda m: mine in m.ids and m.speed[m.ids.index(mine)] > 0.05)
     assert abs(moving.speed[moving.ids.index(theirs)]) < 1e-9  # the refused batches moved nothing
+
+
+def test_the_sensors_node_catches_up_a_tick_of_backlog(net: Net) -> None:
+    # the test plays the world: tick 1's state, then, while the sensors node waits for the world's
+    # description (which the test holds back), ticks 2 and 3 back to back: a backlog of two,
+    # as after a slow tick. Every tick's readings must come, none skipped.
+    from iw_zenoh.core.lab import Grid, GridPosition, Lab
+    from iw_zenoh.messages import Proposed, RegisterRequest, Verdict
+    from iw_zenoh.nodes.world_core import MS, WorldConfig, WorldCore
+
+    core = WorldCore(WorldConfig(sim=net.sim), Lab("t", 20.0, 10.0), Grid((GridPosition(2, 5, 0),)))
+    assert core.register(RegisterRequest(spec=RobotSpecMsg(name="a")), 0)[0].ok
+    states = []
+    for n in (1, 2, 3):
+        prop = next(m for _, m in core.begin_tick(n * 100 * MS) if isinstance(m, Proposed))
+        verdict = Verdict(tick=prop.tick, revision=prop.revision, ids=prop.ids, collided=[False])
+        states.append(next(m for _, m in core.finish_tick(verdict) if isinstance(m, WorldState)))
+    bus = net.client()
+    info_q = bus.serve(keys.info(net.sim))
+    readings = subscribe(bus, keys.sensors(net.sim, 1))
+    net.spawn("sensors")
+    wait_alive(bus, keys.alive(net.sim, "sensors", "sensors-1-1"))
+    bus.publish(keys.state(net.sim), encode(states[0]))
+    deadline = time.monotonic() + 30
+    asked = []
+    while not (asked := info_q.poll()):  # the node is now waiting for the description
+        assert time.monotonic() < deadline, "the sensors node never asked for world/info"
+        time.sleep(0.005)  # polling the test's own queryable: there is no event to wait on
+    for st in states[1:]:
+        bus.publish(keys.state(net.sim), encode(st))
+    asked[0].reply(encode(core.info()))
+    got: set[int] = set()
+    while got != {1, 2, 3} and time.monotonic() < deadline:
+        for q in info_q.poll():
+            q.reply(encode(core.info()))
+        d = readings.get(timeout_s=0.05)
+        if d is not None:
+            got.add(decode(d[1], SensorReading).tick)
+    assert got == {1, 2, 3}
