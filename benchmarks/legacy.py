@@ -5,9 +5,9 @@
 
 Every client registers like croblink.py, answers the Measures it reads with an Actions (as agents
 do; once for all it finds waiting, so the backlog of the registration phase is not answered
-datagram by datagram, which flooded the bridge at the start), and timestamps every Measures. Printed: p50 / p99 inter-arrival (ms) over all
-clients, and how many cycles the robots missed (a Time skipped between a robot's first and last
-Measures) or received twice.
+datagram by datagram, which flooded the bridge at the start), and timestamps every Measures.
+Printed: p50 / p99 inter-arrival (ms) over all clients, and how many cycles the robots missed (a
+Time skipped between a robot's first and last Measures) or received twice.
 
 Target: every robot gets every cycle, p99 within 5 ms of the 50 ms period, at 100 robots.
 (Anchor: the legacy C++ simulator keeps its 50 ms cycle up to about 40 robots, 56 ms at 50.)

@@ -567,11 +567,11 @@ class Bridge:
                 t0 = time.time_ns()
                 built = self._built[tick] = []
                 for c, r in items:
-                    if c.robot_id in self.by_robot and r.tick != c.sent_tick:
+                    if c.robot_id in self.by_robot:
                         c.reading = r
-                        c.sent_tick = r.tick
-                        built.append((c, self._measures(c, r.tick)))
-                        c.heard = []
+                        data = self._next_measures(c, r.tick)
+                        if data is not None:
+                            built.append((c, data))
                 now_ns = time.time_ns()
                 self._lead_ns = max(MIN_LEAD_NS, (now_ns - t0) * 3 // 2 + MIN_LEAD_NS // 2)
             if due > now_ns:
@@ -580,10 +580,7 @@ class Bridge:
             del self._built[tick]
             for c, data in built:
                 if c.robot_id in self.by_robot:
-                    try:
-                        c.sock.sendto(data, c.addr)
-                    except OSError as e:
-                        logger.warning("cannot send to %s:%d: %s", c.addr[0], c.addr[1], e)
+                    self._send(c, data)
             if logger.isEnabledFor(logging.DEBUG) and items:
                 logger.debug(
                     "tick %d: %d Measures due %.1f ms after the tick began, sent %.1f ms after that, in %.1f ms",
@@ -708,15 +705,26 @@ class Bridge:
             for v in viewers:
                 v.sock.sendto(data_out, v.addr)
 
-    def _send_measures(self, c: Client, tick: int, *, force: bool = False) -> None:
+    def _next_measures(self, c: Client, tick: int, *, force: bool = False) -> bytes | None:
+        """The client's Measures of ``tick``, once a tick (unless forced); what it heard is then
+        delivered."""
         if tick == c.sent_tick and not force:
-            return
+            return None
         c.sent_tick = tick
+        data = self._measures(c, tick)
+        c.heard = []
+        return data
+
+    def _send(self, c: Client, data: bytes) -> None:
         try:
-            c.sock.sendto(self._measures(c, tick), c.addr)
+            c.sock.sendto(data, c.addr)
         except OSError as e:
             logger.warning("cannot send to %s:%d: %s", c.addr[0], c.addr[1], e)
-        c.heard = []
+
+    def _send_measures(self, c: Client, tick: int, *, force: bool = False) -> None:
+        data = self._next_measures(c, tick, force=force)
+        if data is not None:
+            self._send(c, data)
 
     def serve(self) -> None:
         """Runs until stopped."""

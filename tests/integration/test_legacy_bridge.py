@@ -77,6 +77,15 @@ def clients() -> Iterator[list[LegacyClient]]:
         c.close()
 
 
+def _c1_params(net: Net, old: str, new: str) -> Path:
+    """C1's parameters file with one attribute changed (written in the test's folder)."""
+    path = net.tmp / f"params-{len(list(net.tmp.glob('params-*')))}.xml"
+    text = (MAPS / "ciberrato" / "C1-config.xml").read_text()
+    assert old in text
+    path.write_text(text.replace(old, new))
+    return path
+
+
 def _world(
     net: Net,
     params: Path | None = MAPS / "ciberrato" / "C1-config.xml",
@@ -348,10 +357,7 @@ def test_end_led_finishes_a_legacy_robot_for_good(net: Net, clients: list[Legacy
 
 
 def test_scores_and_states_follow_the_legacy_game(net: Net, clients: list[LegacyClient]) -> None:
-    params = net.tmp / "params.xml"
-    params.write_text(
-        (MAPS / "ciberrato" / "C1-config.xml").read_text().replace('ScoreSensor="Off"', 'ScoreSensor="On"')
-    )
+    params = _c1_params(net, 'ScoreSensor="Off"', 'ScoreSensor="On"')
     port = _world(
         net,
         params,
@@ -436,10 +442,7 @@ def test_a_registration_the_world_is_slow_to_answer_stalls_no_other_client(
 def test_a_robot_beacon_moves_with_its_robot_and_only_one_beacon_is_allowed(
     net: Net, clients: list[LegacyClient]
 ) -> None:
-    params = net.tmp / "beacons.xml"
-    params.write_text(
-        (MAPS / "ciberrato" / "C1-config.xml").read_text().replace('BeaconSensor="Off"', 'BeaconSensor="On"')
-    )
+    params = _c1_params(net, 'BeaconSensor="Off"', 'BeaconSensor="On"')
     port = _world(
         net,
         params,
@@ -480,8 +483,7 @@ def test_a_robot_beacon_moves_with_its_robot_and_only_one_beacon_is_allowed(
 
 
 def test_the_simulation_finishes_at_sim_time_and_stays_finished(net: Net, clients: list[LegacyClient]) -> None:
-    params = net.tmp / "short.xml"
-    params.write_text((MAPS / "ciberrato" / "C1-config.xml").read_text().replace('SimTime="5000"', 'SimTime="40"'))
+    params = _c1_params(net, 'SimTime="5000"', 'SimTime="40"')
     port = _world(net, params)
     bus = net.client()
     events = subscribe(bus, keys.event(net.sim, "legacy-finished"))
