@@ -20,6 +20,7 @@ Targets: 10 processes >= 50x, 100 >= 5x, 1,000 chairs >= 1x, tick-to-sensors p99
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
@@ -41,6 +42,8 @@ from iw_zenoh.core.lab import Grid, GridPosition  # noqa: E402
 from iw_zenoh.maps import grid_to_xml, lab_to_xml  # noqa: E402
 from iw_zenoh.messages import WorldState, decode  # noqa: E402
 from iw_zenoh.net import NetConfig, free_port, port_in_use  # noqa: E402
+
+DEBUG = bool(os.environ.get("IWZ_BENCH_DEBUG"))  # world and sensors log each tick's timings (-vv)
 
 TARGETS = {"lockstep10_rtf": 50.0, "lockstep100_rtf": 5.0, "lockstep1000_rtf": 1.0, "rt100_p99_ms": 10.0}
 
@@ -91,7 +94,7 @@ class Run:
         world_args = [
             "world",
             str(self.lab),
-            *(["-vv"] if os.environ.get("IWZ_BENCH_DEBUG") else []),
+            *(["-vv"] if DEBUG else []),
             "--grid",
             str(self.grid),
             "--expect",
@@ -109,7 +112,7 @@ class Run:
                 "sensors",
                 "--shard",
                 f"{k}/{shards}",
-                *(["-vv"] if os.environ.get("IWZ_BENCH_DEBUG") else []),
+                *(["-vv"] if DEBUG else []),
             )
         per = [chairs // hosts + (1 if i < chairs % hosts else 0) for i in range(hosts)]
         for i, c in enumerate(per):
@@ -131,9 +134,18 @@ class Run:
                 p.wait(5)
 
 
-def measure_lockstep(chairs: int, hosts: int, duration_s: float) -> dict[str, float]:
+def _workdir(logs: str | None, name: str) -> contextlib.AbstractContextManager[str]:
+    """A scratch directory for one measurement's files; kept under ``logs`` when given."""
+    if logs:
+        path = Path(logs) / name
+        path.mkdir(parents=True, exist_ok=True)
+        return contextlib.nullcontext(str(path))
+    return tempfile.TemporaryDirectory(prefix="iwz-scale-")
+
+
+def measure_lockstep(chairs: int, hosts: int, duration_s: float, logs: str | None = None) -> dict[str, float]:
     """Lock-step real-time factor, from the first to the last state an observer sees."""
-    with tempfile.TemporaryDirectory(prefix="iwz-scale-") as tmp:
+    with _workdir(logs, f"lockstep{chairs}") as tmp:
         run = Run(Path(tmp), chairs)
         try:
             world = run.start(lockstep=True, chairs=chairs, hosts=hosts, duration_s=duration_s)
@@ -170,9 +182,9 @@ def measure_lockstep(chairs: int, hosts: int, duration_s: float) -> dict[str, fl
             run.stop()
 
 
-def measure_rt(chairs: int, hosts: int, duration_s: float) -> dict[str, float]:
+def measure_rt(chairs: int, hosts: int, duration_s: float, logs: str | None = None) -> dict[str, float]:
     """Real time: delay from the world's tick start to the sensor message at an agent."""
-    with tempfile.TemporaryDirectory(prefix="iwz-scale-") as tmp:
+    with _workdir(logs, f"rt{chairs}") as tmp:
         run = Run(Path(tmp), chairs)
         out = str(Path(tmp) / "latency")
         try:
@@ -184,12 +196,11 @@ def measure_rt(chairs: int, hosts: int, duration_s: float) -> dict[str, float]:
         for i in range(hosts):
             p = Path(f"{out}.{i}")
             if p.exists():
-                us += [int(x) for x in p.read_text().split()]
+                got = [int(x) for x in p.read_text().split()]  # in arrival order
+                us += got[len(got) // 10 :]  # the first seconds include start-up
         if not us:
             raise RuntimeError("no latencies recorded")
         us.sort()
-        skip = len(us) // 10  # the first seconds include start-up
-        us = us[skip:]
         return {
             "chairs": chairs,
             "agent_processes": hosts,
@@ -209,14 +220,24 @@ def main(argv: list[str] | None = None) -> int:
         "--duration", type=float, default=20.0, help="simulated seconds per lock-step measurement (default 20)"
     )
     ap.add_argument("--json", action="store_true", help="print one JSON object")
+    ap.add_argument(
+        "--logs",
+        metavar="DIR",
+        help="keep every process's log (and the map, grid, latencies) in DIR/<measurement>/",
+    )
+    ap.add_argument(
+        "--debug", action="store_true", help="world and sensors log each tick's timings (-vv); slows them a little"
+    )
     args = ap.parse_args(argv)
+    global DEBUG
+    DEBUG = DEBUG or args.debug
     todo = args.only or ["lockstep10", "lockstep100", "lockstep1000", "rt100"]
     res: dict[str, dict[str, float]] = {}
     plans = {
-        "lockstep10": lambda: measure_lockstep(10, 10, args.duration),
-        "lockstep100": lambda: measure_lockstep(100, 100, args.duration),
-        "lockstep1000": lambda: measure_lockstep(1000, 4, min(args.duration, 10.0)),
-        "rt100": lambda: measure_rt(100, 4, 20.0),
+        "lockstep10": lambda: measure_lockstep(10, 10, args.duration, args.logs),
+        "lockstep100": lambda: measure_lockstep(100, 100, args.duration, args.logs),
+        "lockstep1000": lambda: measure_lockstep(1000, 4, min(args.duration, 10.0), args.logs),
+        "rt100": lambda: measure_rt(100, 4, 20.0, args.logs),
     }
     for name in todo:
         print(f"  measuring {name} ...", file=sys.stderr, flush=True)

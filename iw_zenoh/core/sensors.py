@@ -21,11 +21,11 @@ import shapely
 from shapely import STRtree
 
 from iw_zenoh.core.bodies import Bodies, polygons_at
+from iw_zenoh.core.cones import cone_distances
 from iw_zenoh.core.geometry import to_world, wrap_deg
 from iw_zenoh.core.lab import Scene
 from iw_zenoh.core.legacy_ir import ciberrato_ir_distances
 from iw_zenoh.core.noise import NoiseBank, Stream, rng_for
-from iw_zenoh.core.spatial import Boxes, SlotBoxes, boxes_tree, robot_item_pairs
 
 __all__ = [
     "LEGACY_NOTHING",
@@ -248,8 +248,6 @@ def proximity_distances(scene: Scene, bodies: Bodies, pose: FloatArray, *, only:
 
 
 def _proximity(scene: Scene, bodies: Bodies, pose: FloatArray, sensors: IntArray) -> FloatArray:
-    m = len(sensors)
-    n = bodies.n
     own = bodies.ir_owner[sensors]
     c, s = np.cos(pose[own, 2]), np.sin(pose[own, 2])
     lx, ly = bodies.ir_xy[sensors, 0], bodies.ir_xy[sensors, 1]
@@ -260,72 +258,7 @@ def _proximity(scene: Scene, bodies: Bodies, pose: FloatArray, sensors: IntArray
     rng = bodies.ir_range_m[sensors]
     normals = _wedge_normals(phi, half)
     lo, hi = _wedge_bounds(ox, oy, phi, half, rng, normals)
-    # slots of the selected sensors: position in ``sensors`` (or -1)
-    where = np.full(len(bodies.ir_owner), -1, dtype=np.int64)
-    where[sensors] = np.arange(m)
-    slots = np.where(bodies.ir_slots >= 0, where[np.maximum(bodies.ir_slots, 0)], -1)
-    wedges = SlotBoxes(lo, hi, slots)
-    origin_xy = np.stack([ox, oy], axis=1)
-    points = SlotBoxes(origin_xy, origin_xy, slots)
-    count = np.bincount(own, minlength=n).astype(np.int64)
-    first = np.searchsorted(own, np.arange(n)).astype(np.int64)
-    has = count > 0
-    rlo = np.zeros((n, 2))
-    rhi = np.zeros((n, 2))
-    rlo[has] = np.minimum.reduceat(lo, first[has], axis=0)
-    rhi[has] = np.maximum.reduceat(hi, first[has], axis=0)
-    robots = Boxes(rlo, rhi).shapes()
-    robots[~has] = None  # robots with no selected sensor query nothing
-    best = np.full(m, np.inf)
-
-    segs = scene.segments
-    sm, ss = robot_item_pairs(scene.segment_tree, scene.segment_boxes, robots, wedges)
-    d = _wedge_distance(ox[sm], oy[sm], normals[sm], segs[ss, 0, 0], segs[ss, 0, 1], segs[ss, 1, 0], segs[ss, 1, 1])
-    np.minimum.at(best, sm, d)
-
-    body_xy = bodies.world_outline(pose)  # (N, K, 2), counter-clockwise
-    bboxes = Boxes(body_xy.min(axis=1), body_xy.max(axis=1))
-    btree = boxes_tree(bboxes)
-    bm, bn = robot_item_pairs(btree, bboxes, robots, wedges)
-    keep = bn != own[bm]
-    bm, bn = bm[keep], bn[keep]
-    # a mounting point inside another body sees it at distance 0 (that body's box holds the
-    # point, so it overlaps the sensor's wedge box and is among these pairs)
-    held = (bboxes.x0[bn] <= ox[bm]) & (bboxes.x1[bn] >= ox[bm]) & (bboxes.y0[bn] <= oy[bm]) & (bboxes.y1[bn] >= oy[bm])
-    if held.any():
-        hm, hn = bm[held], bn[held]
-        best[hm[_inside_convex(ox[hm], oy[hm], body_xy[hn])]] = 0.0
-    # cull bodies whose bounding circle lies outside the cone before testing their edges
-    rad = bodies.bound_radius_m[bn]
-    vx = pose[bn, 0] - ox[bm]
-    vy = pose[bn, 1] - oy[bm]
-    dist = np.sqrt(vx * vx + vy * vy)
-    off = np.abs((np.arctan2(vy, vx) - phi[bm] + np.pi) % (2.0 * np.pi) - np.pi)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        spread = np.where(dist > rad, np.arcsin(np.minimum(1.0, rad / dist)), np.pi)
-    near = (dist - rad <= rng[bm]) & (off <= half[bm] + spread)
-    bm, bn = bm[near], bn[near]
-    if len(bm):
-        k = body_xy.shape[1]
-        a = body_xy[bn]  # (Q, K, 2)
-        b = np.roll(a, -1, axis=1)
-        mi = np.repeat(bm, k)
-        ax, ay = a[..., 0].reshape(-1), a[..., 1].reshape(-1)
-        bx, by = b[..., 0].reshape(-1), b[..., 1].reshape(-1)
-        # only edges facing the sensor can hold the nearest point of a convex body
-        front = (bx - ax) * (oy[mi] - ay) - (by - ay) * (ox[mi] - ax) <= 0.0
-        mi, ax, ay, bx, by = mi[front], ax[front], ay[front], bx[front], by[front]
-        d = _wedge_distance(ox[mi], oy[mi], normals[mi], ax, ay, bx, by)
-        np.minimum.at(best, mi, d)
-
-    # a mounting point inside a wall sees distance 0
-    if len(scene.wall_polygons):
-        wm, wi = robot_item_pairs(scene.wall_tree_boxes, scene.wall_boxes, robots, points)
-        if len(wm):
-            inside = shapely.contains_xy(scene.wall_polygons[wi], ox[wm], oy[wm])
-            best[wm[inside]] = 0.0
-    best[best > rng] = np.inf
-    return best
+    return cone_distances(scene, ox, oy, normals, rng, lo, hi, own, bodies.world_outline(pose))
 
 
 def step_encoders(acc: FloatArray, rolled_m: FloatArray, ticks_per_m: FloatArray, slip: FloatArray) -> FloatArray:
