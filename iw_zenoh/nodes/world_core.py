@@ -118,6 +118,7 @@ class WorldCore:
         self.steps_left = 0
         self.stopped = False
         self.collision_alive: set[str] = set()
+        self.sensors_alive: set[str] = set()
         self.agents_alive: set[str] = set()
         self.holding = ""
         self._motion_rngs: dict[int, np.random.Generator] = {}
@@ -340,11 +341,18 @@ class WorldCore:
         return [self._event("obstacle", f"{msg.command} {ob.name!r}", name=ob.name)]
 
     def on_alive(self, role: str, name: str, alive: bool, now_ns: int) -> list[Outgoing]:
-        """Tracks collision processes and agents; an agent lost zeroes its robots at once."""
+        """Tracks collision and sensors processes and agents; an agent lost zeroes its robots at once."""
         self._awaiting = None
         out: list[Outgoing] = []
         if role == "collision":
             (self.collision_alive.add if alive else self.collision_alive.discard)(name)
+        elif role == "sensors":
+            was = bool(self.sensors_alive)
+            (self.sensors_alive.add if alive else self.sensors_alive.discard)(name)
+            if was and not self.sensors_alive and self.cfg.mode == "lockstep":
+                out.append(
+                    self._event("sensors-lost", "no sensors process is alive: lock-step waits until one is back")
+                )
         elif role == "agent":
             if alive:
                 self.agents_alive.add(name)
@@ -371,8 +379,11 @@ class WorldCore:
     # --- the tick --------------------------------------------------------------------------
 
     def due(self) -> bool:
-        """Whether the world should step now (running, or single steps asked, roster complete)."""
+        """Whether the world should step now (running, or single steps asked, roster complete, and
+        in lock-step a sensors process alive: without readings no agent could answer)."""
         if self.stopped or len(self.registry.entries) < self.cfg.expect and self.tick == 0:
+            return False
+        if self.cfg.mode == "lockstep" and self.registry.entries and not self.sensors_alive:
             return False
         return self.running or self.steps_left > 0
 

@@ -144,6 +144,23 @@ def test_lockstep_waits_only_for_live_agents_that_have_not_answered() -> None:
     assert core.expected(1) == []
 
 
+def test_lockstep_does_not_step_robots_while_no_sensors_process_is_alive() -> None:
+    # without readings no agent can answer: a first tick published before the sensors process
+    # subscribed was waited out as a laggard (a sensors process compiling its kernel joins late)
+    core = _core(mode="lockstep")
+    assert core.due()  # nothing to wait for without robots
+    core.register(RegisterRequest(spec=RobotSpecMsg(name="a"), agent="ag"), 0)
+    assert not core.due()
+    assert _kinds(core.on_alive("sensors", "sensors-1-1", True, 0)) == []
+    assert core.due()
+    assert _kinds(core.on_alive("sensors", "sensors-1-1", False, 0)) == ["sensors-lost"]
+    assert not core.due()
+    realtime = _core()
+    realtime.register(RegisterRequest(spec=RobotSpecMsg(name="a"), agent="ag"), 0)
+    assert realtime.due()  # real time never waits for anybody
+    assert _kinds(realtime.on_alive("sensors", "sensors-1-1", False, 0)) == []
+
+
 def test_lockstep_waits_for_a_new_robot_from_its_first_readings_before_its_agent_token_arrives() -> None:
     # the token is declared before the agent registers but may reach the world later: a world
     # that waited only for agents it had seen alive ran its first ticks without the new robot,
