@@ -22,7 +22,7 @@ from iw_zenoh import keys
 from iw_zenoh.bus import Bus, ZenohBus
 from iw_zenoh.cliargs import add_common_arguments, net_from_args
 from iw_zenoh.core.cones import warm_up
-from iw_zenoh.core.noise import Stream, rng_for
+from iw_zenoh.core.noise import NoiseStreams, Stream
 from iw_zenoh.core.sensors import SensorParams, noise_layout, read_sensors
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import SensorReading, WorldState, encode, encode_sensor_batch
@@ -65,8 +65,9 @@ class SensorsNode:
         self.sim = sim
         self.seed = seed
         self.shard = shard
-        self._rngs: dict[int, np.random.Generator] = {}
-        self._encoders: dict[int, np.ndarray] = {}
+        self._noise = NoiseStreams(seed, Stream.SENSORS)
+        self._enc_ids: list[int] = []  # the roster of the last tick, and its encoder counts
+        self._enc = np.zeros((0, 2))
         self._keys: dict[int, str] = {}  # robot id -> its sensors key (built once)
 
     def mine(self, robot_id: int) -> bool:
@@ -81,20 +82,22 @@ class SensorsNode:
             return []
         bodies = view.bodies_for(ids)
         pose = np.column_stack([msg.x, msg.y, msg.heading])
-        only = np.asarray([self.mine(i) for i in ids], dtype=bool)
+        k, n = self.shard
+        only = np.asarray(ids, dtype=np.int64) % n == k % n
         # robots that carry a beacon (Ciber-Rato's RobotBeacon), in id order after the lab's
         moving = tuple((i, h) for i, rid in enumerate(ids) if (h := view.specs[rid].beacon_height_m) is not None)
         nb = len(view.scene.lab.beacons) + len(moving)
         counts, starts = noise_layout(bodies, nb)
         z = np.zeros(int(counts.sum()))
-        enc = np.zeros((len(ids), 2))
-        for i, rid in enumerate(ids):
+        take = self._noise.take
+        for i, rid, s0, c in zip(range(len(ids)), ids, starts.tolist(), counts.tolist(), strict=True):
             if only[i]:
-                g = self._rngs.get(rid)
-                if g is None:  # built once per robot (a generator costs ~20 us to build)
-                    g = self._rngs[rid] = rng_for(self.seed, rid, Stream.SENSORS)
-                z[starts[i] : starts[i] + counts[i]] = g.standard_normal(int(counts[i]))
-                enc[i] = self._encoders.get(rid, np.zeros(2))
+                z[s0 : s0 + c] = take(rid, c)
+        if ids == self._enc_ids:
+            enc = self._enc
+        else:  # the roster changed: carry each remaining robot's count over
+            before = {rid: row for rid, row in zip(self._enc_ids, self._enc.tolist(), strict=True)}
+            enc = np.asarray([before.get(rid, (0.0, 0.0)) for rid in ids], dtype=np.float64).reshape(-1, 2)
         params = SensorParams()
         r = read_sensors(
             view.scene,
@@ -109,12 +112,13 @@ class SensorsNode:
             legacy_ir=view.info.profile == "ciberrato",
             moving_beacons=moving,
         )
+        self._enc_ids, self._enc = ids, np.where(only[:, None], r.encoder_acc, enc)
         out: list[Outgoing] = []
         # whole arrays to Python lists once; each robot's sensors are a contiguous run
-        m_first = np.searchsorted(bodies.ir_owner, np.arange(len(ids)))
-        m_last = np.searchsorted(bodies.ir_owner, np.arange(len(ids)), side="right")
-        b_first = np.searchsorted(bodies.bumper_owner, np.arange(len(ids)))
-        b_last = np.searchsorted(bodies.bumper_owner, np.arange(len(ids)), side="right")
+        m_first = np.searchsorted(bodies.ir_owner, np.arange(len(ids))).tolist()
+        m_last = np.searchsorted(bodies.ir_owner, np.arange(len(ids)), side="right").tolist()
+        b_first = np.searchsorted(bodies.bumper_owner, np.arange(len(ids))).tolist()
+        b_last = np.searchsorted(bodies.bumper_owner, np.arange(len(ids)), side="right").tolist()
         prox = np.where(np.isfinite(r.proximity_m), r.proximity_m, np.nan).tolist()
         prox = [None if v != v else v for v in prox]  # NaN (nothing in range) -> null
         legacy = r.proximity_legacy.tolist()
@@ -126,11 +130,9 @@ class SensorsNode:
         collision = r.collision.tolist()
         ticks = r.encoder_ticks.tolist()
         bumpers = r.bumpers.tolist()
-        for i, rid in enumerate(ids):
-            if not only[i]:
-                continue
-            self._encoders[rid] = r.encoder_acc[i]
-            lo, hi = int(m_first[i]), int(m_last[i])
+        for i in np.flatnonzero(only).tolist():
+            rid = ids[i]
+            lo, hi = m_first[i], m_last[i]
             reading = SensorReading(
                 tick=msg.tick,
                 sim_time_ns=msg.sim_time_ns,
@@ -144,7 +146,7 @@ class SensorsNode:
                 ground=ground[i],
                 collision=collision[i],
                 encoders=(ticks[i][0], ticks[i][1]),
-                bumpers=bumpers[int(b_first[i]) : int(b_last[i])],
+                bumpers=bumpers[b_first[i] : b_last[i]],
                 tick_wall_ns=msg.tick_wall_ns,
             )
             key = self._keys.get(rid)

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.lab import Beacon, Lab, Scene, Target, Wall
-from iw_zenoh.core.noise import NoiseBank, Stream, rng_for
+from iw_zenoh.core.noise import NoiseBank, NoiseStreams, Stream, rng_for
 from iw_zenoh.core.sensors import legacy_ir_value, noise_bank, proximity_distances, read_sensors
 from iw_zenoh.core.spec import BumperSpec, IrSensorSpec, NoiseSpec, RobotSpec, SensorNoise
 from tests.conftest import box_wall
@@ -309,6 +309,18 @@ def test_noise_bank_gives_the_generator_sequence_whatever_the_block(block: int) 
     got = np.stack([bank.next() for _ in range(10)])
     expected = [rng_for(9, i, Stream.SENSORS).standard_normal((10, int(c))) for i, c in enumerate(counts)]
     np.testing.assert_array_equal(got, np.concatenate(expected, axis=1))
+
+
+@given(st.lists(st.tuples(st.integers(1, 3), st.integers(0, 700)), max_size=40))
+def test_noise_streams_give_each_generator_sequence_however_the_takes_are_split(
+    takes: list[tuple[int, int]],
+) -> None:
+    streams = NoiseStreams(9, Stream.SENSORS, block=64)
+    got: dict[int, list[float]] = {1: [], 2: [], 3: []}
+    for rid, count in takes:
+        got[rid] += streams.take(rid, count).tolist()
+    for rid, values in got.items():
+        assert values == rng_for(9, rid, Stream.SENSORS).standard_normal(len(values)).tolist()
 
 
 def test_a_sensor_inside_a_wall_or_another_body_reads_zero() -> None:
