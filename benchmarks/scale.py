@@ -5,7 +5,8 @@
     python benchmarks/scale.py --only lockstep10 rt100
 
 Measures, on the core benchmark's floor (hospital wings, chairs about a metre apart, eight
-60-degree cones of 4 m each, 100 ms ticks):
+60-degree cones of 4 m each, 100 ms ticks; every chair creeps back and forth, turning back when
+something is 0.3 m ahead, so poses change every tick; ``--pushing``: they push on and collide):
 
 * lockstep10  lock-step real-time factor with 10 agent processes (one chair each)
 * lockstep100 lock-step real-time factor with 100 agent processes
@@ -44,6 +45,7 @@ from iw_zenoh.messages import WorldState, decode  # noqa: E402
 from iw_zenoh.net import NetConfig, free_port, port_in_use  # noqa: E402
 
 DEBUG = bool(os.environ.get("IWZ_BENCH_DEBUG"))  # world and sensors log each tick's timings (-vv)
+PUSHING = False  # chairs push into whatever they meet instead of creeping back and forth
 
 TARGETS = {"lockstep10_rtf": 50.0, "lockstep100_rtf": 5.0, "lockstep1000_rtf": 1.0, "rt100_p99_ms": 10.0}
 
@@ -118,7 +120,18 @@ class Run:
         for i, c in enumerate(per):
             extra = ["--latency-out", f"{probe_out}.{i}"] if probe_out else []
             self.spawn(
-                f"agent{i}", "agent", "probe", "--count", str(c), "--creep", "0.02", "--name", f"probe{i}", *extra
+                f"agent{i}",
+                "agent",
+                "probe",
+                "--count",
+                str(c),
+                "--creep",
+                "0.02",
+                "--avoid",
+                "0" if PUSHING else "0.3",
+                "--name",
+                f"probe{i}",
+                *extra,
             )
         return world
 
@@ -228,9 +241,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--debug", action="store_true", help="world and sensors log each tick's timings (-vv); slows them a little"
     )
+    ap.add_argument(
+        "--pushing",
+        action="store_true",
+        help="chairs creep on into whatever they meet and collide every tick (the worst case for "
+        "the sensors node, which then cannot use what it computed ahead from the proposal)",
+    )
     args = ap.parse_args(argv)
-    global DEBUG
+    global DEBUG, PUSHING
     DEBUG = DEBUG or args.debug
+    PUSHING = args.pushing
     todo = args.only or ["lockstep10", "lockstep100", "lockstep1000", "rt100"]
     res: dict[str, dict[str, float]] = {}
     plans = {

@@ -250,6 +250,10 @@ class Proposed(Message, frozen=True, kw_only=True):
     next_heading: list[float]
     linear: list[float]
     active: list[bool]
+    # what the state will say if nothing collides (a sensors node computes ahead on it)
+    rolled_left: list[float] = []
+    rolled_right: list[float] = []
+    tick_wall_ns: NonNeg = 0
 
 
 class Hit(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):

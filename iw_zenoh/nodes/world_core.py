@@ -469,6 +469,9 @@ class WorldCore:
             next_heading=prop.pose[:, 2].tolist(),
             linear=prop.linear.tolist(),
             active=[True] * len(ids),
+            rolled_left=prop.rolled_m[:, 0].tolist(),
+            rolled_right=prop.rolled_m[:, 1].tolist(),
+            tick_wall_ns=wall_ns,
         )
         out.append((keys.proposed(self.cfg.sim), msg))
         return out

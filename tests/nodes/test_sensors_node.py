@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import msgspec
+
 from iw_zenoh.core.lab import Lab, Scene
 from iw_zenoh.core.spec import IrSensorSpec, RobotSpec
-from iw_zenoh.messages import SensorReading, WorldInfo, WorldState, lab_to_msg, spec_to_msg
+from iw_zenoh.messages import Proposed, SensorReading, WorldInfo, WorldState, encode, lab_to_msg, spec_to_msg
 from iw_zenoh.nodes.info import WorldView
 from iw_zenoh.nodes.sensors import SensorsNode
 from tests.conftest import box_wall
@@ -70,3 +72,69 @@ def test_encoders_accumulate_and_a_robot_keeps_its_count_when_others_come_and_go
     alone = SensorsNode("t", seed=5)
     first = [alone.on_state(_state(t, [2], 1), _view([2], 1))[0][1] for t in (1, 2)]
     assert [m.compass_deg for m in first] == [r[(t, 2)].compass_deg for t in (1, 2)]  # type: ignore[attr-defined]
+
+
+def _proposal(st: WorldState) -> Proposed:
+    n = len(st.ids)
+    return Proposed(
+        tick=st.tick,
+        sim_time_ns=st.sim_time_ns,
+        revision=st.revision,
+        ids=st.ids,
+        x=[0.0] * n,
+        y=[0.0] * n,
+        heading=[0.0] * n,
+        next_x=st.x,
+        next_y=st.y,
+        next_heading=st.heading,
+        linear=[0.0] * n,
+        active=[True] * n,
+        rolled_left=st.rolled_left,
+        rolled_right=st.rolled_right,
+        tick_wall_ns=st.tick_wall_ns,
+    )
+
+
+def test_readings_computed_ahead_from_the_proposal_equal_those_of_the_state_bit_for_bit() -> None:
+    # robots 1-3 about 1.5 m apart, 4 and 5 far from them and from each other
+    ids = [1, 2, 3, 4, 5]
+    view = _view(ids, 1)
+    far = {4: 12.0, 5: 17.0}
+
+    def state(tick: int) -> WorldState:
+        st = _state(tick, ids, 1)
+        return msgspec.structs.replace(
+            st, x=[far.get(i, x) for i, x in zip(ids, st.x, strict=True)], tick_wall_ns=1000 + tick
+        )
+
+    reference = SensorsNode("t", seed=5)
+    ahead_node = SensorsNode("t", seed=5)
+    again_counts = []
+    for tick in range(1, 7):
+        proposed = state(tick)
+        committed = proposed
+        if tick == 2:  # robot 1 collided: it stays where it was, its flag set
+            prev = state(tick - 1)
+            committed = msgspec.structs.replace(
+                proposed,
+                x=[prev.x[0], *proposed.x[1:]],
+                collided=[True, False, False, False, False],
+            )
+        if tick == 4:  # everybody held: nobody moves
+            committed = msgspec.structs.replace(proposed, x=state(tick - 1).x, rolled_left=[0.0] * 5)
+        want = [encode(m) for _, m in reference.on_state(committed, view)]
+        ahead = ahead_node.ahead(_proposal(proposed), view)
+        assert ahead is not None
+        got, again = ahead_node.settle(ahead, committed, view)
+        assert got.encoded == want, f"tick {tick}"
+        again_counts.append(again)
+    # tick 2: only robot 1 and the robots its body or cones reach were computed again
+    assert again_counts == [0, 3, 0, 5, 0, 0]
+
+
+def test_computing_ahead_needs_the_previous_ticks_readings_out() -> None:
+    node = SensorsNode("t", seed=5)
+    view = _view([1, 2], 1)
+    node.on_state(_state(1, [1, 2], 1), view)
+    assert node.ahead(_proposal(_state(3, [1, 2], 1)), view) is None  # tick 2 not out yet
+    assert node.ahead(_proposal(_state(2, [1, 2], 1)), view) is not None
