@@ -31,7 +31,7 @@ from typing import Protocol
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus, Inbox
 from iw_zenoh.core.spec import RobotSpec
-from iw_zenoh.errors import IwError
+from iw_zenoh.errors import DecodeError, IwError
 from iw_zenoh.messages import (
     ActionBatch,
     Actions,
@@ -41,11 +41,11 @@ from iw_zenoh.messages import (
     RegisterReply,
     RegisterRequest,
     Say,
-    SensorBatch,
     SensorReading,
     WorldInfo,
     decode,
     encode,
+    readings_of,
     spec_from_msg,
     spec_to_msg,
 )
@@ -201,13 +201,13 @@ class AgentHost:
                 self._take(h, r)
         if self.batches is not None:
             for d in self.batches.drain():
-                sb = self.io.decode(d, SensorBatch)
-                if sb is None:
+                try:  # only this host's robots' readings are decoded
+                    mine = readings_of(d[1], self.hosted)
+                except DecodeError as e:
+                    self.io.bad_message(d[0], e)
                     continue
-                for r in sb.readings:
-                    h = self.hosted.get(r.robot_id)
-                    if h is not None:
-                        self._take(h, r)
+                for r in mine:
+                    self._take(self.hosted[r.robot_id], r)
 
     def _take(self, h: _Hosted, r: SensorReading) -> None:
         """Keeps a robot's newest reading and counts the tick's fresh ones."""

@@ -20,6 +20,7 @@ from iw_zenoh.messages import (
     encode,
     encode_sensor_batch,
     json_schema,
+    readings_of,
     spec_from_msg,
     spec_to_msg,
 )
@@ -99,10 +100,32 @@ def test_a_sensor_batch_of_encoded_readings_decodes_to_the_readings() -> None:
         )
         for i in (1, 2)
     ]
-    data = encode_sensor_batch(4, 400_000_000, "1-2", [encode(r) for r in readings], 9)
+    data = encode_sensor_batch(4, 400_000_000, "1-2", [encode(r) for r in readings], 9, [1, 2])
     got = decode(data, SensorBatch)
     assert (got.tick, got.sim_time_ns, got.shard, got.tick_wall_ns) == (4, 400_000_000, "1-2", 9)
     assert got.readings == readings
+    assert got.ids == [1, 2]
+    assert readings_of(data, {2, 7}) == readings[1:]
+
+
+def test_a_host_decodes_only_its_own_readings_of_a_batch_and_refuses_a_mislabelled_one() -> None:
+    good = encode(
+        SensorReading(
+            robot_id=2, proximity_ids=[], proximity_m=[], proximity_legacy=[], compass_deg=0.0, gps=(0.0, 0.0, 0.0)
+        )
+    )
+    broken = b'{"robot_id": "not a number"}'
+    data = encode_sensor_batch(1, 0, "1-1", [broken, good], 0, [1, 2])
+    assert [r.robot_id for r in readings_of(data, {2})] == [2]  # robot 1's reading is not ours to read
+    with pytest.raises(DecodeError, match=r"\$.robot_id"):
+        readings_of(data, {1})
+    with pytest.raises(DecodeError, match="robot 2's"):
+        readings_of(encode_sensor_batch(1, 0, "1-1", [good], 0, [3]), {3})
+    with pytest.raises(DecodeError, match="2 ids for 1 readings"):
+        readings_of(encode_sensor_batch(1, 0, "1-1", [good], 0, [2, 3]), {2})
+    # a batch that does not name its readings' robots (an older sender) is read whole
+    unnamed = encode(SensorBatch(tick=1, shard="1-1", readings=[decode(good, SensorReading)]))
+    assert [r.robot_id for r in readings_of(unnamed, {2})] == [2]
 
 
 @pytest.mark.parametrize(

@@ -93,10 +93,14 @@ class NodeIO:
         try:
             return decode(data, kind)
         except DecodeError as e:
-            self.bad_messages += 1
-            logger.warning("dropped a bad message on %s: %s", key, e)
-            self.event("bad-message", str(e), key=key)
+            self.bad_message(key, e)
             return None
+
+    def bad_message(self, key: str, error: Exception) -> None:
+        """Reports a message dropped as malformed: counted, logged, and a ``bad-message`` event."""
+        self.bad_messages += 1
+        logger.warning("dropped a bad message on %s: %s", key, error)
+        self.event("bad-message", str(error), key=key)
 
     def wait(self, timeout_s: float) -> None:
         """Sleeps until something arrives, a stop is asked, or ``timeout_s`` passes."""

@@ -357,7 +357,14 @@ def run(
                 bus.publish(key, data)
             bus.publish(
                 keys.sensor_batch(sim, shard),
-                encode_sensor_batch(msg.tick, msg.sim_time_ns, f"{shard[0]}-{shard[1]}", c.encoded, msg.tick_wall_ns),
+                encode_sensor_batch(
+                    msg.tick,
+                    msg.sim_time_ns,
+                    f"{shard[0]}-{shard[1]}",
+                    c.encoded,
+                    msg.tick_wall_ns,
+                    [getattr(m, "robot_id", -1) for _, m in c.out],
+                ),
             )
             if msg.tick_wall_ns:
                 logger.debug(

@@ -431,7 +431,7 @@ def test_a_registration_the_world_is_slow_to_answer_stalls_no_other_client(
     slow = ask(b, b'<Robot Id="2" Name="b"/>')  # asked, and left unanswered for now
     a.sock.settimeout(1.0)
     for tick in (5, 6, 7):  # robot a's readings keep coming and so do its Measures
-        batch = encode_sensor_batch(tick, tick * 50_000_000, "1-1", [_reading(1, tick)], 0)
+        batch = encode_sensor_batch(tick, tick * 50_000_000, "1-1", [_reading(1, tick)], 0, [1])
         bus.publish(keys.sensor_batch(net.sim, (1, 1)), batch)
         assert a.recv().startswith(f'<Measures Time="{tick}"'.encode())
     accept(slow, 2)
