@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from iw_zenoh import keys
-from iw_zenoh.bus import Bus, ZenohBus
+from iw_zenoh.bus import Bus, Inbox, ZenohBus
 from iw_zenoh.cliargs import add_common_arguments, net_from_args
 from iw_zenoh.core.cones import warm_up
 from iw_zenoh.core.noise import NoiseStreams, Stream
@@ -311,15 +311,22 @@ def _merge(ahead: Computed, again: Computed, which: np.ndarray) -> Computed:
 
 
 def run(
-    bus: Bus, sim: str, *, shard: tuple[int, int] = (1, 1), name: str = "sensors", io: NodeIO | None = None
+    bus: Bus,
+    sim: str,
+    *,
+    shard: tuple[int, int] = (1, 1),
+    name: str = "sensors",
+    io: NodeIO | None = None,
+    ahead: bool = True,
 ) -> None:
-    """Computes readings for every committed state until stopped; computes ahead on proposals."""
+    """Computes readings for every committed state until stopped; computes ahead on proposals
+    (unless ``ahead`` is false)."""
     io = io or NodeIO(bus, sim, "sensors", name)
     inbox = io.inbox(keys.state(sim))
-    proposals = io.inbox(keys.proposed(sim))
+    proposals = io.inbox(keys.proposed(sim)) if ahead else Inbox()
     cache = InfoCache(bus, sim)
     node: SensorsNode | None = None
-    ahead: Computed | None = None
+    early: Computed | None = None
     ahead_from = 0  # compute ahead from this tick on
     io.alive()
     while not io.stop.is_set():
@@ -331,7 +338,7 @@ def run(
                 p = io.decode(props[-1], Proposed)
                 view = cache.get(p.revision) if p is not None else None
                 if p is not None and view is not None and all(i in view.specs for i in p.ids):
-                    ahead = node.ahead(p, view)
+                    early = node.ahead(p, view)
                 continue
             io.wait(0.2)
             continue
@@ -347,9 +354,9 @@ def run(
             if node is None:
                 node = SensorsNode(sim, view.info.seed, shard)
             t0, c0 = time.perf_counter(), time.process_time()
-            used = ahead if ahead is not None and ahead.msg.tick == msg.tick else None
+            used = early if early is not None and early.msg.tick == msg.tick else None
             c, again = node.settle(used, msg, view)
-            ahead = None
+            early = None
             if used is not None and again > MISSED_AHEAD * max(1, len(c.out)):
                 ahead_from = msg.tick + 1 + PAUSE_AHEAD
             t1, c1 = time.perf_counter(), time.process_time()
@@ -391,6 +398,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     p.add_argument("--shard", default="1/1", help="K/N: compute the robots whose id is K modulo N (default 1/1, all)")
     p.add_argument("--name", default="", help="instance name (liveliness; default sensors-K-N)")
+    p.add_argument(
+        "--no-ahead",
+        action="store_true",
+        help="do not compute a tick ahead from the world's proposal (the same readings, later; "
+        "to compare, or on a machine with one core)",
+    )
     add_common_arguments(p)
     args = p.parse_args(argv)
     setup_logging(args.verbose, "sensors")
@@ -408,7 +421,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     io = NodeIO(bus, keys.chunk(args.sim), "sensors", name)
     install_stop_signals(io.stop, io.wake.set)
     try:
-        run(bus, args.sim, shard=shard, io=io)
+        run(bus, args.sim, shard=shard, io=io, ahead=not args.no_ahead)
     finally:
         bus.close()
     return 0

@@ -7,6 +7,7 @@ import subprocess
 import time
 from pathlib import Path
 
+import msgspec
 import pytest
 
 from iw_zenoh import keys
@@ -73,10 +74,14 @@ def test_registration_is_accepted_or_refused_with_its_reason(net: Net) -> None:
     assert "grid is full" in full.reason
 
 
-def _lockstep_run(net: Net, seed: int) -> list[tuple[int, tuple[float, ...]]]:
+def _lockstep_run(
+    net: Net, seed: int, *sensors_args: str
+) -> tuple[list[tuple[int, tuple[float, ...]]], list[SensorReading]]:
+    """A 3 s lock-step run of two wanderers: its states (tick, poses) and every reading."""
     lab, grid = _maps(net.tmp)
     bus = net.client()
     states = subscribe(bus, keys.state(net.sim))
+    batches = subscribe(bus, keys.all_sensor_batches(net.sim))
     world = net.spawn(
         "world",
         lab,
@@ -92,29 +97,38 @@ def _lockstep_run(net: Net, seed: int) -> list[tuple[int, tuple[float, ...]]]:
         name=f"world-{seed}",
     )
     net.spawn("collision", name=f"collision-{seed}")
-    net.spawn("sensors", name=f"sensors-{seed}")
+    net.spawn("sensors", *sensors_args, name=f"sensors-{seed}")
     net.spawn("agent", "wanderer", "--count", "2", "--seed", str(seed), "--name", f"w{seed}", name=f"agent-{seed}")
     assert world.popen.wait(90) == 0, world.output()
     out = []
     while (d := states.get(timeout_s=0.5)) is not None:
         m = decode(d[1], WorldState)
         out.append((m.tick, tuple(m.x + m.y + m.heading)))
-    return out
+    readings = []
+    while (d := batches.get(timeout_s=0.5)) is not None:
+        # the wall clock of the tick's start differs from run to run, nothing else may
+        readings += [msgspec.structs.replace(r, tick_wall_ns=0) for r in decode(d[1], SensorBatch).readings]
+    return out, readings
 
 
 def test_lockstep_runs_with_one_seed_give_identical_state_streams(tmp_path: Path) -> None:
+    # the second run's sensors node does not compute ahead from the proposals: the readings,
+    # and so everything else, must not change
     runs = []
-    for i in range(2):
+    for i, args in enumerate(((), ("--no-ahead",))):
         n = Net(tmp_path / f"run{i}")
         n.tmp.mkdir()
         n.start_router()
         try:
-            runs.append(_lockstep_run(n, seed=11))
+            runs.append(_lockstep_run(n, 11, *args))
         finally:
             n.close()
-    assert [t for t, _ in runs[0]] == list(range(1, 31))  # 3 s of 100 ms ticks, none skipped
-    assert runs[0] == runs[1]
-    moved = runs[0][-1][1] != runs[0][0][1]
+    (states, readings), (states2, readings2) = runs
+    assert [t for t, _ in states] == list(range(1, 31))  # 3 s of 100 ms ticks, none skipped
+    assert states == states2
+    assert len(readings) == 2 * 30
+    assert readings == readings2
+    moved = states[-1][1] != states[0][1]
     assert moved
 
 
