@@ -107,7 +107,7 @@ class Run:
         if lockstep:
             world_args += ["--lockstep", "--lockstep-timeout-ms", "10000"]
         world = self.spawn("world", *world_args)
-        self.spawn("collision", "collision")
+        self.spawn("collision", "collision", *(["-vv"] if DEBUG else []))
         for k in range(1, shards + 1):
             self.spawn(
                 f"sensors{k}",

@@ -82,8 +82,9 @@ def run(bus: Bus, sim: str, *, name: str = "collision", io: NodeIO | None = None
         io.send(keys.verdict(sim), verdict)
         if logger.isEnabledFor(logging.DEBUG):
             logger.debug(
-                "tick %d: verdict sent %.2f ms after the proposal arrived",
+                "tick %d: proposal arrived %.2f ms after the tick began, verdict sent %.2f ms after it arrived",
                 msg.tick,
+                (pending[-1][2] - msg.tick_wall_ns) / 1e6 if msg.tick_wall_ns else float("nan"),
                 (time.time_ns() - pending[-1][2]) / 1e6,
             )
 
