@@ -501,10 +501,11 @@ class Bridge:
         newest: dict[int, list[SensorReading]] = {}
         pacer = self._pacer_now()
         now = time.time_ns()
-        for _, data, _ in self.readings.drain():
+        for key, data, _ in self.readings.drain():
             try:
                 batch = decode(data, SensorBatch)
-            except IwError:
+            except IwError as e:
+                self.io.bad_message(key, e)
                 continue
             if pacer is not None and batch.tick_wall_ns and batch.tick > self._paced_tick:
                 self._paced_tick = batch.tick  # the tick's first batch tells how late it came

@@ -27,7 +27,7 @@ from iw_zenoh.messages import (
     encode,
     encode_sensor_batch,
 )
-from tests.integration.harness import MAPS, Net, iwz_run_argv, register, subscribe, wait_msg
+from tests.integration.harness import MAPS, Net, iwz_run_argv, register, subscribe, wait_event, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(150)]
 
@@ -141,6 +141,23 @@ def test_a_legacy_robot_registers_senses_and_drives(net: Net, clients: list[Lega
         robot.recv()
     moved = wait_msg(states, WorldState, lambda s: s.x[s.ids.index(1)] > first.x[first.ids.index(1)] + 0.3)
     assert moved.y[moved.ids.index(1)] == pytest.approx(11.0, abs=0.2)
+
+
+def test_a_malformed_sensor_batch_is_reported_and_the_robot_still_served(net: Net, clients: list[LegacyClient]) -> None:
+    port = _world(net)
+    bus = net.client()
+    events = subscribe(bus, keys.all_events(net.sim))
+    robot = LegacyClient(port)
+    clients.append(robot)
+    assert b'Status="Ok"' in robot.register(b'<Robot Id="1" Name="a"/>')
+    robot.recv()
+    key = keys.sensor_batch(net.sim, (1, 1))
+    bus.publish(key, b'{"tick": "soon"}')
+    ev = wait_event(events, "bad-message", timeout_s=10)
+    assert ev.key == key
+    assert "iw.SensorBatch/1" in ev.reason
+    before = int(etree.fromstring(robot.recv()[:-1]).get("Time"))
+    assert int(etree.fromstring(robot.recv()[:-1]).get("Time")) > before  # still served, cycle by cycle
 
 
 def test_a_legacy_viewer_gets_the_lab_grid_and_robot_states(net: Net, clients: list[LegacyClient]) -> None:
