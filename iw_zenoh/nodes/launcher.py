@@ -212,8 +212,44 @@ class Launcher:
             if not self._wait_alive(keys.alive(self.sim, "recorder", "recorder")):
                 raise IwError(f"the recorder did not start:\n{rest[0].tail()}")
             rest = rest[1:]
+        agents = [c for c in rest if c.role == "agent"]
         for c in rest:
-            c.start(self.env)
+            if c.role != "agent":
+                c.start(self.env)
+        if agents:
+            # agents last, once collision and every sensors shard are up: a chair registered
+            # before would get no readings for its first ticks (its motors zeroed by the
+            # watchdog) or be held still (a sensors process compiles its kernel on a first run)
+            roles = {"collision": 1, "sensors": self.sc.sensors_shards}
+            if not self._wait_roles(roles, timeout_s=60.0) and not self.stop_event.is_set():
+                print(
+                    f"iwz run: collision and sensors not all up after 60 s; starting the agents anyway ({self.log_dir})"
+                )
+            for c in agents:
+                c.start(self.env)
+
+    def _wait_roles(self, roles: dict[str, int], timeout_s: float) -> bool:
+        """Waits until at least ``roles[role]`` processes of each role are alive."""
+        seen: dict[str, set[str]] = {r: set() for r in roles}
+        done = threading.Event()
+
+        def on_alive(key: str, alive: bool) -> None:
+            parts = keys.alive_parts(key)
+            if parts and parts[0] in seen and alive:
+                seen[parts[0]].add(parts[1])
+                if all(len(seen[r]) >= n for r, n in roles.items()):
+                    done.set()
+
+        bus = ZenohBus(NetConfig(connect=(self.endpoint,)))
+        try:
+            bus.watch_alive(keys.all_alive(self.sim), on_alive)
+            deadline = time.monotonic() + timeout_s
+            while not done.wait(0.1):
+                if self.stop_event.is_set() or time.monotonic() > deadline:
+                    return False
+            return True
+        finally:
+            bus.close()
 
     def _wait_alive(self, key: str, timeout_s: float = 30.0) -> bool:
         up = threading.Event()
