@@ -5,7 +5,8 @@ Why compiled (numba): the same computation in vectorized numpy spent most of its
 index arrays of (cone, candidate) pairs and R-tree query boxes, not in the arithmetic; with
 1,000 chairs of eight cones it cost 30-45 ms a tick, the largest share of a lock-step tick. A
 loop per cone needs none of those arrays. The arithmetic is the vectorized version's, operation
-for operation (:func:`iw_zenoh.core.sensors.proximity_distances` documents what a cone sees).
+for operation, so every distance is the same bit for bit
+(:func:`iw_zenoh.core.sensors.proximity_distances` documents what a cone sees).
 
 Compiled once per machine and cached next to this file (numba's ``cache=True``); the first call
 in a fresh checkout takes a few seconds, later processes load the cache.
@@ -199,8 +200,9 @@ def _bin(
 def _wedge(
     px: float, py: float, lx: float, ly: float, rx: float, ry: float, ax: float, ay: float, bx: float, by: float
 ) -> float:  # pragma: no cover
-    """Distance from apex p to the part of segment a-b inside the wedge (inf if none); the
-    vectorized ``_wedge_distance``, one pair at a time."""
+    """Distance from apex p to the part of segment a-b inside the wedge whose inward edge
+    normals are (lx, ly) and (rx, ry) (inf if none): the segment is clipped against both
+    half-planes through p, then the nearest point of what is left is taken."""
     dx = bx - px - (ax - px)
     dy = by - py - (ay - py)
     ax = ax - px

@@ -140,51 +140,6 @@ def legacy_ir_value(distance: FloatArray, z: FloatArray, std: FloatArray) -> Flo
     return np.asarray(np.floor(10.0 * (ideal + std * z) + 0.5) / 10.0, dtype=np.float64)
 
 
-def _wedge_distance(
-    px: FloatArray,
-    py: FloatArray,
-    normals: FloatArray,
-    ax: FloatArray,
-    ay: FloatArray,
-    bx: FloatArray,
-    by: FloatArray,
-) -> FloatArray:
-    """Distance from apex ``p`` to the part of segment ``a-b`` inside the wedge (inf if none).
-
-    Every argument is per pair, shape (P,), but ``normals`` (P, 4): the inward normals
-    ``(lx, ly, rx, ry)`` of the wedge's two edges. A wedge narrower than a half-plane is the
-    intersection of two half-planes through p, so the segment is clipped against each, then the
-    nearest point of what is left is taken.
-    """
-    ax = ax - px
-    ay = ay - py
-    dx = bx - px - ax
-    dy = by - py - ay
-    lo = np.zeros(len(px))
-    hi = np.ones(len(px))
-    empty = np.zeros(len(px), dtype=bool)
-    for nx, ny in ((normals[:, 0], normals[:, 1]), (normals[:, 2], normals[:, 3])):
-        f0 = nx * ax + ny * ay
-        df = nx * dx + ny * dy  # f1 - f0
-        neg0 = f0 < 0.0
-        neg1 = (f0 + df) < 0.0
-        empty |= neg0 & neg1
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = -f0 / df
-        np.maximum(lo, t, out=lo, where=neg0 & ~neg1)
-        np.minimum(hi, t, out=hi, where=~neg0 & neg1)
-    dd = dx * dx + dy * dy
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = -(ax * dx + ay * dy) / dd
-    t = np.minimum(np.maximum(t, lo), hi)  # a NaN (zero-length segment) becomes lo
-    t = np.where(np.isnan(t), lo, t)
-    qx = ax + t * dx
-    qy = ay + t * dy
-    dist = np.sqrt(qx * qx + qy * qy)
-    dist[empty | (lo > hi)] = np.inf
-    return dist
-
-
 def _wedge_normals(phi: FloatArray, half: FloatArray) -> FloatArray:
     """(M, 4) inward normals ``(lx, ly, rx, ry)`` of each wedge's left and right edges."""
     return np.stack([np.sin(phi + half), -np.cos(phi + half), -np.sin(phi - half), np.cos(phi - half)], axis=1)
@@ -211,14 +166,6 @@ def _wedge_bounds(
         within = np.abs((axis_angle - phi + np.pi) % (2.0 * np.pi) - np.pi) <= half
         np.copyto(target, base + sign * r, where=within)
     return np.stack([x0, y0], axis=1), np.stack([x1, y1], axis=1)
-
-
-def _inside_convex(px: FloatArray, py: FloatArray, poly: FloatArray) -> BoolArray:
-    """(P,) whether points are inside or on counter-clockwise convex polygons (P, K, 2)."""
-    ex = np.roll(poly[..., 0], -1, axis=1) - poly[..., 0]
-    ey = np.roll(poly[..., 1], -1, axis=1) - poly[..., 1]
-    cross = ex * (py[:, None] - poly[..., 1]) - ey * (px[:, None] - poly[..., 0])
-    return np.asarray(np.all(cross >= 0.0, axis=1), dtype=bool)
 
 
 def proximity_distances(scene: Scene, bodies: Bodies, pose: FloatArray, *, only: BoolArray | None = None) -> FloatArray:

@@ -209,7 +209,7 @@ class Launcher:
         rest = self.children[1:]
         if rest and rest[0].role == "record":
             rest[0].start(self.env)  # first, and heard from, so it misses nothing of the run
-            if not self._wait_alive(keys.alive(self.sim, "recorder", "recorder")):
+            if not self._wait_roles({"recorder": 1}, timeout_s=30.0):
                 raise IwError(f"the recorder did not start:\n{rest[0].tail()}")
             rest = rest[1:]
         agents = [c for c in rest if c.role == "agent"]
@@ -248,15 +248,6 @@ class Launcher:
                 if self.stop_event.is_set() or time.monotonic() > deadline:
                     return False
             return True
-        finally:
-            bus.close()
-
-    def _wait_alive(self, key: str, timeout_s: float = 30.0) -> bool:
-        up = threading.Event()
-        bus = ZenohBus(NetConfig(connect=(self.endpoint,)))
-        try:
-            bus.watch_alive(key, lambda _k, alive: up.set() if alive else None)
-            return up.wait(timeout_s)
         finally:
             bus.close()
 

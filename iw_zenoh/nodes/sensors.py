@@ -35,6 +35,7 @@ __all__ = ["Computed", "SensorsNode", "main", "parse_shard", "run", "state_from_
 logger = logging.getLogger(__name__)
 
 CATCH_UP = 2  # states computed at once after a stall: the newest and the one before
+ALL_AGAIN = 0.25  # when this share of robots is touched, all are computed again (no merging)
 MISSED_AHEAD = 0.25  # a tick whose readings were this much computed again ...
 PAUSE_AHEAD = 20  # ... stops computing ahead for this many ticks (stuck robots collide every tick)
 
@@ -69,7 +70,7 @@ class Computed:
 
     msg: WorldState
     ids: list[int]
-    out: list[Outgoing]
+    out: list[tuple[str, SensorReading]]
     encoded: list[bytes]
     enc: np.ndarray
 
@@ -119,16 +120,11 @@ class SensorsNode:
         self._enc = np.zeros((0, 2))
         self._keys: dict[int, str] = {}  # robot id -> its sensors key (built once)
 
-    def mine(self, robot_id: int) -> bool:
-        """Whether this shard computes ``robot_id``."""
-        k, n = self.shard
-        return robot_id % n == k % n
-
     def on_state(self, msg: WorldState, view: WorldView) -> list[Outgoing]:
         """Every reading of this shard's robots for tick n (computed and committed)."""
         c = self.compute(msg, view)
         self.commit(c)
-        return c.out
+        return list(c.out)
 
     def ahead(self, proposal: Proposed, view: WorldView) -> Computed | None:
         """Readings of tick n computed from its proposal (not committed), or None when the
@@ -148,7 +144,7 @@ class SensorsNode:
         if not again.any():
             c = replace(ahead, msg=msg)
         elif (
-            again.mean() > 0.25
+            again.mean() > ALL_AGAIN
             or view.info.profile == "ciberrato"  # its IR model's rays have no range to bound
             or any(view.specs[i].beacon_height_m is not None for i in msg.ids)  # a beacon that moves
         ):
@@ -210,7 +206,7 @@ class SensorsNode:
             legacy_ir=view.info.profile == "ciberrato",
             moving_beacons=moving,
         )
-        out: list[Outgoing] = []
+        out: list[tuple[str, SensorReading]] = []
         # whole arrays to Python lists once; each robot's sensors are a contiguous run
         m_first = np.searchsorted(bodies.ir_owner, np.arange(len(ids))).tolist()
         m_last = np.searchsorted(bodies.ir_owner, np.arange(len(ids)), side="right").tolist()
@@ -294,16 +290,11 @@ def _touched(ahead: WorldState, msg: WorldState, view: WorldView) -> np.ndarray:
 
 def _merge(ahead: Computed, again: Computed, which: np.ndarray) -> Computed:
     """The readings computed ahead, with those of robots ``which`` taken from ``again``."""
-    redo = {
-        r.robot_id: (o, e)
-        for o, e in zip(again.out, again.encoded, strict=True)
-        if isinstance(r := o[1], SensorReading)
-    }
-    out: list[Outgoing] = []
+    redo = {o[1].robot_id: (o, e) for o, e in zip(again.out, again.encoded, strict=True)}
+    out: list[tuple[str, SensorReading]] = []
     encoded: list[bytes] = []
     for o, e in zip(ahead.out, ahead.encoded, strict=True):
-        rid = getattr(o[1], "robot_id", -1)
-        o2, e2 = redo.get(rid, (o, e))
+        o2, e2 = redo.get(o[1].robot_id, (o, e))
         out.append(o2)
         encoded.append(e2)
     enc = np.asarray(np.where(which[:, None], again.enc, ahead.enc), dtype=np.float64)
@@ -370,7 +361,7 @@ def run(
                     f"{shard[0]}-{shard[1]}",
                     c.encoded,
                     msg.tick_wall_ns,
-                    [getattr(m, "robot_id", -1) for _, m in c.out],
+                    [m.robot_id for _, m in c.out],
                 ),
             )
             if msg.tick_wall_ns:
