@@ -58,6 +58,7 @@ class Run:
         self.port = free_port()
         self.endpoint = f"tcp/127.0.0.1:{self.port}"
         self.procs: list[subprocess.Popen[bytes]] = []
+        self.names: list[str] = []
         scene, _, pose = crowded_floor(n)
         self.lab = tmp / "floor.xml"
         self.grid = tmp / "grid.xml"
@@ -75,7 +76,21 @@ class Run:
             env=dict(os.environ, PYTHONUNBUFFERED="1"),
         )
         self.procs.append(p)
+        self.names.append(name)
         return p
+
+    def cpu_s(self) -> dict[str, float]:
+        """CPU seconds each role has used so far (user + system, from /proc; agents summed)."""
+        tick = os.sysconf("SC_CLK_TCK")
+        out: dict[str, float] = {}
+        for name, p in zip(self.names, self.procs, strict=True):
+            try:
+                fields = Path(f"/proc/{p.pid}/stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue  # gone (the world ends the run)
+            role = "agents" if name.startswith("agent") else name.rstrip("0123456789") or name
+            out[role] = out.get(role, 0.0) + (int(fields[11]) + int(fields[12])) / tick
+        return out
 
     def start(
         self,
@@ -167,6 +182,9 @@ def measure_lockstep(chairs: int, hosts: int, duration_s: float, logs: str | Non
             bus.subscribe(keys.state("bench"), box)
             first = last = None
             ticks = 0
+            cpu0: dict[str, float] = {}
+            cpu1: dict[str, float] = {}
+            cpu_ticks = 0
             deadline = time.monotonic() + 600 + duration_s * 20
             while time.monotonic() < deadline:
                 d = box.get(timeout_s=5)
@@ -177,20 +195,29 @@ def measure_lockstep(chairs: int, hosts: int, duration_s: float, logs: str | Non
                 st = decode(d[1], WorldState)
                 if first is None:
                     first = (d[2], st.tick)
+                    cpu0 = run.cpu_s()
                 last = (d[2], st.tick)
                 ticks += 1
+                if ticks % 10 == 0:
+                    cpu1 = run.cpu_s()  # the world's CPU is read before it ends the run
+                    cpu_ticks = ticks - 1
             bus.close()
             if first is None or last is None or last[1] == first[1]:
                 raise RuntimeError(f"no progress; see {tmp}")
             wall = (last[0] - first[0]) / 1e9
             sim = (last[1] - first[1]) * 0.1
-            return {
+            res: dict[str, float] = {
                 "chairs": chairs,
                 "agent_processes": hosts,
                 "ticks": ticks,
                 "rtf": sim / wall,
                 "ms_per_tick": wall * 1000 / (last[1] - first[1]),
             }
+            # where the two cores went: CPU ms per tick of each role (agents: all of them)
+            n = max(1, cpu_ticks)
+            for role in sorted(cpu1):
+                res[f"cpu_ms_{role}"] = (cpu1[role] - cpu0.get(role, 0.0)) * 1000 / n
+            return res
         finally:
             run.stop()
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, settings
 
-from iw_zenoh.core.cones import warm_up
+from iw_zenoh.core import cones, contact
 from iw_zenoh.core.lab import Lab, Scene, Wall
 
 settings.register_profile("ci", deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -14,9 +14,11 @@ settings.load_profile("ci")
 
 
 def pytest_sessionstart(session: pytest.Session) -> None:
-    """Compiles the proximity kernel once, before any test starts a sensors process or an agent
-    that plans (in a fresh checkout each of them would otherwise compile it, for seconds)."""
-    warm_up()
+    """Compiles the proximity and contact kernels once, before any test starts a sensors or
+    collision process or an agent that plans (in a fresh checkout each of them would otherwise
+    compile them, for seconds)."""
+    cones.warm_up()
+    contact.warm_up()
 
 
 def box_wall(x0: float, y0: float, x1: float, y1: float, height_m: float = 4.0) -> Wall:

@@ -20,9 +20,9 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 
+from iw_zenoh.core.contact import touching
 from iw_zenoh.core.geometry import to_world, wrap_rad
 from iw_zenoh.core.lab import Scene
-from iw_zenoh.core.spatial import Boxes, boxes_tree
 
 __all__ = ["Collisions", "check_collisions", "check_collisions_ciberrato", "interpolate_pose"]
 
@@ -91,8 +91,9 @@ def check_collisions(
 ) -> Collisions:
     """Checks every robot's next pose against the walls and the other robots.
 
-    Broad phase on the boxes bounding each robot's sweep over the tick; exact polygon tests
-    (GEOS) only on the pairs whose boxes overlap.
+    Broad phase on the boxes bounding each robot's sweep over the tick, in the cells of a grid;
+    exact polygon tests (compiled, :mod:`iw_zenoh.core.contact`) only on the pairs whose boxes
+    overlap. Outlines closer than :data:`~iw_zenoh.core.contact.TOUCH_M` touch.
 
     Args:
         scene: The lab's prebuilt geometry.
@@ -119,65 +120,7 @@ def check_collisions(
     c_now = to_world(o, now[:, 0], now[:, 1], now[:, 2])
     c_mid = to_world(o, mid[:, 0], mid[:, 1], mid[:, 2])
     c_next = to_world(o, nxt[:, 0], nxt[:, 1], nxt[:, 2])
-    sweep = np.concatenate([c_now, c_mid, c_next], axis=1)
-    boxes = Boxes(sweep.min(axis=1), sweep.max(axis=1))
-    shapes = boxes.shapes()
-    m = len(idx)
-
-    polys: dict[str, tuple[npt.NDArray[np.object_], BoolArray]] = {}
-
-    def poly(kind: str, corners: FloatArray, rows: IntArray) -> npt.NDArray[np.object_]:
-        # polygons built lazily, only for the robots some pair needs
-        if kind not in polys:
-            polys[kind] = (np.empty(m, dtype=object), np.zeros(m, dtype=bool))
-        have, built = polys[kind]
-        need = np.unique(rows[~built[rows]])
-        if len(need):
-            have[need] = shapely.polygons(corners[need])
-            built[need] = True
-        return have[rows]
-
-    walls = empty
-    nw = len(scene.lab.walls)
-    if nw:
-        ri, wi = scene.wall_tree_boxes.query(shapes)
-        keep = ~wall_free[ri]
-        ri, wi = ri[keep], wi[keep]
-        if len(ri):
-            wp = scene.wall_polygons[wi]
-            hit = shapely.intersects(poly("next", c_next, ri), wp)
-            rest = ~hit
-            if rest.any():
-                r2 = ri[rest]
-                hull = shapely.convex_hull(shapely.multipoints(sweep[r2]))
-                crossed = shapely.intersects(hull, wp[rest]) & ~shapely.intersects(poly("now", c_now, r2), wp[rest])
-                hit[np.flatnonzero(rest)[crossed]] = True
-            walls = np.stack([ri[hit], wi[hit]], axis=1).astype(np.int64)
-    # the lab is convex: a body whose next outline stays inside it never crossed the border
-    outside = (
-        (c_next[..., 0].min(axis=1) < 0.0)
-        | (c_next[..., 1].min(axis=1) < 0.0)
-        | (c_next[..., 0].max(axis=1) > scene.lab.width_m)
-        | (c_next[..., 1].max(axis=1) > scene.lab.height_m)
-    ) & ~wall_free
-    border = np.stack([np.flatnonzero(outside), np.full(int(outside.sum()), nw)], axis=1).astype(np.int64)
-    walls = _union(walls, border, nw + 1)
-
-    robots = empty
-    ri, rj = boxes_tree(boxes).query(shapes)
-    up = ri < rj
-    ri, rj = ri[up], rj[up]
-    if len(ri):
-        hit = shapely.intersects(poly("next", c_next, ri), poly("next", c_next, rj))
-        rest = ~hit
-        if rest.any():
-            a, b = ri[rest], rj[rest]
-            crossed = shapely.intersects(poly("mid", c_mid, a), poly("mid", c_mid, b)) & ~shapely.intersects(
-                poly("now", c_now, a), poly("now", c_now, b)
-            )
-            hit[np.flatnonzero(rest)[crossed]] = True
-        robots = np.stack([ri[hit], rj[hit]], axis=1).astype(np.int64)
-
+    walls, robots = touching(scene, c_now, c_mid, c_next, wall_free)
     wall_pairs = np.stack([idx[walls[:, 0]], walls[:, 1]], axis=1) if len(walls) else empty
     robot_pairs = idx[robots] if len(robots) else empty
     hit_wall = np.zeros(n, dtype=bool)

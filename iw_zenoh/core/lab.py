@@ -200,18 +200,6 @@ class Scene:
         return STRtree(shapely.box(t[:, 0] - t[:, 2], t[:, 1] - t[:, 2], t[:, 0] + t[:, 2], t[:, 1] + t[:, 2]))
 
     @cached_property
-    def wall_boxes(self) -> Boxes:
-        """Bounding boxes of the walls (border excluded)."""
-        lo = np.asarray([np.min(w.corners, axis=0) for w in self.lab.walls], dtype=np.float64).reshape(-1, 2)
-        hi = np.asarray([np.max(w.corners, axis=0) for w in self.lab.walls], dtype=np.float64).reshape(-1, 2)
-        return Boxes(lo, hi)
-
-    @cached_property
-    def wall_tree_boxes(self) -> STRtree:
-        """An R-tree over :attr:`wall_boxes`."""
-        return STRtree(self.wall_boxes.shapes())
-
-    @cached_property
     def wall_tree(self) -> STRtree:
         """An R-tree over :attr:`wall_polygons` (border excluded), prepared for predicates."""
         shapely.prepare(self.wall_polygons)

@@ -1,14 +1,13 @@
-"""Broad-phase helpers in numpy: boxes as arrays, and an R-tree over them (collision uses them;
-the proximity cones have their own grid, :mod:`iw_zenoh.core.cones`)."""
+"""Boxes as arrays, for R-trees over a scene's segments (collision and the proximity cones use
+their own cell grid: :mod:`iw_zenoh.core.cones`, :mod:`iw_zenoh.core.contact`)."""
 
 from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
 import shapely
-from shapely import STRtree
 
-__all__ = ["Boxes", "boxes_tree"]
+__all__ = ["Boxes"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -28,21 +27,7 @@ class Boxes:
     def __len__(self) -> int:
         return len(self.x0)
 
-    def overlap(self, i: IntArray, other: Boxes, j: IntArray) -> npt.NDArray[np.bool_]:
-        """(P,) whether box ``i[p]`` of this set overlaps box ``j[p]`` of ``other``."""
-        return np.asarray(
-            (self.x0[i] <= other.x1[j])
-            & (self.x1[i] >= other.x0[j])
-            & (self.y0[i] <= other.y1[j])
-            & (self.y1[i] >= other.y0[j]),
-            dtype=bool,
-        )
-
     def shapes(self) -> npt.NDArray[np.object_]:
         """The boxes as shapely polygons."""
         return np.asarray(shapely.box(self.x0, self.y0, self.x1, self.y1), dtype=object)
 
-
-def boxes_tree(boxes: Boxes) -> STRtree:
-    """An R-tree over the boxes."""
-    return STRtree(boxes.shapes())

@@ -14,6 +14,7 @@ from iw_zenoh import keys
 from iw_zenoh.bus import Bus, ZenohBus
 from iw_zenoh.cliargs import add_common_arguments, net_from_args
 from iw_zenoh.core.collision import check_collisions, check_collisions_ciberrato
+from iw_zenoh.core.contact import warm_up
 from iw_zenoh.core.spec import RobotType
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import Hit, Proposed, Verdict
@@ -96,6 +97,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     add_common_arguments(p)
     args = p.parse_args(argv)
     setup_logging(args.verbose, "collision")
+    t0 = time.monotonic()
+    warm_up()  # before joining: the first verdict must not wait for a compilation
+    if time.monotonic() - t0 > 1.0:
+        logger.info("contact kernel compiled in %.1f s (cached for later runs)", time.monotonic() - t0)
     try:
         bus = ZenohBus(net_from_args(args))
     except (IwError, ValueError) as e:
