@@ -32,6 +32,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from benchmarks import exit_on_sigterm  # noqa: E402
 from iw_zenoh.net import free_port, port_in_use  # noqa: E402
 
 PERIOD_MS = 50.0
@@ -168,6 +169,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seconds", type=float, default=20.0, help="measured seconds per size (default 20)")
     ap.add_argument("--json", action="store_true", help="one JSON object")
     args = ap.parse_args(argv)
+    exit_on_sigterm()
     res = []
     for n in args.sizes:
         print(f"  measuring {n} legacy robots ...", file=sys.stderr, flush=True)

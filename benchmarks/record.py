@@ -33,6 +33,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np  # noqa: E402
 from mcap.reader import make_reader  # noqa: E402
 
+from benchmarks import exit_on_sigterm  # noqa: E402
 from iw_zenoh import keys  # noqa: E402
 from iw_zenoh.bus import Inbox, ZenohBus  # noqa: E402
 from iw_zenoh.messages import Actions, SensorReading, WorldState, encode  # noqa: E402
@@ -189,6 +190,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--json", action="store_true", help="one JSON object")
     args = ap.parse_args(argv)
+    exit_on_sigterm()
     res = {}
     for name, fn in (("sustained", lambda: sustained(args.seconds)), ("size", size_per_minute), ("seek", seek)):
         print(f"  measuring {name} ...", file=sys.stderr, flush=True)

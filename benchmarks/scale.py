@@ -35,6 +35,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from benchmarks import exit_on_sigterm  # noqa: E402
 from benchmarks.floor import crowded_floor  # noqa: E402
 from iw_zenoh import keys  # noqa: E402
 from iw_zenoh.bus import Inbox, ZenohBus  # noqa: E402
@@ -275,6 +276,7 @@ def main(argv: list[str] | None = None) -> int:
         "the sensors node, which then cannot use what it computed ahead from the proposal)",
     )
     args = ap.parse_args(argv)
+    exit_on_sigterm()
     global DEBUG, PUSHING
     DEBUG = DEBUG or args.debug
     PUSHING = args.pushing

@@ -30,4 +30,3 @@ class Boxes:
     def shapes(self) -> npt.NDArray[np.object_]:
         """The boxes as shapely polygons."""
         return np.asarray(shapely.box(self.x0, self.y0, self.x1, self.y1), dtype=object)
-
