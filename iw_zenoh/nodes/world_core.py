@@ -345,7 +345,11 @@ class WorldCore:
         self._awaiting = None
         out: list[Outgoing] = []
         if role == "collision":
+            was = bool(self.collision_alive)
             (self.collision_alive.add if alive else self.collision_alive.discard)(name)
+            if was and not self.collision_alive and self.cfg.mode == "lockstep":
+                self.holding = "no collision process is alive: lock-step waits until one is back"
+                out.append(self._event("holding", f"every robot held still: {self.holding}"))
         elif role == "sensors":
             was = bool(self.sensors_alive)
             (self.sensors_alive.add if alive else self.sensors_alive.discard)(name)
@@ -380,10 +384,12 @@ class WorldCore:
 
     def due(self) -> bool:
         """Whether the world should step now (running, or single steps asked, roster complete, and
-        in lock-step a sensors process alive: without readings no agent could answer)."""
+        in lock-step a collision and a sensors process alive: a tick stepped without verdicts
+        would hold every robot, and one without readings could not be answered; either would
+        make a run depend on when those processes joined)."""
         if self.stopped or len(self.registry.entries) < self.cfg.expect and self.tick == 0:
             return False
-        if self.cfg.mode == "lockstep" and self.registry.entries and not self.sensors_alive:
+        if self.cfg.mode == "lockstep" and self.registry.entries and not (self.sensors_alive and self.collision_alive):
             return False
         return self.running or self.steps_left > 0
 

@@ -161,6 +161,8 @@ def test_silent_controller_trips_the_watchdog(net: Net) -> None:
     states = subscribe(bus, keys.state(net.sim), maxlen=1)
     net.spawn("world", lab, "--grid", grid, "--action-timeout-ms", "300")
     net.spawn("collision")
+    # the one command must not go stale while the world holds the chair for want of verdicts
+    wait_alive(bus, keys.alive(net.sim, "collision", "collision"))
     rid = register(bus, net.sim, RobotSpecMsg(name="raw")).robot_id
     bus.publish(keys.actions(net.sim, rid), encode(Actions(robot_id=rid, left=0.1, right=0.1)))
     wait_msg(states, WorldState, lambda m: rid in m.ids and m.speed[m.ids.index(rid)] > 0.05)

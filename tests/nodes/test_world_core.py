@@ -150,6 +150,7 @@ def test_lockstep_does_not_step_robots_while_no_sensors_process_is_alive() -> No
     core = _core(mode="lockstep")
     assert core.due()  # nothing to wait for without robots
     core.register(RegisterRequest(spec=RobotSpecMsg(name="a"), agent="ag"), 0)
+    core.on_alive("collision", "collision", True, 0)
     assert not core.due()
     assert _kinds(core.on_alive("sensors", "sensors-1-1", True, 0)) == []
     assert core.due()
@@ -159,6 +160,28 @@ def test_lockstep_does_not_step_robots_while_no_sensors_process_is_alive() -> No
     realtime.register(RegisterRequest(spec=RobotSpecMsg(name="a"), agent="ag"), 0)
     assert realtime.due()  # real time never waits for anybody
     assert _kinds(realtime.on_alive("sensors", "sensors-1-1", False, 0)) == []
+
+
+def test_lockstep_does_not_step_robots_while_no_collision_process_is_alive() -> None:
+    # a tick without a verdict holds every robot: stepped while the collision process was still
+    # starting, a run's first ticks depended on when it joined (a two-host run moved 0.06 m, not 0.3)
+    core = _core(mode="lockstep")
+    core.register(RegisterRequest(spec=RobotSpecMsg(name="a"), agent="ag"), 0)
+    core.on_alive("sensors", "sensors-1-1", True, 0)
+    assert not core.due()
+    assert _kinds(core.on_alive("collision", "collision", True, 0)) == []
+    assert core.due()
+    assert _kinds(core.on_alive("collision", "collision", False, 0)) == ["holding"]
+    assert not core.due()
+    core.on_alive("collision", "collision-again", True, 0)
+    assert core.due()
+    core.begin_tick(0)
+    out = core.finish_tick(Verdict(tick=1, revision=core.revision, ids=[1], collided=[False]))
+    assert "resumed" in _kinds(out)
+    realtime = _core()
+    realtime.register(RegisterRequest(spec=RobotSpecMsg(name="a"), agent="ag"), 0)
+    assert realtime.due()  # real time holds robots and goes on ticking instead
+    assert _kinds(realtime.on_alive("collision", "collision", False, 0)) == []
 
 
 def test_lockstep_waits_for_a_new_robot_from_its_first_readings_before_its_agent_token_arrives() -> None:
