@@ -502,9 +502,9 @@ class WorldCore:
         if verdict is None:
             reason = "no collision process is alive" if not self.collision_alive else "the collision verdict is late"
             hold = np.ones(len(ids), dtype=bool)
-            if self.holding != reason:
+            if ids and self.holding != reason:  # an empty world holds nobody (a world starting first)
                 out.append(self._event("holding", f"every robot held still: {reason}"))
-            self.holding = reason
+                self.holding = reason
             col = Collisions.none(len(ids))
         else:
             if self.holding:

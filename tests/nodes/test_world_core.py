@@ -110,6 +110,8 @@ def test_a_lost_agent_zeroes_its_robots_at_once_and_removes_them_after_the_grace
 
 def test_without_a_verdict_every_robot_is_held_and_the_world_says_why() -> None:
     core = _core()
+    core.begin_tick(0)
+    assert "holding" not in _kinds(core.finish_tick(None))  # nobody to hold yet
     core.register(RegisterRequest(spec=RobotSpecMsg(name="a")), 0)
     core.on_actions(Actions(robot_id=1, left=0.15, right=0.15), 0)
     core.begin_tick(0)
@@ -120,7 +122,7 @@ def test_without_a_verdict_every_robot_is_held_and_the_world_says_why() -> None:
     assert st.x == [2.0]
     core.collision_alive.add("c")
     core.begin_tick(MS)
-    out = core.finish_tick(Verdict(tick=2, revision=core.revision, ids=[1], collided=[False]))
+    out = core.finish_tick(Verdict(tick=3, revision=core.revision, ids=[1], collided=[False]))
     assert "resumed" in _kinds(out)
 
 
