@@ -36,7 +36,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import zenoh  # noqa: E402
 
-from benchmarks import exit_on_sigterm  # noqa: E402
+from benchmarks import exit_on_sigterm, stop_all  # noqa: E402
 from iw_zenoh.bus import Inbox, ZenohBus  # noqa: E402
 from iw_zenoh.net import NetConfig, free_port, port_in_use, zenoh_config  # noqa: E402
 
@@ -135,15 +135,7 @@ def measure(n: int, how: str, rounds: int) -> dict[str, float | int | str]:
             "echo_cpu_ms_per_round": cpu * 1e3 / rounds / n,
         }
     finally:
-        for p in procs:
-            if p.poll() is None:
-                p.send_signal(signal.SIGTERM)
-        for p in procs:
-            try:
-                p.wait(10)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait(5)
+        stop_all(procs, timeout_s=10)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -20,7 +20,6 @@ import json
 import os
 import re
 import selectors
-import signal
 import socket
 import subprocess
 import sys
@@ -32,7 +31,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks import exit_on_sigterm  # noqa: E402
+from benchmarks import exit_on_sigterm, stop_all  # noqa: E402
 from iw_zenoh.net import free_port, port_in_use  # noqa: E402
 
 PERIOD_MS = 50.0
@@ -138,13 +137,7 @@ def measure(n: int, seconds: float) -> dict[str, float]:
         finally:
             for s in socks:
                 s.close()
-            for p in reversed(procs):
-                p.send_signal(signal.SIGTERM)
-            for p in procs:
-                try:
-                    p.wait(20)
-                except subprocess.TimeoutExpired:
-                    p.kill()
+            stop_all(procs)
         gaps = np.concatenate([np.diff(a[len(a) // 10 :]) for a in arrivals.values() if len(a) > 20]) * 1000
         # every cycle: each Time from a robot's first Measures to its last, exactly once
         missed = repeated = 0

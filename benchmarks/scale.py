@@ -25,7 +25,6 @@ import contextlib
 import json
 import math
 import os
-import signal
 import statistics
 import subprocess
 import sys
@@ -35,7 +34,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks import exit_on_sigterm  # noqa: E402
+from benchmarks import exit_on_sigterm, stop_all  # noqa: E402
 from benchmarks.floor import crowded_floor  # noqa: E402
 from iw_zenoh import keys  # noqa: E402
 from iw_zenoh.bus import Inbox, ZenohBus  # noqa: E402
@@ -152,15 +151,7 @@ class Run:
         return world
 
     def stop(self) -> None:
-        for p in reversed(self.procs):
-            if p.poll() is None:
-                p.send_signal(signal.SIGTERM)
-        for p in reversed(self.procs):
-            try:
-                p.wait(30)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait(5)
+        stop_all(self.procs, timeout_s=30)
 
 
 def _workdir(logs: str | None, name: str) -> contextlib.AbstractContextManager[str]:

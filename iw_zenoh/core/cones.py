@@ -23,7 +23,7 @@ from numba import njit
 
 from iw_zenoh.core.lab import Lab, Scene, Wall
 
-__all__ = ["CellGrid", "cone_distances", "scene_grid", "warm_up"]
+__all__ = ["CellGrid", "bin_boxes", "cell_range", "cone_distances", "in_convex", "in_wall", "scene_grid", "warm_up"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -86,7 +86,7 @@ def scene_grid(scene: Scene) -> _Walls:
             np.maximum(segs[:, 1], segs[:, 3]),
         ]
     )
-    seg_start, seg_items = _bin(seg_box, grid.x0, grid.y0, grid.cell, grid.nx, grid.ny)
+    seg_start, seg_items = bin_boxes(seg_box, grid.x0, grid.y0, grid.cell, grid.nx, grid.ny)
     counts = np.asarray([len(w.corners) for w in lab.walls], dtype=np.int64)
     first = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64) if len(counts) else counts
     wall_box = (
@@ -97,7 +97,7 @@ def scene_grid(scene: Scene) -> _Walls:
         if lab.walls
         else np.zeros((0, 4))
     )
-    wall_start, wall_items = _bin(wall_box, grid.x0, grid.y0, grid.cell, grid.nx, grid.ny)
+    wall_start, wall_items = bin_boxes(wall_box, grid.x0, grid.y0, grid.cell, grid.nx, grid.ny)
     walls = _Walls(grid, segs, seg_box, seg_start, seg_items, first, counts, wall_box, wall_start, wall_items)
     scene._cache["cone_walls"] = walls
     return walls
@@ -131,7 +131,7 @@ def cone_distances(
     g = w.grid
     body_xy = np.ascontiguousarray(body_xy, dtype=np.float64)
     bbox = np.concatenate([body_xy.min(axis=1), body_xy.max(axis=1)], axis=1) if len(body_xy) else np.zeros((0, 4))
-    b_start, b_items = _bin(bbox, g.x0, g.y0, g.cell, g.nx, g.ny)
+    b_start, b_items = bin_boxes(bbox, g.x0, g.y0, g.cell, g.nx, g.ny)
     box = np.ascontiguousarray(np.concatenate([box_lo, box_hi], axis=1), dtype=np.float64)
     return np.asarray(
         _scan(
@@ -165,21 +165,21 @@ def cone_distances(
 
 
 @njit(cache=True, nogil=True)
-def _cell_range(lo: float, hi: float, origin: float, cell: float, n: int) -> tuple[int, int]:  # pragma: no cover
+def cell_range(lo: float, hi: float, origin: float, cell: float, n: int) -> tuple[int, int]:  # pragma: no cover
     a = int(math.floor((lo - origin) / cell))
     b = int(math.floor((hi - origin) / cell))
     return min(max(a, 0), n - 1), min(max(b, 0), n - 1)
 
 
 @njit(cache=True, nogil=True)
-def _bin(
+def bin_boxes(
     box: FloatArray, x0: float, y0: float, cell: float, nx: int, ny: int
 ) -> tuple[IntArray, IntArray]:  # pragma: no cover
     """CSR of the items whose box (x0, y0, x1, y1) touches each cell."""
     counts = np.zeros(nx * ny + 1, dtype=np.int64)
     for i in range(box.shape[0]):
-        ca, cb = _cell_range(box[i, 0], box[i, 2], x0, cell, nx)
-        ra, rb = _cell_range(box[i, 1], box[i, 3], y0, cell, ny)
+        ca, cb = cell_range(box[i, 0], box[i, 2], x0, cell, nx)
+        ra, rb = cell_range(box[i, 1], box[i, 3], y0, cell, ny)
         for r in range(ra, rb + 1):
             for c in range(ca, cb + 1):
                 counts[r * nx + c + 1] += 1
@@ -187,13 +187,37 @@ def _bin(
     fill = start[:-1].copy()
     items = np.empty(start[-1], dtype=np.int64)
     for i in range(box.shape[0]):
-        ca, cb = _cell_range(box[i, 0], box[i, 2], x0, cell, nx)
-        ra, rb = _cell_range(box[i, 1], box[i, 3], y0, cell, ny)
+        ca, cb = cell_range(box[i, 0], box[i, 2], x0, cell, nx)
+        ra, rb = cell_range(box[i, 1], box[i, 3], y0, cell, ny)
         for r in range(ra, rb + 1):
             for c in range(ca, cb + 1):
                 items[fill[r * nx + c]] = i
                 fill[r * nx + c] += 1
     return start, items
+
+
+@njit(cache=True, nogil=True)
+def in_convex(px: float, py: float, poly: FloatArray, k: int) -> bool:  # pragma: no cover
+    """Whether p is inside (or on) the counter-clockwise convex polygon ``poly[:k]`` (a repeated
+    vertex makes an edge of length zero, which never excludes)."""
+    for e in range(k):
+        f = (e + 1) % k
+        ex = poly[f, 0] - poly[e, 0]
+        ey = poly[f, 1] - poly[e, 1]
+        if ex * (py - poly[e, 1]) - ey * (px - poly[e, 0]) < 0.0:
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def in_wall(px: float, py: float, segs: FloatArray, first: int, count: int) -> bool:  # pragma: no cover
+    """Whether p is inside the wall whose edges are ``segs[first:first + count]`` (even-odd rule)."""
+    odd = False
+    for s in range(first, first + count):
+        ax, ay, bx, by = segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3]
+        if (ay > py) != (by > py) and px < ax + (py - ay) * (bx - ax) / (by - ay):
+            odd = not odd
+    return odd
 
 
 @njit(cache=True, nogil=True)
@@ -270,8 +294,8 @@ def _scan(
         lx, ly, rx, ry = nrm[i, 0], nrm[i, 1], nrm[i, 2], nrm[i, 3]
         x0, y0, x1, y1 = box[i, 0], box[i, 1], box[i, 2], box[i, 3]
         d = math.inf
-        ca, cb = _cell_range(x0, x1, gx0, cell, nx)
-        ra, rb = _cell_range(y0, y1, gy0, cell, ny)
+        ca, cb = cell_range(x0, x1, gx0, cell, nx)
+        ra, rb = cell_range(y0, y1, gy0, cell, ny)
         for r in range(ra, rb + 1):
             for c in range(ca, cb + 1):
                 q = r * nx + c
@@ -290,17 +314,9 @@ def _scan(
                     seen_body[b] = i
                     if bbox[b, 0] > x1 or bbox[b, 2] < x0 or bbox[b, 1] > y1 or bbox[b, 3] < y0:
                         continue
-                    if bbox[b, 0] <= px <= bbox[b, 2] and bbox[b, 1] <= py <= bbox[b, 3]:
-                        inside = True  # a mounting point inside another body sees it at 0
-                        for e in range(k):
-                            f = (e + 1) % k
-                            ex = body_xy[b, f, 0] - body_xy[b, e, 0]
-                            ey = body_xy[b, f, 1] - body_xy[b, e, 1]
-                            if ex * (py - body_xy[b, e, 1]) - ey * (px - body_xy[b, e, 0]) < 0.0:
-                                inside = False
-                                break
-                        if inside:
-                            d = 0.0
+                    inside_box = bbox[b, 0] <= px <= bbox[b, 2] and bbox[b, 1] <= py <= bbox[b, 3]
+                    if inside_box and in_convex(px, py, body_xy[b], k):
+                        d = 0.0  # a mounting point inside another body sees it at 0
                     for e in range(k):
                         f = (e + 1) % k
                         ax, ay = body_xy[b, e, 0], body_xy[b, e, 1]
@@ -310,19 +326,14 @@ def _scan(
                             d = min(d, _wedge(px, py, lx, ly, rx, ry, ax, ay, bx, by))
         if d > 0.0 and wall_box.shape[0]:
             # a mounting point inside a wall sees distance 0 (even-odd rule over the wall's edges)
-            c0, _ = _cell_range(px, px, gx0, cell, nx)
-            r0, _ = _cell_range(py, py, gy0, cell, ny)
+            c0, _ = cell_range(px, px, gx0, cell, nx)
+            r0, _ = cell_range(py, py, gy0, cell, ny)
             q = r0 * nx + c0
             for j in range(wall_start[q], wall_start[q + 1]):
                 w = wall_items[j]
                 if not (wall_box[w, 0] <= px <= wall_box[w, 2] and wall_box[w, 1] <= py <= wall_box[w, 3]):
                     continue
-                odd = False
-                for s in range(wall_first[w], wall_first[w] + wall_count[w]):
-                    ax, ay, bx, by = segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3]
-                    if (ay > py) != (by > py) and px < ax + (py - ay) * (bx - ax) / (by - ay):
-                        odd = not odd
-                if odd:
+                if in_wall(px, py, segs, wall_first[w], wall_count[w]):
                     d = 0.0
                     break
         best[i] = d if d <= rng[i] else math.inf

@@ -19,7 +19,7 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from iw_zenoh.core.cones import _bin, _cell_range, scene_grid
+from iw_zenoh.core.cones import bin_boxes, cell_range, in_convex, in_wall, scene_grid
 from iw_zenoh.core.lab import Lab, Scene, Wall
 
 __all__ = ["TOUCH_M", "touching", "warm_up"]
@@ -116,19 +116,6 @@ def _segs_touch(
 
 
 @njit(cache=True, nogil=True)
-def _in_convex(px: float, py: float, poly: FloatArray, k: int) -> bool:  # pragma: no cover
-    """Whether p is inside the counter-clockwise convex polygon ``poly[:k]`` (a repeated vertex
-    makes an edge of length zero, which never excludes)."""
-    for e in range(k):
-        f = (e + 1) % k
-        ex = poly[f, 0] - poly[e, 0]
-        ey = poly[f, 1] - poly[e, 1]
-        if ex * (py - poly[e, 1]) - ey * (px - poly[e, 0]) < 0.0:
-            return False
-    return True
-
-
-@njit(cache=True, nogil=True)
 def _convex_touch(p: FloatArray, kp: int, q: FloatArray, kq: int) -> bool:  # pragma: no cover
     for e in range(kp):
         f = (e + 1) % kp
@@ -136,7 +123,7 @@ def _convex_touch(p: FloatArray, kp: int, q: FloatArray, kq: int) -> bool:  # pr
             h = (g + 1) % kq
             if _segs_touch(p[e, 0], p[e, 1], p[f, 0], p[f, 1], q[g, 0], q[g, 1], q[h, 0], q[h, 1]):
                 return True
-    return _in_convex(p[0, 0], p[0, 1], q, kq) or _in_convex(q[0, 0], q[0, 1], p, kp)
+    return in_convex(p[0, 0], p[0, 1], q, kq) or in_convex(q[0, 0], q[0, 1], p, kp)
 
 
 @njit(cache=True, nogil=True)
@@ -147,15 +134,8 @@ def _wall_touch(p: FloatArray, kp: int, segs: FloatArray, first: int, count: int
             f = (e + 1) % kp
             if _segs_touch(p[e, 0], p[e, 1], p[f, 0], p[f, 1], segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3]):
                 return True
-    if _in_convex(segs[first, 0], segs[first, 1], p, kp):
-        return True  # the wall is inside the body
-    px, py = p[0, 0], p[0, 1]
-    odd = False  # the body is inside the wall (even-odd rule)
-    for s in range(first, first + count):
-        ax, ay, bx, by = segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3]
-        if (ay > py) != (by > py) and px < ax + (py - ay) * (bx - ax) / (by - ay):
-            odd = not odd
-    return odd
+    # no edges touch: the wall is inside the body, or the body inside the wall, or neither
+    return in_convex(segs[first, 0], segs[first, 1], p, kp) or in_wall(p[0, 0], p[0, 1], segs, first, count)
 
 
 @njit(cache=True, nogil=True)
@@ -249,7 +229,7 @@ def _touching(
             or c_next[i, :, 0].max() > width
             or c_next[i, :, 1].max() > height
         )
-    b_start, b_items = _bin(box, gx0, gy0, cell, nx, ny)
+    b_start, b_items = bin_boxes(box, gx0, gy0, cell, nx, ny)
     walls = np.empty((16, 2), dtype=np.int64)
     nwp = 0
     robots = np.empty((16, 2), dtype=np.int64)
@@ -258,8 +238,8 @@ def _touching(
     hull = np.empty((2 * sweep.shape[1] + 1, 2), dtype=np.float64)
     for i in range(n):
         x0, y0, x1, y1 = box[i, 0], box[i, 1], box[i, 2], box[i, 3]
-        ca, cb = _cell_range(x0, x1, gx0, cell, nx)
-        ra, rb = _cell_range(y0, y1, gy0, cell, ny)
+        ca, cb = cell_range(x0, x1, gx0, cell, nx)
+        ra, rb = cell_range(y0, y1, gy0, cell, ny)
         if not wall_free[i] and nw:
             hk = -1  # the sweep's hull, built when a wall needs it
             first_wall = nwp
@@ -303,8 +283,8 @@ def _touching(
                         continue
                     if box[j, 0] > x1 or box[j, 2] < x0 or box[j, 1] > y1 or box[j, 3] < y0:
                         continue
-                    oc, _ = _cell_range(max(x0, box[j, 0]), x1, gx0, cell, nx)
-                    orow, _ = _cell_range(max(y0, box[j, 1]), y1, gy0, cell, ny)
+                    oc, _ = cell_range(max(x0, box[j, 0]), x1, gx0, cell, nx)
+                    orow, _ = cell_range(max(y0, box[j, 1]), y1, gy0, cell, ny)
                     if oc != c or orow != r:
                         continue
                     hit = _convex_touch(c_next[i], k, c_next[j], k)
