@@ -82,6 +82,22 @@ CATCH_UP = 2  # readings of one robot sent at once after a stall (the rest are s
 POLL_S = 0.001  # the loop looks at the bus queues at least this often
 MIN_LEAD_NS = 2_000_000  # paced Measures are built at least this long before they are due
 EVENT_EVERY_S = 1.0  # at most one refusal event a second per peer
+WORLD_WAIT_S = 10.0  # a registration no world answers is asked again this long (a world still starting)
+ASK_AGAIN_S = 0.2  # ... at most this often
+
+
+@dataclass
+class _Pending:
+    """A legacy registration waiting for the world's answer."""
+
+    asked: Asked  # the query in flight
+    payload: bytes  # the request, to ask again while no world answers
+    since: float  # monotonic time of the client's registration
+    asked_at: float  # monotonic time of the last ask
+    spec: RobotSpec
+    params: SimParameters
+    nb: int  # NBeacons in the reply
+    nb_sensed: int  # beacons the robot will sense
 
 
 class FloodGuard:
@@ -185,8 +201,7 @@ class Bridge:
         # every shard's batch: one message a tick instead of one per robot
         self.readings = bus.queue(keys.all_sensor_batches(sim), 256)
         self._outbox: dict[int, Actions] = {}  # robot -> newest actions not yet sent
-        # peer -> (the world's answer to come, spec, parameters, NBeacons, beacons it will sense)
-        self._registering: dict[tuple[str, int], tuple[Asked, RobotSpec, SimParameters, int, int]] = {}
+        self._registering: dict[tuple[str, int], _Pending] = {}
         self._carriers: set[int] = set()  # legacy robots accepted here that carry a beacon
         self.pace = pace
         self.finished_at: int | None = None  # the simulator's Time frozen at SimTime, once reached
@@ -271,7 +286,7 @@ class Bridge:
         # registered here since (the description is published a moment later)
         carried = {r.id for r in info.robots if r.beacon_height is not None} if info else set()
         carried |= self._carriers & set(self.by_robot)
-        n_carried = len(carried) + sum(1 for _, s, *_ in self._registering.values() if s.beacon_height_m is not None)
+        n_carried = len(carried) + sum(1 for p in self._registering.values() if p.spec.beacon_height_m is not None)
         if reg.kind == "beacon" and (nb or n_carried):
             # the legacy rule: one beacon at most, and a RobotBeacon becomes the lab's beacon
             self._refuse(peer, "a RobotBeacon is refused when the lab already has a beacon")
@@ -287,25 +302,29 @@ class Bridge:
             request_id=f"{os.getpid()}-{peer[0]}-{peer[1]}-{time.monotonic_ns()}",
         )
         # the world's answer is awaited by the loop, not here: the other clients' Measures go on
-        self._registering[peer] = (
-            self.bus.ask(keys.register(self.sim), encode(req), timeout_s=2.0),
-            spec,
-            params,
-            nb,
-            nb_sensed,
-        )
+        payload = encode(req)
+        asked = self.bus.ask(keys.register(self.sim), payload, timeout_s=2.0)
+        now = time.monotonic()
+        self._registering[peer] = _Pending(asked, payload, now, now, spec, params, nb, nb_sensed)
 
     def _answer_registrations(self) -> None:
-        """Finishes every registration the world has answered (or left unanswered)."""
-        for peer, (asked, spec, params, nb, nb_sensed) in list(self._registering.items()):
-            if asked.answered():
-                del self._registering[peer]
-                try:
-                    reply = decode(asked.replies[0], RegisterReply) if asked.replies else None
-                except IwError as e:
-                    logger.warning("the world's registration answer does not decode: %s", e)
-                    reply = None
-                self._registered(peer, reply, spec, params, nb, nb_sensed)
+        """Finishes every registration the world has answered; one no world answered is asked
+        again for WORLD_WAIT_S (a world still starting), then refused."""
+        for peer, p in list(self._registering.items()):
+            if not p.asked.answered():
+                continue
+            now = time.monotonic()
+            if not p.asked.replies and now - p.since < WORLD_WAIT_S:
+                if now - p.asked_at >= ASK_AGAIN_S:  # no queryable answers at once: not in a busy loop
+                    p.asked, p.asked_at = self.bus.ask(keys.register(self.sim), p.payload, timeout_s=2.0), now
+                continue
+            del self._registering[peer]
+            try:
+                reply = decode(p.asked.replies[0], RegisterReply) if p.asked.replies else None
+            except IwError as e:
+                logger.warning("the world's registration answer does not decode: %s", e)
+                reply = None
+            self._registered(peer, reply, p.spec, p.params, p.nb, p.nb_sensed)
 
     def _registered(
         self,

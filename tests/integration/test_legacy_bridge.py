@@ -27,7 +27,16 @@ from iw_zenoh.messages import (
     encode,
     encode_sensor_batch,
 )
-from tests.integration.harness import MAPS, Net, iwz_run_argv, register, subscribe, wait_event, wait_msg
+from tests.integration.harness import (
+    MAPS,
+    Net,
+    iwz_run_argv,
+    register,
+    subscribe,
+    wait_alive,
+    wait_event,
+    wait_msg,
+)
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(150)]
 
@@ -112,6 +121,27 @@ def _world(
         net.spawn("radio")
     net.spawn("bridge", "ciberrato", "--port", str(port), *(["--param", str(params)] if params else []), *bridge)
     return port
+
+
+def test_a_robot_registering_before_the_world_is_up_is_accepted_when_it_comes(
+    net: Net, clients: list[LegacyClient]
+) -> None:
+    # a legacy agent started with `iwz run` may ask before the world's queryable exists; it was
+    # refused at once ("no world answered") where the legacy server would have answered it
+    port = _udp_port()
+    net.spawn("bridge", "ciberrato", "--port", str(port))
+    wait_alive(net.client(), keys.alive(net.sim, "bridge", "ciberrato"))  # its UDP port is open
+    robot = LegacyClient(port)
+    clients.append(robot)
+    robot.sock.sendto(b'<Robot Id="1" Name="early"/>', robot.server)
+    robot.sock.settimeout(1.0)
+    with pytest.raises(TimeoutError):
+        robot.recv()  # no refusal while no world is there to answer
+    lab, grid = MAPS / "ciberrato" / "C1-lab.xml", MAPS / "ciberrato" / "C1-grid.xml"
+    net.spawn("world", str(lab), "--grid", str(grid), "--profile", "ciberrato", "--period-ms", "50")
+    robot.sock.settimeout(15.0)
+    data, robot.server = robot.sock.recvfrom(1024)
+    assert etree.fromstring(data[:-1]).get("Status") == "Ok"
 
 
 def test_a_legacy_robot_registers_senses_and_drives(net: Net, clients: list[LegacyClient]) -> None:
@@ -235,6 +265,8 @@ def test_iwz_run_a_ciberrato_scenario_serves_legacy_clients(tmp_path: Path, clie
         if run.poll() is None:
             run.kill()
             run.wait(10)
+        if run.stdout is not None:
+            run.stdout.close()  # a failed assertion above must not leave the pipe to a later test
     assert run.returncode == 0, out
     assert "ended at t=6.0 s" in out
 
