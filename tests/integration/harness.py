@@ -139,6 +139,19 @@ class Net:
             p.kill(signal.SIGTERM)
 
 
+def stop_run(p: subprocess.Popen[str]) -> tuple[str, str]:
+    """Stops an ``iwz run`` launcher as Ctrl-C does (it stops every process it started; a kill
+    would leave them running), killing it only if it is still up 30 s later; its output."""
+    if p.poll() is None:
+        p.send_signal(signal.SIGINT)
+    try:
+        out, err = p.communicate(timeout=30)
+    except subprocess.TimeoutExpired:
+        p.kill()
+        out, err = p.communicate()
+    return out or "", err or ""
+
+
 def iwz_run_argv(
     scenario: Path, tmp: Path, sim: str, *, record: Path | None = None, extra: tuple[str, ...] = ()
 ) -> list[str]:

@@ -32,6 +32,7 @@ from tests.integration.harness import (
     Net,
     iwz_run_argv,
     register,
+    stop_run,
     subscribe,
     wait_alive,
     wait_event,
@@ -263,10 +264,7 @@ def test_iwz_run_a_ciberrato_scenario_serves_legacy_clients(tmp_path: Path, clie
         out, _ = run.communicate(timeout=90)
     finally:
         if run.poll() is None:
-            run.kill()
-            run.wait(10)
-        if run.stdout is not None:
-            run.stdout.close()  # a failed assertion above must not leave the pipe to a later test
+            stop_run(run)  # after a failed assertion: the launcher and everything it started
     assert run.returncode == 0, out
     assert "ended at t=6.0 s" in out
 

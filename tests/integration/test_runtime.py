@@ -29,6 +29,7 @@ from tests.integration.harness import (
     iwz_run_argv,
     register,
     state_of,
+    stop_run,
     subscribe,
     wait_alive,
     wait_event,
@@ -197,7 +198,13 @@ def test_without_collision_process_every_chair_is_held_until_it_returns(net: Net
 def test_demo_scenario_runs_meets_its_criteria_and_is_recorded(tmp_path: Path) -> None:
     # lock-step, so the verdict does not depend on how loaded the machine is
     argv = iwz_run_argv(MAPS / "demo.toml", tmp_path, "demo", record=tmp_path / "demo.mcap", extra=("--lockstep",))
-    r = subprocess.run(argv, capture_output=True, text=True, timeout=110)
+    p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        out, err = p.communicate(timeout=110)
+    except subprocess.TimeoutExpired:
+        out, err = stop_run(p)
+        pytest.fail(f"the demo still ran after 110 s, stopped:\n{out}{err}")
+    r = subprocess.CompletedProcess(argv, p.returncode, out, err)
     assert r.returncode == 0, r.stdout + r.stderr
     assert "PASS robot 1 within 0.5 m of (20, 6.1)" in r.stdout
     assert "PASS collisions 0" in r.stdout

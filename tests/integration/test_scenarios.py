@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import signal
 import subprocess
 from pathlib import Path
 
@@ -12,7 +11,7 @@ from mcap.reader import make_reader
 
 from iw_zenoh import keys
 from iw_zenoh.messages import WorldState, decode
-from tests.integration.harness import MAPS, iwz_run_argv
+from tests.integration.harness import MAPS, iwz_run_argv, stop_run
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(960)]
 
@@ -24,12 +23,7 @@ def _run(scenario: str, tmp: Path, timeout_s: float = 400) -> tuple[subprocess.C
     try:
         out, err = p.communicate(timeout=timeout_s)
     except subprocess.TimeoutExpired:
-        p.send_signal(signal.SIGINT)  # the launcher stops every process it started
-        try:
-            out, err = p.communicate(timeout=30)
-        except subprocess.TimeoutExpired:
-            p.kill()
-            out, err = p.communicate()
+        out, err = stop_run(p)
         pytest.fail(f"{scenario} still running after {timeout_s:g} s, stopped:\n{out}{err}")
     return subprocess.CompletedProcess(argv, p.returncode, out, err), rec
 
