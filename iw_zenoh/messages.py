@@ -51,6 +51,7 @@ __all__ = [
     "LabMsg",
     "Message",
     "Obstacle",
+    "Outgoing",
     "PoseReport",
     "Proposed",
     "ActionBatch",
@@ -94,6 +95,9 @@ class Message(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=T
     schema: ClassVar[str] = "iw.Message/1"
     tick: NonNeg = 0
     sim_time_ns: NonNeg = 0
+
+
+Outgoing = tuple[str, Message]  # what logic hands its wiring to publish: a key and a message
 
 
 # --- registration and world description -----------------------------------------------------

@@ -12,14 +12,13 @@ from typing import TypeVar
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus, Delivery, Inbox
 from iw_zenoh.errors import DecodeError
-from iw_zenoh.messages import Event, Message, decode, encode
+from iw_zenoh.messages import Event, Message, Outgoing, decode, encode
 
 __all__ = ["NodeIO", "Outgoing", "install_stop_signals", "setup_logging"]
 
 logger = logging.getLogger(__name__)
 
 M = TypeVar("M", bound=Message)
-Outgoing = tuple[str, Message]
 
 
 class NodeIO:
