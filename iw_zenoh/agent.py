@@ -30,6 +30,7 @@ from typing import Protocol
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus, Inbox
+from iw_zenoh.convert import spec_from_msg, spec_to_msg
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import DecodeError, IwError
 from iw_zenoh.messages import (
@@ -46,8 +47,6 @@ from iw_zenoh.messages import (
     decode,
     encode,
     readings_of,
-    spec_from_msg,
-    spec_to_msg,
 )
 from iw_zenoh.nodes.base import NodeIO
 

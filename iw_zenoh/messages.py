@@ -10,41 +10,18 @@ that sees one it does not know asks ``world/info`` again.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Container
 from typing import Annotated, Any, ClassVar, Literal, TypeVar
 
 import msgspec
 
-from iw_zenoh.core.lab import Beacon, Grid, GridPosition, Lab, Target, Wall
-from iw_zenoh.core.spec import (
-    BodyShape,
-    BumperSpec,
-    EncoderSpec,
-    IrSensorSpec,
-    NoiseSpec,
-    RobotSpec,
-    RobotType,
-    SensorNoise,
-)
-from iw_zenoh.errors import DecodeError, SpecError
+from iw_zenoh.errors import DecodeError
 
 __all__ = [
     "MESSAGE_TYPES",
     "Actions",
     "Control",
     "Event",
-    "FgColor",
-    "FgCube",
-    "FgEntity",
-    "FgFrameTransform",
-    "FgLine",
-    "FgPose",
-    "FgQuaternion",
-    "FgSceneUpdate",
-    "FgText",
-    "FgTime",
-    "FgVector3",
     "Heard",
     "Hear",
     "Hit",
@@ -71,13 +48,7 @@ __all__ = [
     "encode",
     "encode_sensor_batch",
     "readings_of",
-    "grid_from_msg",
-    "grid_to_msg",
     "json_schema",
-    "lab_from_msg",
-    "lab_to_msg",
-    "spec_from_msg",
-    "spec_to_msg",
     "stamp_of",
 ]
 
@@ -444,121 +415,6 @@ class Event(Message, frozen=True, kw_only=True):
     data: dict[str, Any] = {}
 
 
-# --- Foxglove scene: derived channels the recorder adds so a recording opens in a 3D view ----
-# Field names follow Foxglove's published schemas (foxglove.SceneUpdate, foxglove.FrameTransform);
-# the schema names are what Foxglove recognises.
-
-
-class FgTime(msgspec.Struct, frozen=True):
-    """Foxglove time / duration."""
-
-    sec: NonNeg = 0
-    nsec: Annotated[int, msgspec.Meta(ge=0, le=999_999_999)] = 0
-
-
-class FgVector3(msgspec.Struct, frozen=True):
-    """A 3D vector (m)."""
-
-    x: float = 0.0
-    y: float = 0.0
-    z: float = 0.0
-
-
-class FgQuaternion(msgspec.Struct, frozen=True):
-    """A rotation."""
-
-    x: float = 0.0
-    y: float = 0.0
-    z: float = 0.0
-    w: float = 1.0
-
-
-class FgPose(msgspec.Struct, frozen=True):
-    """Position and orientation."""
-
-    position: FgVector3 = FgVector3()
-    orientation: FgQuaternion = FgQuaternion()
-
-
-class FgColor(msgspec.Struct, frozen=True):
-    """RGBA in [0, 1]."""
-
-    r: float = 0.5
-    g: float = 0.5
-    b: float = 0.5
-    a: float = 1.0
-
-
-class FgCube(msgspec.Struct, frozen=True):
-    """foxglove.CubePrimitive."""
-
-    pose: FgPose
-    size: FgVector3
-    color: FgColor
-
-
-class FgLine(msgspec.Struct, frozen=True):
-    """foxglove.LinePrimitive (type 0 strip, 1 loop, 2 list)."""
-
-    type: int
-    pose: FgPose
-    thickness: float
-    scale_invariant: bool
-    points: list[FgVector3]
-    color: FgColor
-    colors: list[FgColor] = []
-    indices: list[int] = []
-
-
-class FgText(msgspec.Struct, frozen=True):
-    """foxglove.TextPrimitive."""
-
-    pose: FgPose
-    billboard: bool
-    font_size: float
-    scale_invariant: bool
-    color: FgColor
-    text: str
-
-
-class FgEntity(msgspec.Struct, frozen=True):
-    """foxglove.SceneEntity."""
-
-    timestamp: FgTime
-    frame_id: str
-    id: str
-    lifetime: FgTime = FgTime()
-    frame_locked: bool = False
-    metadata: list[dict[str, str]] = []
-    arrows: list[dict[str, Any]] = []
-    cubes: list[FgCube] = []
-    spheres: list[dict[str, Any]] = []
-    cylinders: list[dict[str, Any]] = []
-    lines: list[FgLine] = []
-    triangles: list[dict[str, Any]] = []
-    texts: list[FgText] = []
-    models: list[dict[str, Any]] = []
-
-
-class FgSceneUpdate(msgspec.Struct, frozen=True):
-    """foxglove.SceneUpdate."""
-
-    schema: ClassVar[str] = "foxglove.SceneUpdate"
-    deletions: list[dict[str, Any]] = []
-    entities: list[FgEntity] = []
-
-
-class FgFrameTransform(msgspec.Struct, frozen=True):
-    """foxglove.FrameTransform."""
-
-    schema: ClassVar[str] = "foxglove.FrameTransform"
-    timestamp: FgTime
-    parent_frame_id: str
-    child_frame_id: str
-    translation: FgVector3
-    rotation: FgQuaternion
-
-
 MESSAGE_TYPES: tuple[type[Message], ...] = (
     RegisterRequest,
     RegisterReply,
@@ -620,8 +476,8 @@ _ENCODER = msgspec.json.Encoder()
 _DECODERS: dict[type[Any], msgspec.json.Decoder[Any]] = {}
 
 
-def encode(msg: Message | FgSceneUpdate | FgFrameTransform) -> bytes:
-    """Encodes any message as UTF-8 JSON.
+def encode(msg: msgspec.Struct) -> bytes:
+    """Encodes any message (or derived channel, such as the Foxglove scene) as UTF-8 JSON.
 
     JSON has no NaN or infinity: msgspec writes them as ``null``, which a receiver refuses for a
     plain float field (fields that may be unknown are ``float | None``).
@@ -694,135 +550,7 @@ def decode(data: bytes, kind: type[T]) -> T:
     return msg
 
 
-def json_schema(kind: type[Message] | type[FgSceneUpdate] | type[FgFrameTransform]) -> dict[str, Any]:
+def json_schema(kind: type[msgspec.Struct]) -> dict[str, Any]:
     """The JSON Schema of a message class (what the recorder writes per channel)."""
     schema: dict[str, Any] = msgspec.json.schema(kind)
     return schema
-
-
-# --- conversions between core data and wire shapes -------------------------------------------
-
-
-def _noise(m: NoiseMsg | None, default: NoiseSpec) -> NoiseSpec:
-    return default if m is None else NoiseSpec(m.mean, m.std, m.enabled)
-
-
-def spec_from_msg(m: RobotSpecMsg) -> RobotSpec:
-    """Turns a wire spec into a checked core spec.
-
-    Raises:
-        SpecError: Naming the field that is out of range.
-    """
-    d = SensorNoise()
-    n = m.noise
-    noise = d
-    if n is not None:
-        noise = SensorNoise(
-            _noise(n.proximity_m, d.proximity_m),
-            _noise(n.proximity_legacy, d.proximity_legacy),
-            _noise(n.compass_deg, d.compass_deg),
-            _noise(n.beacon_deg, d.beacon_deg),
-            _noise(n.gps_m, d.gps_m),
-            _noise(n.gps_heading_deg, d.gps_heading_deg),
-            _noise(n.encoder_slip, d.encoder_slip),
-            _noise(n.motion, d.motion),
-        )
-    for name in ("width", "height", "com", "max_speed", "acceleration_curve", "ticks_per_m"):
-        v = getattr(m, name)
-        if not math.isfinite(v):
-            raise SpecError(name, f"must be a finite number, got {v!r}")
-    return RobotSpec(
-        name=m.name,
-        id=m.id,
-        type=RobotType(m.type),
-        shape=BodyShape(m.shape),
-        width_m=m.width,
-        height_m=m.height,
-        com=m.com,
-        x_m=m.x,
-        y_m=m.y,
-        dir_deg=m.dir,
-        max_speed_mps=m.max_speed,
-        acceleration_curve=m.acceleration_curve,
-        ir_sensors=tuple(IrSensorSpec(s.id, s.x, s.y, s.angle_deg, s.cone_deg, s.range_m) for s in m.ir_sensors),
-        bumpers=tuple(BumperSpec(b.id, tuple(b.corners)) for b in m.bumpers),
-        encoder=EncoderSpec(m.ticks_per_m),
-        noise=noise,
-        legacy=m.legacy,
-        beacon_height_m=m.beacon_height,
-    )
-
-
-def _noise_msg(n: NoiseSpec) -> NoiseMsg:
-    return NoiseMsg(mean=n.mean, std=n.std, enabled=n.enabled)
-
-
-def spec_to_msg(s: RobotSpec) -> RobotSpecMsg:
-    """Turns a core spec into its wire shape (sensors listed explicitly)."""
-    n = s.noise
-    return RobotSpecMsg(
-        name=s.name,
-        id=s.id,
-        type=s.type.value,
-        shape=s.shape.value,
-        width=s.width_m,
-        height=s.height_m,
-        com=s.com,
-        x=s.x_m,
-        y=s.y_m,
-        dir=s.dir_deg,
-        max_speed=s.max_speed_mps,
-        acceleration_curve=s.acceleration_curve,
-        ir_sensors=[
-            IrSensorMsg(id=i.id, x=i.x_m, y=i.y_m, angle_deg=i.angle_deg, cone_deg=i.cone_deg, range_m=i.range_m)
-            for i in s.sensors
-        ],
-        bumpers=[BumperMsg(id=b.id, corners=list(b.corners)) for b in s.bumpers],
-        ticks_per_m=s.encoder.ticks_per_m,
-        noise=SensorNoiseMsg(
-            proximity_m=_noise_msg(n.proximity_m),
-            proximity_legacy=_noise_msg(n.proximity_legacy),
-            compass_deg=_noise_msg(n.compass_deg),
-            beacon_deg=_noise_msg(n.beacon_deg),
-            gps_m=_noise_msg(n.gps_m),
-            gps_heading_deg=_noise_msg(n.gps_heading_deg),
-            encoder_slip=_noise_msg(n.encoder_slip),
-            motion=_noise_msg(n.motion),
-        ),
-        legacy=s.legacy,
-        beacon_height=s.beacon_height_m,
-    )
-
-
-def lab_to_msg(lab: Lab) -> LabMsg:
-    """The wire shape of a lab."""
-    return LabMsg(
-        name=lab.name,
-        width=lab.width_m,
-        height=lab.height_m,
-        walls=[WallMsg(corners=list(w.corners), height=w.height_m) for w in lab.walls],
-        beacons=[(b.x, b.y, b.height_m) for b in lab.beacons],
-        targets=[(t.x, t.y, t.radius_m) for t in lab.targets],
-    )
-
-
-def lab_from_msg(m: LabMsg) -> Lab:
-    """A lab from its wire shape."""
-    return Lab(
-        m.name,
-        m.width,
-        m.height,
-        tuple(Wall(tuple(w.corners), w.height) for w in m.walls),
-        tuple(Beacon(*b) for b in m.beacons),
-        tuple(Target(*t) for t in m.targets),
-    )
-
-
-def grid_to_msg(grid: Grid) -> list[tuple[float, float, float]]:
-    """The wire shape of a grid: (x, y, dir_deg) rows."""
-    return [(p.x, p.y, p.dir_deg) for p in grid.positions]
-
-
-def grid_from_msg(rows: list[tuple[float, float, float]]) -> Grid:
-    """A grid from its wire shape."""
-    return Grid(tuple(GridPosition(*r) for r in rows))

@@ -4,6 +4,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from iw_zenoh.convert import spec_from_msg, spec_to_msg
 from iw_zenoh.core.spec import IrSensorSpec, RobotSpec
 from iw_zenoh.errors import DecodeError, SpecError
 from iw_zenoh.messages import (
@@ -21,8 +22,6 @@ from iw_zenoh.messages import (
     encode_sensor_batch,
     json_schema,
     readings_of,
-    spec_from_msg,
-    spec_to_msg,
 )
 
 finite = st.floats(allow_nan=False, allow_infinity=False, width=64)

@@ -27,6 +27,7 @@ from typing import Any
 from iw_zenoh import keys
 from iw_zenoh.bus import Asked, ZenohBus
 from iw_zenoh.cliargs import add_common_arguments, net_from_args
+from iw_zenoh.convert import grid_from_msg, lab_from_msg, spec_to_msg
 from iw_zenoh.core.params import SimParameters
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import IwError, ProtocolError
@@ -49,9 +50,6 @@ from iw_zenoh.messages import (
     WorldState,
     decode,
     encode,
-    grid_from_msg,
-    lab_from_msg,
-    spec_to_msg,
 )
 from iw_zenoh.nodes.base import NodeIO, install_stop_signals, setup_logging
 

@@ -8,11 +8,12 @@ from dataclasses import dataclass, field
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus
+from iw_zenoh.convert import lab_from_msg, spec_from_msg
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.lab import Scene
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import IwError
-from iw_zenoh.messages import WorldInfo, decode, lab_from_msg, spec_from_msg
+from iw_zenoh.messages import WorldInfo, decode
 
 __all__ = ["InfoCache", "WorldView"]
 

@@ -16,6 +16,7 @@ import msgspec
 import numpy as np
 
 from iw_zenoh import keys
+from iw_zenoh.convert import grid_to_msg, lab_to_msg, spec_from_msg, spec_to_msg
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.collision import Collisions
 from iw_zenoh.core.lab import Grid, Lab, Scene, Wall, check_wall
@@ -38,10 +39,6 @@ from iw_zenoh.messages import (
     Tick,
     Verdict,
     WorldInfo,
-    grid_to_msg,
-    lab_to_msg,
-    spec_from_msg,
-    spec_to_msg,
 )
 from iw_zenoh.messages import (
     WorldState as WorldStateMsg,

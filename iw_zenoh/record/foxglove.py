@@ -1,31 +1,152 @@
 """The Foxglove view of a simulation: a scene channel (walls, bodies, proximity cones, names)
 and frame transforms, derived from the world's own messages while recording, so a recording
-opens in Foxglove's 3D panel."""
+opens in Foxglove's 3D panel. The ``Fg*`` structs are the Foxglove schemas those channels carry:
+derived channels of a recording, never messages of the simulation's own wire."""
 
 from __future__ import annotations
 
 import math
+from typing import Annotated, Any, ClassVar
 
+import msgspec
+
+from iw_zenoh.convert import spec_from_msg
 from iw_zenoh.core.spec import RobotSpec
-from iw_zenoh.messages import (
-    FgColor,
-    FgCube,
-    FgEntity,
-    FgFrameTransform,
-    FgLine,
-    FgPose,
-    FgQuaternion,
-    FgSceneUpdate,
-    FgText,
-    FgTime,
-    FgVector3,
-    SensorReading,
-    WorldInfo,
-    WorldState,
-    spec_from_msg,
-)
+from iw_zenoh.messages import SensorReading, WorldInfo, WorldState
 
-__all__ = ["SCENE_TOPIC", "TF_TOPIC", "SceneBuilder"]
+__all__ = [
+    "SCENE_TOPIC",
+    "TF_TOPIC",
+    "FgColor",
+    "FgCube",
+    "FgEntity",
+    "FgFrameTransform",
+    "FgLine",
+    "FgPose",
+    "FgQuaternion",
+    "FgSceneUpdate",
+    "FgText",
+    "FgTime",
+    "FgVector3",
+    "SceneBuilder",
+]
+
+NonNeg = Annotated[int, msgspec.Meta(ge=0)]
+
+# --- Foxglove scene: derived channels the recorder adds so a recording opens in a 3D view ----
+# Field names follow Foxglove's published schemas (foxglove.SceneUpdate, foxglove.FrameTransform);
+# the schema names are what Foxglove recognises.
+
+
+class FgTime(msgspec.Struct, frozen=True):
+    """Foxglove time / duration."""
+
+    sec: NonNeg = 0
+    nsec: Annotated[int, msgspec.Meta(ge=0, le=999_999_999)] = 0
+
+
+class FgVector3(msgspec.Struct, frozen=True):
+    """A 3D vector (m)."""
+
+    x: float = 0.0
+    y: float = 0.0
+    z: float = 0.0
+
+
+class FgQuaternion(msgspec.Struct, frozen=True):
+    """A rotation."""
+
+    x: float = 0.0
+    y: float = 0.0
+    z: float = 0.0
+    w: float = 1.0
+
+
+class FgPose(msgspec.Struct, frozen=True):
+    """Position and orientation."""
+
+    position: FgVector3 = FgVector3()
+    orientation: FgQuaternion = FgQuaternion()
+
+
+class FgColor(msgspec.Struct, frozen=True):
+    """RGBA in [0, 1]."""
+
+    r: float = 0.5
+    g: float = 0.5
+    b: float = 0.5
+    a: float = 1.0
+
+
+class FgCube(msgspec.Struct, frozen=True):
+    """foxglove.CubePrimitive."""
+
+    pose: FgPose
+    size: FgVector3
+    color: FgColor
+
+
+class FgLine(msgspec.Struct, frozen=True):
+    """foxglove.LinePrimitive (type 0 strip, 1 loop, 2 list)."""
+
+    type: int
+    pose: FgPose
+    thickness: float
+    scale_invariant: bool
+    points: list[FgVector3]
+    color: FgColor
+    colors: list[FgColor] = []
+    indices: list[int] = []
+
+
+class FgText(msgspec.Struct, frozen=True):
+    """foxglove.TextPrimitive."""
+
+    pose: FgPose
+    billboard: bool
+    font_size: float
+    scale_invariant: bool
+    color: FgColor
+    text: str
+
+
+class FgEntity(msgspec.Struct, frozen=True):
+    """foxglove.SceneEntity."""
+
+    timestamp: FgTime
+    frame_id: str
+    id: str
+    lifetime: FgTime = FgTime()
+    frame_locked: bool = False
+    metadata: list[dict[str, str]] = []
+    arrows: list[dict[str, Any]] = []
+    cubes: list[FgCube] = []
+    spheres: list[dict[str, Any]] = []
+    cylinders: list[dict[str, Any]] = []
+    lines: list[FgLine] = []
+    triangles: list[dict[str, Any]] = []
+    texts: list[FgText] = []
+    models: list[dict[str, Any]] = []
+
+
+class FgSceneUpdate(msgspec.Struct, frozen=True):
+    """foxglove.SceneUpdate."""
+
+    schema: ClassVar[str] = "foxglove.SceneUpdate"
+    deletions: list[dict[str, Any]] = []
+    entities: list[FgEntity] = []
+
+
+class FgFrameTransform(msgspec.Struct, frozen=True):
+    """foxglove.FrameTransform."""
+
+    schema: ClassVar[str] = "foxglove.FrameTransform"
+    timestamp: FgTime
+    parent_frame_id: str
+    child_frame_id: str
+    translation: FgVector3
+    rotation: FgQuaternion
+
 
 SCENE_TOPIC = "/foxglove/scene"
 TF_TOPIC = "/foxglove/tf"

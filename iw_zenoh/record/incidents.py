@@ -20,10 +20,11 @@ import shapely
 from mcap.reader import make_reader
 
 from iw_zenoh import keys
+from iw_zenoh.convert import lab_from_msg, spec_from_msg
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.lab import Scene
 from iw_zenoh.errors import IwError
-from iw_zenoh.messages import Event, WorldInfo, WorldState, decode, lab_from_msg, spec_from_msg
+from iw_zenoh.messages import Event, WorldInfo, WorldState, decode
 
 __all__ = ["Incident", "find_incidents", "main"]
 

@@ -24,9 +24,10 @@ from matplotlib.patches import Wedge  # noqa: E402
 from mcap.reader import make_reader  # noqa: E402
 
 from iw_zenoh import keys  # noqa: E402
+from iw_zenoh.convert import spec_from_msg  # noqa: E402
 from iw_zenoh.core.bodies import Bodies  # noqa: E402
 from iw_zenoh.errors import IwError  # noqa: E402
-from iw_zenoh.messages import ActionBatch, Actions, Event, SensorReading, WorldInfo, WorldState, decode, spec_from_msg  # noqa: E402
+from iw_zenoh.messages import ActionBatch, Actions, Event, SensorReading, WorldInfo, WorldState, decode  # noqa: E402
 
 __all__ = ["main", "render"]
 

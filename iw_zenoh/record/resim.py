@@ -20,6 +20,7 @@ from typing import IO, Any
 from mcap.reader import make_reader
 
 from iw_zenoh import keys
+from iw_zenoh.convert import grid_from_msg, lab_from_msg, spec_from_msg
 from iw_zenoh.core.lab import Scene
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import (
@@ -34,9 +35,6 @@ from iw_zenoh.messages import (
     WorldState,
     decode,
     encode,
-    grid_from_msg,
-    lab_from_msg,
-    spec_from_msg,
 )
 from iw_zenoh.nodes.collision import CollisionNode
 from iw_zenoh.nodes.info import WorldView

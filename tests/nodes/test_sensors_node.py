@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import msgspec
 
+from iw_zenoh.convert import lab_to_msg, spec_to_msg
 from iw_zenoh.core.lab import Lab, Scene
 from iw_zenoh.core.spec import IrSensorSpec, RobotSpec
-from iw_zenoh.messages import Proposed, SensorReading, WorldInfo, WorldState, encode, lab_to_msg, spec_to_msg
+from iw_zenoh.messages import Proposed, SensorReading, WorldInfo, WorldState, encode
 from iw_zenoh.nodes.info import WorldView
 from iw_zenoh.nodes.sensors import SensorsNode
 from tests.conftest import box_wall

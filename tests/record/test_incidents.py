@@ -3,9 +3,10 @@ from __future__ import annotations
 import io
 
 from iw_zenoh import keys
+from iw_zenoh.convert import lab_to_msg, spec_to_msg
 from iw_zenoh.core.lab import Lab
 from iw_zenoh.core.spec import RobotSpec
-from iw_zenoh.messages import Event, WorldInfo, WorldState, encode, lab_to_msg, spec_to_msg
+from iw_zenoh.messages import Event, WorldInfo, WorldState, encode
 from iw_zenoh.record.incidents import find_incidents
 from iw_zenoh.record.recording import Recorder
 

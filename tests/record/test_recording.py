@@ -107,9 +107,10 @@ def test_a_recording_carries_a_foxglove_scene_that_validates_against_its_schema(
 
     import jsonschema
 
+    from iw_zenoh.convert import lab_to_msg, spec_to_msg
     from iw_zenoh.core.lab import Lab, Wall
     from iw_zenoh.core.spec import RobotSpec
-    from iw_zenoh.messages import SensorReading, WorldInfo, lab_to_msg, spec_to_msg
+    from iw_zenoh.messages import SensorReading, WorldInfo
 
     path = tmp_path / "scene.mcap"
     lab = Lab("l", 10.0, 10.0, (Wall(((4, 4), (5, 4), (5, 5), (4, 5)), 2.0),))
