@@ -31,6 +31,7 @@ from typing import Protocol
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus, Inbox
 from iw_zenoh.convert import spec_from_msg, spec_to_msg
+from iw_zenoh.core.modes import Mode
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import DecodeError, IwError
 from iw_zenoh.messages import (
@@ -176,7 +177,7 @@ class AgentHost:
         spec = spec_from_msg(reply.spec)
         if not self.hosted:  # learn the world's mode once (lock-step changes when we answer)
             for data in self.io.bus.query(keys.info(self.sim), timeout_s=timeout_s):
-                self.lockstep = decode(data, WorldInfo).mode == "lockstep"
+                self.lockstep = decode(data, WorldInfo).mode == Mode.LOCKSTEP
         self.hosted[reply.robot_id] = _Hosted(agent, reply.robot_id, spec)
         if early is None and not self.batched:
             self.io.bus.subscribe(keys.sensors(self.sim, reply.robot_id), self.readings)

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from iw_zenoh.core.modes import Mode, Profile
 from iw_zenoh.errors import ConfigError
 
 __all__ = ["AgentEntry", "Criteria", "ObstacleEntry", "Reach", "Scenario", "load_scenario", "parse_scenario"]
@@ -66,8 +67,8 @@ class Scenario:
     name: str
     map: Path
     grid: Path | None = None
-    mode: str = "realtime"
-    profile: str = "native"
+    mode: Mode = Mode.REALTIME
+    profile: Profile = Profile.NATIVE
     period_ms: float = 100.0
     seed: int = 0
     duration_s: float = 60.0
@@ -141,11 +142,11 @@ def parse_scenario(text: str, base: Path, name: str = "scenario") -> Scenario:
     grid_path = base / grid if grid else None
     if grid_path is not None and not grid_path.is_file():
         raise ConfigError("world.grid", f"{grid_path} does not exist")
-    mode = _take(w, "mode", str, "world", "realtime")
-    if mode not in ("realtime", "lockstep"):
+    mode = _take(w, "mode", str, "world", Mode.REALTIME)
+    if mode not in tuple(Mode):
         raise ConfigError("world.mode", f"must be realtime or lockstep, got {mode!r}")
-    profile = _take(w, "profile", str, "world", "native")
-    if profile not in ("native", "ciberrato"):
+    profile = _take(w, "profile", str, "world", Profile.NATIVE)
+    if profile not in tuple(Profile):
         raise ConfigError("world.profile", f"must be native or ciberrato, got {profile!r}")
     period = _take(w, "period_ms", float, "world", 100.0)
     if period <= 0:
@@ -242,8 +243,8 @@ def parse_scenario(text: str, base: Path, name: str = "scenario") -> Scenario:
         name=_take(doc, "name", str, name, name),
         map=map_path,
         grid=grid_path,
-        mode=mode,
-        profile=profile,
+        mode=Mode(mode),
+        profile=Profile(profile),
         period_ms=period,
         seed=_take(w, "seed", int, "world", 0),
         duration_s=duration,

@@ -10,18 +10,32 @@ that sees one it does not know asks ``world/info`` again.
 
 from __future__ import annotations
 
+import enum
 from collections.abc import Container
-from typing import Annotated, Any, ClassVar, Literal, TypeVar
+from typing import Annotated, Any, ClassVar, Literal, TypeVar, overload
 
 import msgspec
 
+from iw_zenoh.core.modes import Mode, Profile
 from iw_zenoh.errors import DecodeError
 
 __all__ = [
     "MESSAGE_TYPES",
     "Actions",
     "Control",
+    "EVENT_PAYLOADS",
+    "AgentLostData",
+    "CollisionData",
     "Event",
+    "EventData",
+    "EventKind",
+    "LaggardData",
+    "LegacyRefusedData",
+    "NoData",
+    "ObstacleData",
+    "RadioDroppedData",
+    "RefusedData",
+    "RegisteredData",
     "Heard",
     "Hear",
     "Hit",
@@ -46,6 +60,8 @@ __all__ = [
     "WorldState",
     "decode",
     "encode",
+    "event_payload",
+    "make_event",
     "encode_sensor_batch",
     "readings_of",
     "json_schema",
@@ -191,8 +207,8 @@ class WorldInfo(Message, frozen=True, kw_only=True):
     revision: NonNeg
     lab: LabMsg
     grid: list[tuple[float, float, float]] = []
-    profile: Literal["native", "ciberrato"] = "native"
-    mode: Literal["realtime", "lockstep"] = "realtime"
+    profile: Profile = Profile.NATIVE
+    mode: Mode = Mode.REALTIME
     period_ns: NonNeg
     seed: int = 0
     robots: list[RobotSpecMsg] = []
@@ -208,7 +224,7 @@ class Tick(Message, frozen=True, kw_only=True):
 
     schema: ClassVar[str] = "iw.Tick/1"
     period_ns: NonNeg
-    mode: Literal["realtime", "lockstep"] = "realtime"
+    mode: Mode = Mode.REALTIME
     running: bool = True
     revision: NonNeg = 0
 
@@ -403,16 +419,212 @@ class Control(Message, frozen=True, kw_only=True):
     at_ns: NonNeg = 0  # seek: the simulation time to go to (replays)
 
 
+class EventKind(enum.StrEnum):
+    """What an :class:`Event` says happened (also the last chunk of its key, ``events/{kind}``)."""
+
+    COLLISION = "collision"  # a robot touched a wall or another robot (world)
+    WATCHDOG = "watchdog"  # a robot sent no actions for too long: motors zeroed (world)
+    WATCHDOG_CLEARED = "watchdog-cleared"  # ... and is commanded again (world)
+    REGISTERED = "registered"  # a robot joined (world)
+    REFUSED = "refused"  # a registration was refused, with its reason (world)
+    REMOVED = "removed"  # a robot left: asked, or its agent gone past the grace period (world)
+    AGENT_LOST = "agent-lost"  # an agent process is gone: its robots stopped (world)
+    SENSORS_LOST = "sensors-lost"  # no sensors process is alive: lock-step waits (world)
+    HOLDING = "holding"  # every robot held still: no collision verdict (world)
+    RESUMED = "resumed"  # collision verdicts are back (world)
+    STARTED = "started"  # a start control ran the simulation (world)
+    PAUSED = "paused"  # a pause control stopped the ticks (world)
+    STOPPED = "stopped"  # a stop control, or the duration reached (world)
+    OBSTACLE = "obstacle"  # an obstacle was added, moved or removed (world)
+    BAD_CONTROL = "bad-control"  # a control the world cannot do (world)
+    BAD_MESSAGE = "bad-message"  # a malformed or misaddressed message, dropped (any node)
+    LAGGARD = "laggard"  # lock-step: robots whose actions did not come in time (world)
+    RADIO_DROPPED = "radio-dropped"  # radio messages dropped this tick, counted (radio)
+    LEGACY_REFUSED = "legacy-refused"  # a legacy client's datagram refused (legacy bridge)
+    LEGACY_FINISHED = "legacy-finished"  # the legacy simulation reached SimTime (legacy bridge)
+
+
 class Event(Message, frozen=True, kw_only=True):
-    """Something happened: a collision, a registration or refusal, a timeout, a lost process..."""
+    """Something happened: a collision, a registration or refusal, a timeout, a lost process...
+
+    ``data`` is the kind's payload (:data:`EVENT_PAYLOADS`) as a JSON object: build an event with
+    :func:`make_event` and read its payload back with :func:`event_payload`.
+    """
 
     schema: ClassVar[str] = "iw.Event/1"
-    kind: str
+    kind: EventKind
     reason: str = ""
     robot_id: int = -1
     key: str = ""
     source: str = ""
     data: dict[str, Any] = {}
+
+
+# --- event payloads: what each kind of event carries in its ``data`` ---------------------------
+
+
+class EventData(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """Base of every event payload (written in full unless a payload says otherwise)."""
+
+
+class NoData(EventData, frozen=True, kw_only=True):
+    """The payload of a kind whose reason says it all (``data`` is ``{}``)."""
+
+
+class CollisionData(EventData, frozen=True, kw_only=True):
+    """Where a robot hit, and what: wall indices (the lab's wall count is the border) and robots."""
+
+    x: float
+    y: float
+    walls: list[int] = []
+    robots: list[RobotId] = []
+
+
+class RegisteredData(EventData, frozen=True, kw_only=True):
+    """The agent process that drives the new robot (empty: none named)."""
+
+    agent: str = ""
+
+
+class RefusedData(EventData, frozen=True, kw_only=True):
+    """The refused robot's name and agent (both empty when the request did not even decode)."""
+
+    name: str = ""
+    agent: str = ""
+
+
+class AgentLostData(EventData, frozen=True, kw_only=True):
+    """The agent process that is gone."""
+
+    agent: str
+
+
+class ObstacleData(EventData, frozen=True, kw_only=True):
+    """The obstacle added, moved or removed."""
+
+    name: str
+
+
+class LaggardData(EventData, frozen=True, kw_only=True):
+    """The robots whose actions did not come in time."""
+
+    robots: list[RobotId]
+
+
+class RadioDroppedData(EventData, frozen=True, kw_only=True, omit_defaults=True):
+    """Radio messages dropped, by cause; a cause with no drop is left out."""
+
+    too_long: NonNeg = 0  # over the bytes a message may have
+    unknown_sender: NonNeg = 0  # said by a robot the state does not list
+    over_budget: NonNeg = 0  # past what a robot may hear a tick
+
+
+class LegacyRefusedData(EventData, frozen=True, kw_only=True):
+    """The legacy client refused, as ``host:port``."""
+
+    peer: str
+
+
+EVENT_PAYLOADS: dict[EventKind, type[EventData]] = {
+    EventKind.COLLISION: CollisionData,
+    EventKind.WATCHDOG: NoData,
+    EventKind.WATCHDOG_CLEARED: NoData,
+    EventKind.REGISTERED: RegisteredData,
+    EventKind.REFUSED: RefusedData,
+    EventKind.REMOVED: NoData,
+    EventKind.AGENT_LOST: AgentLostData,
+    EventKind.SENSORS_LOST: NoData,
+    EventKind.HOLDING: NoData,
+    EventKind.RESUMED: NoData,
+    EventKind.STARTED: NoData,
+    EventKind.PAUSED: NoData,
+    EventKind.STOPPED: NoData,
+    EventKind.OBSTACLE: ObstacleData,
+    EventKind.BAD_CONTROL: NoData,
+    EventKind.BAD_MESSAGE: NoData,
+    EventKind.LAGGARD: LaggardData,
+    EventKind.RADIO_DROPPED: RadioDroppedData,
+    EventKind.LEGACY_REFUSED: LegacyRefusedData,
+    EventKind.LEGACY_FINISHED: NoData,
+}  # the payload type of each kind of event
+
+P = TypeVar("P", bound=EventData)
+
+
+def make_event(
+    kind: EventKind,
+    payload: EventData | None = None,
+    *,
+    reason: str = "",
+    tick: int = 0,
+    sim_time_ns: int = 0,
+    robot_id: int = -1,
+    key: str = "",
+    source: str = "",
+) -> Event:
+    """An event of ``kind`` carrying ``payload`` in its ``data``.
+
+    Args:
+        kind: What happened.
+        payload: Its payload, of the kind's type in :data:`EVENT_PAYLOADS` (``None``: :class:`NoData`).
+        reason: What happened, for people.
+        tick: The tick it happened in.
+        sim_time_ns: The simulation time it happened at (ns).
+        robot_id: The robot concerned (-1: none).
+        key: The key concerned (a bad message's, a bad control's).
+        source: Who says so (``world``, ``role/name``).
+
+    Returns:
+        The event.
+
+    Raises:
+        TypeError: When the payload is not the kind's.
+    """
+    data = NoData() if payload is None else payload
+    expected = EVENT_PAYLOADS[kind]
+    if type(data) is not expected:
+        raise TypeError(f"a {kind} event carries {expected.__name__}, not {type(data).__name__}")
+    return Event(
+        tick=tick,
+        sim_time_ns=sim_time_ns,
+        kind=kind,
+        reason=reason,
+        robot_id=robot_id,
+        key=key,
+        source=source,
+        data=msgspec.to_builtins(data),
+    )
+
+
+@overload
+def event_payload(ev: Event) -> EventData: ...
+@overload
+def event_payload(ev: Event, expected: type[P]) -> P: ...
+def event_payload(ev: Event, expected: type[EventData] | None = None) -> EventData:
+    """The payload of an event, as its kind's struct.
+
+    Args:
+        ev: The event (decoded, or made here).
+        expected: The payload type the caller reads (a check: it must be the kind's).
+
+    Returns:
+        The payload.
+
+    Raises:
+        DecodeError: When the kind is unknown or ``data`` is not that kind's payload (naming the field).
+        TypeError: When ``expected`` is not the kind's payload type.
+    """
+    try:
+        kind = EventKind(ev.kind)
+    except ValueError:
+        raise DecodeError(f"{Event.schema}: no event kind {ev.kind!r}") from None
+    cls = EVENT_PAYLOADS[kind]
+    if expected is not None and expected is not cls:
+        raise TypeError(f"a {kind} event carries {cls.__name__}, not {expected.__name__}")
+    try:
+        return msgspec.convert(ev.data, cls)
+    except msgspec.ValidationError as e:
+        raise DecodeError(f"{Event.schema} {kind} data: {e}") from None
 
 
 MESSAGE_TYPES: tuple[type[Message], ...] = (

@@ -28,6 +28,8 @@ from iw_zenoh import keys
 from iw_zenoh.bus import Asked, ZenohBus
 from iw_zenoh.cliargs import add_common_arguments, net_from_args
 from iw_zenoh.convert import grid_from_msg, lab_from_msg, spec_to_msg
+from iw_zenoh.core.modes import Mode as WorldMode
+from iw_zenoh.core.modes import Profile
 from iw_zenoh.core.params import SimParameters
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import IwError, ProtocolError
@@ -36,7 +38,9 @@ from iw_zenoh.messages import (
     ActionBatch,
     Actions,
     Control,
+    EventKind,
     LabMsg,
+    LegacyRefusedData,
     PoseReport,
     RadioBatch,
     RegisterReply,
@@ -230,7 +234,8 @@ class Bridge:
         if now - self._last_event.get(key, 0.0) >= EVENT_EVERY_S:
             self._last_event[key] = now
             logger.warning("refused a datagram from %s:%d: %s", peer[0], peer[1], reason)
-            self.io.event("legacy-refused", f"{peer[0]}:{peer[1]}: {reason}", peer=f"{peer[0]}:{peer[1]}")
+            peer_s = f"{peer[0]}:{peer[1]}"
+            self.io.event(EventKind.LEGACY_REFUSED, f"{peer_s}: {reason}", LegacyRefusedData(peer=peer_s))
 
     def _new_socket(self) -> socket.socket:
         s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -565,7 +570,7 @@ class Bridge:
     def _pacer_now(self) -> Pacer | None:
         """The pacer of a real-time world when pacing is on (lock-step waits for nobody's clock)."""
         info = self.info
-        if not self.pace or info is None or info.mode != "realtime":
+        if not self.pace or info is None or info.mode != WorldMode.REALTIME:
             return None
         if self._pacer is None or self._pacer.period_ns != info.period_ns:
             self._pacer = Pacer(info.period_ns)
@@ -617,13 +622,15 @@ class Bridge:
         info = self.info
         if self.finished_at is not None or sim_time <= 0 or tick < sim_time:
             return
-        if info is None or info.profile != "ciberrato":
+        if info is None or info.profile != Profile.CIBERRATO:
             return  # a native world's length is its own (a legacy viewer may watch a long run)
         self.finished_at = sim_time
         for c in self.by_robot.values():
             c.left = c.right = 0.0
         self.io.send(keys.control(self.sim), Control(command="pause"))
-        self.io.event("legacy-finished", f"Time reached SimTime {sim_time}: the simulation is finished", tick=tick)
+        self.io.event(
+            EventKind.LEGACY_FINISHED, f"Time reached SimTime {sim_time}: the simulation is finished", tick=tick
+        )
 
     def _game(self, c: Client) -> RobotGame | None:
         """The robot's legacy game, made once the world's lab is known."""

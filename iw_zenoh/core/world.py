@@ -5,7 +5,6 @@ collision process; :func:`step` chains the three for tests, benchmarks and lock-
 
 from __future__ import annotations
 
-import enum
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -14,20 +13,22 @@ import numpy.typing as npt
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.collision import Collisions, check_collisions, check_collisions_ciberrato
 from iw_zenoh.core.lab import Scene
+from iw_zenoh.core.modes import Profile
 from iw_zenoh.core.motor import clamp_power, step_drive, step_drive_ciberrato, wheel_speeds_mps
 from iw_zenoh.core.spec import RobotType
 
-__all__ = ["Profile", "Proposal", "WorldState", "commit", "initial_state", "propose", "step"]
+__all__ = [
+    "Profile",  # re-exported: its home is core.modes
+    "Proposal",
+    "WorldState",
+    "commit",
+    "initial_state",
+    "propose",
+    "step",
+]
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
-
-
-class Profile(enum.StrEnum):
-    """How the world moves and checks bodies."""
-
-    NATIVE = "native"  # Intellwheels: rectangles, curve motor model, exact polygons
-    CIBERRATO = "ciberrato"  # the legacy simulator's motion and collision rules, exactly
 
 
 @dataclass(frozen=True)

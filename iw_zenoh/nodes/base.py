@@ -12,7 +12,7 @@ from typing import TypeVar
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus, Delivery, Inbox
 from iw_zenoh.errors import DecodeError
-from iw_zenoh.messages import Event, Message, Outgoing, decode, encode
+from iw_zenoh.messages import EventData, EventKind, Message, Outgoing, decode, encode, make_event
 
 __all__ = ["NodeIO", "Outgoing", "install_stop_signals", "setup_logging"]
 
@@ -61,28 +61,28 @@ class NodeIO:
 
     def event(
         self,
-        kind: str,
+        kind: EventKind,
         reason: str,
+        payload: EventData | None = None,
         *,
         tick: int = 0,
         sim_time_ns: int = 0,
         robot_id: int = -1,
         key: str = "",
-        **data: object,
     ) -> None:
-        """Publishes an event (and logs it)."""
+        """Publishes an event of ``kind`` with its payload (see :func:`messages.make_event`), and logs it."""
         logger.info("event %s: %s", kind, reason)
         self.send(
             keys.event(self.sim, kind),
-            Event(
+            make_event(
+                kind,
+                payload,
+                reason=reason,
                 tick=tick,
                 sim_time_ns=sim_time_ns,
-                kind=kind,
-                reason=reason,
                 robot_id=robot_id,
                 key=key,
                 source=f"{self.role}/{self.name}",
-                data=dict(data),
             ),
         )
 
@@ -99,7 +99,7 @@ class NodeIO:
         """Reports a message dropped as malformed: counted, logged, and a ``bad-message`` event."""
         self.bad_messages += 1
         logger.warning("dropped a bad message on %s: %s", key, error)
-        self.event("bad-message", str(error), key=key)
+        self.event(EventKind.BAD_MESSAGE, str(error), key=key)
 
     def wait(self, timeout_s: float) -> None:
         """Sleeps until something arrives, a stop is asked, or ``timeout_s`` passes."""

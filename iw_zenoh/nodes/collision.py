@@ -15,6 +15,7 @@ from iw_zenoh.bus import Bus, ZenohBus
 from iw_zenoh.cliargs import add_common_arguments, net_from_args
 from iw_zenoh.core.collision import check_collisions, check_collisions_ciberrato
 from iw_zenoh.core.contact import warm_up
+from iw_zenoh.core.modes import Profile
 from iw_zenoh.core.spec import RobotType
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import Hit, Proposed, Verdict
@@ -36,7 +37,7 @@ class CollisionNode:
         nxt = np.column_stack([msg.next_x, msg.next_y, msg.next_heading]) if ids else np.zeros((0, 3))
         active = np.asarray(msg.active, dtype=bool)
         bodies = view.bodies_for(ids)
-        if view.info.profile == "ciberrato":
+        if view.info.profile == Profile.CIBERRATO:
             col = check_collisions_ciberrato(view.scene, now, nxt, np.asarray(msg.linear), active=active)
             hits = [Hit(robot_id=ids[i], other=ids[j]) for i, j in col.robot_pairs]
         else:

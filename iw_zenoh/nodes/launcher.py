@@ -25,8 +25,9 @@ from pathlib import Path
 from iw_zenoh import keys
 from iw_zenoh.bus import Inbox, ZenohBus
 from iw_zenoh.config import Scenario, load_scenario
+from iw_zenoh.core.modes import Mode
 from iw_zenoh.errors import IwError
-from iw_zenoh.messages import Control, Event, WorldState, decode, encode
+from iw_zenoh.messages import Control, Event, EventKind, WorldState, decode, encode
 from iw_zenoh.net import DEFAULT_PORT, NetConfig, free_port, port_in_use
 from iw_zenoh.nodes.base import setup_logging
 
@@ -162,11 +163,11 @@ class Launcher:
             "--expect",
             str(sc.robots),
             "--profile",
-            sc.profile,
+            sc.profile.value,
         ]
         if sc.grid:
             world += ["--grid", str(sc.grid)]
-        if sc.mode == "lockstep":
+        if sc.mode == Mode.LOCKSTEP:
             world.append("--lockstep")
         for o in sc.obstacles:
             world += ["--obstacle", f"{o.name}:{o.x0:g},{o.y0:g},{o.x1:g},{o.y1:g},{o.height:g}"]
@@ -273,12 +274,12 @@ class Launcher:
                 ev = decode(data, Event)
             except IwError:
                 continue
-            t.events[ev.kind] = t.events.get(ev.kind, 0) + 1
-            if ev.kind == "collision":
+            t.events[str(ev.kind)] = t.events.get(str(ev.kind), 0) + 1
+            if ev.kind == EventKind.COLLISION:
                 t.collisions += 1
-            if ev.kind == "holding":
+            if ev.kind == EventKind.HOLDING:
                 t.holding = ev.reason
-            if ev.kind == "resumed":
+            if ev.kind == EventKind.RESUMED:
                 t.holding = ""
         for _, data, _ in states.drain():
             try:
@@ -300,7 +301,7 @@ class Launcher:
         last_print = 0.0
         world = next(c for c in self.children if c.role == "world")
         agents = [c for c in self.children if c.role == "agent"]
-        limit = self.sc.duration_s * (1.0 if self.sc.mode == "realtime" else 5.0) + 60.0
+        limit = self.sc.duration_s * (1.0 if self.sc.mode == Mode.REALTIME else 5.0) + 60.0
         interrupted = False
         try:
             while not self.stop_event.is_set():
@@ -445,7 +446,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         sc = load_scenario(args.scenario)
         if args.lockstep:
-            sc = dataclasses.replace(sc, mode="lockstep")
+            sc = dataclasses.replace(sc, mode=Mode.LOCKSTEP)
         launcher = Launcher(
             sc,
             port=args.port,

@@ -19,7 +19,7 @@ from iw_zenoh import keys
 from iw_zenoh.bus import Bus, ZenohBus
 from iw_zenoh.cliargs import add_common_arguments, net_from_args
 from iw_zenoh.errors import IwError
-from iw_zenoh.messages import Event, Hear, Heard, RadioBatch, Say, WorldState
+from iw_zenoh.messages import EventKind, Hear, Heard, RadioBatch, RadioDroppedData, Say, WorldState, make_event
 from iw_zenoh.nodes.base import NodeIO, Outgoing, install_stop_signals, setup_logging
 
 __all__ = ["RadioConfig", "RadioNode", "main", "run"]
@@ -83,15 +83,15 @@ class RadioNode:
         out.append((keys.radio(self.sim), RadioBatch(tick=msg.tick, sim_time_ns=msg.sim_time_ns, hear=batch)))
         if dropped:
             total = sum(dropped.values())
-            ev = Event(
+            ev = make_event(
+                EventKind.RADIO_DROPPED,
+                RadioDroppedData(**dropped),
+                reason=f"{total} radio messages dropped",
                 tick=msg.tick,
                 sim_time_ns=msg.sim_time_ns,
-                kind="radio-dropped",
-                reason=f"{total} radio messages dropped",
                 source="radio",
-                data=dict(dropped),
             )
-            out.append((keys.event(self.sim, "radio-dropped"), ev))
+            out.append((keys.event(self.sim, EventKind.RADIO_DROPPED), ev))
         return out
 
 

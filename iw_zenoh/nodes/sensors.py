@@ -23,6 +23,7 @@ from iw_zenoh import keys
 from iw_zenoh.bus import Bus, Inbox, ZenohBus
 from iw_zenoh.cliargs import add_common_arguments, net_from_args
 from iw_zenoh.core.cones import warm_up
+from iw_zenoh.core.modes import Profile
 from iw_zenoh.core.noise import NoiseStreams, Stream
 from iw_zenoh.core.sensors import SensorParams, noise_layout, read_sensors
 from iw_zenoh.errors import IwError
@@ -145,7 +146,7 @@ class SensorsNode:
             c = replace(ahead, msg=msg)
         elif (
             again.mean() > ALL_AGAIN
-            or view.info.profile == "ciberrato"  # its IR model's rays have no range to bound
+            or view.info.profile == Profile.CIBERRATO  # its IR model's rays have no range to bound
             or any(view.specs[i].beacon_height_m is not None for i in msg.ids)  # a beacon that moves
         ):
             c = self.compute(msg, view)
@@ -203,7 +204,7 @@ class SensorsNode:
             z=z,
             params=SensorParams(),
             only=only,
-            legacy_ir=view.info.profile == "ciberrato",
+            legacy_ir=view.info.profile == Profile.CIBERRATO,
             moving_beacons=moving,
         )
         out: list[tuple[str, SensorReading]] = []

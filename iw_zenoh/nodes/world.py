@@ -16,14 +16,18 @@ from iw_zenoh.bus import Bus, ZenohBus
 from iw_zenoh.cliargs import add_common_arguments, net_from_args
 from iw_zenoh.clock import Clock, WallClock
 from iw_zenoh.core.lab import Grid
+from iw_zenoh.core.modes import Mode, Profile
 from iw_zenoh.errors import IwError
 from iw_zenoh.maps import load_grid, load_lab
 from iw_zenoh.messages import (
     ActionBatch,
     Actions,
     Control,
+    EventKind,
+    LaggardData,
     Obstacle,
     PoseReport,
+    RefusedData,
     RegisterReply,
     RegisterRequest,
     Verdict,
@@ -89,7 +93,12 @@ class _World:
             try:
                 req = decode(q.payload, RegisterRequest)
             except IwError as e:
-                io.event("refused", f"registration that does not decode: {e}", key=keys.register(core.cfg.sim))
+                io.event(
+                    EventKind.REFUSED,
+                    f"registration that does not decode: {e}",
+                    RefusedData(),
+                    key=keys.register(core.cfg.sim),
+                )
                 q.reply(encode(RegisterReply(ok=False, reason=f"the request does not decode: {e}")))
                 continue
             reply, out = core.register(req, now)
@@ -105,13 +114,13 @@ class _World:
             if a is not None and keys.robot_id_of(d[0]) == a.robot_id:
                 io.send_all(core.on_actions(a, now))
             elif a is not None:
-                io.event("bad-message", f"actions for robot {a.robot_id} on another robot's key", key=d[0])
+                io.event(EventKind.BAD_MESSAGE, f"actions for robot {a.robot_id} on another robot's key", key=d[0])
         for d in self.batches.drain():
             b = io.decode(d, ActionBatch)
             if b is None:
                 continue
             if keys.agent_of(d[0]) != b.agent:
-                io.event("bad-message", f"actions of agent {b.agent!r} on another agent's key", key=d[0])
+                io.event(EventKind.BAD_MESSAGE, f"actions of agent {b.agent!r} on another agent's key", key=d[0])
                 continue
             for a in b.actions:
                 entry = core.registry.entries.get(a.robot_id)
@@ -119,7 +128,9 @@ class _World:
                     io.send_all(core.on_actions(a, now))
                 elif entry is not None:
                     io.event(
-                        "bad-message", f"agent {b.agent!r} sent actions for robot {a.robot_id}, not its own", key=d[0]
+                        EventKind.BAD_MESSAGE,
+                        f"agent {b.agent!r} sent actions for robot {a.robot_id}, not its own",
+                        key=d[0],
                     )
         for d in self.reports.drain():
             r = io.decode(d, PoseReport)
@@ -156,7 +167,7 @@ class _World:
         core, io, cfg = self.core, self.io, self.core.cfg
         period = cfg.period_ns
         next_ns = self.clock.now_ns()
-        lockstep = cfg.mode == "lockstep"
+        lockstep = cfg.mode == Mode.LOCKSTEP
         while not io.stop.is_set() and not core.stopped:
             self.pump()
             self._publish_info()
@@ -196,10 +207,10 @@ class _World:
                 )
                 if late and core.due():
                     io.event(
-                        "laggard",
+                        EventKind.LAGGARD,
                         f"tick {n}: no actions from robots {late} within {cfg.lockstep_timeout_ms:g} ms",
+                        LaggardData(robots=late),
                         tick=n,
-                        robots=late,
                     )
             else:
                 next_ns += period
@@ -235,8 +246,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--profile",
-        choices=["native", "ciberrato"],
-        default="native",
+        choices=[p.value for p in Profile],
+        default=Profile.NATIVE.value,
         help="motion and collision rules (default native)",
     )
     p.add_argument("--seed", type=int, default=0, help="seed of movement noise (default 0)")
@@ -302,8 +313,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         cfg = WorldConfig(
             sim=keys.chunk(args.sim),
             period_ms=args.period_ms,
-            mode="lockstep" if args.lockstep else "realtime",
-            profile=args.profile,
+            mode=Mode.LOCKSTEP if args.lockstep else Mode.REALTIME,
+            profile=Profile(args.profile),
             seed=args.seed,
             action_timeout_ms=args.action_timeout_ms,
             grace_ms=args.grace_ms,
@@ -325,7 +336,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             bad = [
                 m
                 for _, m in core.on_control(Control(command="add_obstacle", obstacle=parse_obstacle(text)))
-                if getattr(m, "kind", "") == "bad-control"
+                if getattr(m, "kind", "") == EventKind.BAD_CONTROL
             ]
             if bad:
                 raise ValueError(bad[0].reason)  # type: ignore[attr-defined]

@@ -20,25 +20,33 @@ from iw_zenoh.convert import grid_to_msg, lab_to_msg, spec_from_msg, spec_to_msg
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.collision import Collisions
 from iw_zenoh.core.lab import Grid, Lab, Scene, Wall, check_wall
+from iw_zenoh.core.modes import Mode, Profile
 from iw_zenoh.core.motor import MAX_POWER
 from iw_zenoh.core.noise import Stream, rng_for, standard_normals
 from iw_zenoh.core.spec import RobotType
-from iw_zenoh.core.world import Profile, Proposal, WorldState, commit, initial_state, propose
+from iw_zenoh.core.world import Proposal, WorldState, commit, initial_state, propose
 from iw_zenoh.errors import SpecError
 from iw_zenoh.messages import (
     Actions,
+    AgentLostData,
+    CollisionData,
     Control,
-    Event,
+    EventData,
+    EventKind,
     Hit,
     Obstacle,
+    ObstacleData,
     PoseReport,
     Proposed,
+    RefusedData,
+    RegisteredData,
     RegisterReply,
     RegisterRequest,
     RobotSpecMsg,
     Tick,
     Verdict,
     WorldInfo,
+    make_event,
 )
 from iw_zenoh.messages import (
     WorldState as WorldStateMsg,
@@ -74,8 +82,8 @@ class WorldConfig:
 
     sim: str = "default"
     period_ms: float = 100.0
-    mode: str = "realtime"
-    profile: str = "native"
+    mode: Mode = Mode.REALTIME
+    profile: Profile = Profile.NATIVE
     seed: int = 0
     action_timeout_ms: float = 500.0
     grace_ms: float = 5000.0
@@ -142,16 +150,18 @@ class WorldCore:
         """Simulated time at ``tick`` (default now)."""
         return (self.tick if tick is None else tick) * self.cfg.period_ns
 
-    def _event(self, kind: str, reason: str, robot_id: int = -1, key: str = "", **data: object) -> Outgoing:
-        return keys.event(self.cfg.sim, kind), Event(
+    def _event(
+        self, kind: EventKind, reason: str, robot_id: int = -1, key: str = "", payload: EventData | None = None
+    ) -> Outgoing:
+        return keys.event(self.cfg.sim, kind), make_event(
+            kind,
+            payload,
+            reason=reason,
             tick=self.tick,
             sim_time_ns=self.sim_time_ns(),
-            kind=kind,
-            reason=reason,
             robot_id=robot_id,
             key=key,
             source="world",
-            data=dict(data),
         )
 
     def _rebuild(self, keep_pose: dict[int, np.ndarray]) -> None:
@@ -237,17 +247,21 @@ class WorldCore:
         out: list[Outgoing] = [
             (keys.spec(self.cfg.sim, placed.id), reply),
             self._event(
-                "registered",
+                EventKind.REGISTERED,
                 f"robot {placed.id} {placed.name!r} at ({placed.x_m:g}, {placed.y_m:g})",
                 placed.id,
-                agent=req.agent,
+                payload=RegisteredData(agent=req.agent),
             ),
         ]
         return reply, out
 
     def _refuse(self, req: RegisterRequest, reason: str) -> tuple[RegisterReply, list[Outgoing]]:
         reply = RegisterReply(tick=self.tick, sim_time_ns=self.sim_time_ns(), ok=False, reason=reason)
-        return reply, [self._event("refused", reason, req.spec.id, name=req.spec.name, agent=req.agent)]
+        return reply, [
+            self._event(
+                EventKind.REFUSED, reason, req.spec.id, payload=RefusedData(name=req.spec.name, agent=req.agent)
+            )
+        ]
 
     def on_actions(self, msg: Actions, now_ns: int) -> list[Outgoing]:
         """Takes a robot's actions (applied at the next tick)."""
@@ -265,7 +279,7 @@ class WorldCore:
         e.leds = {"end": msg.end_led, "returning": msg.returning_led, "visiting": msg.visiting_led}
         if e.watchdog:
             e.watchdog = False
-            return [self._event("watchdog-cleared", f"robot {msg.robot_id} is commanded again", msg.robot_id)]
+            return [self._event(EventKind.WATCHDOG_CLEARED, f"robot {msg.robot_id} is commanded again", msg.robot_id)]
         return []
 
     def on_pose_report(self, msg: PoseReport, now_ns: int) -> None:
@@ -288,46 +302,48 @@ class WorldCore:
             return []
         self._motion_rngs.pop(robot_id, None)
         self._rebuild({})
-        return [self._event("removed", reason, robot_id)]
+        return [self._event(EventKind.REMOVED, reason, robot_id)]
 
     def on_control(self, msg: Control) -> list[Outgoing]:
         """Start, pause, step, stop, remove a robot, add / move / remove an obstacle."""
         c = msg.command
         if c == "start":
             self.running, self.steps_left = True, 0
-            return [self._event("started", "simulation running")]
+            return [self._event(EventKind.STARTED, "simulation running")]
         if c == "pause":
             self.running = False
-            return [self._event("paused", "simulation paused")]
+            return [self._event(EventKind.PAUSED, "simulation paused")]
         if c == "step":
             self.running = False
             self.steps_left += msg.steps
             return []
         if c == "stop":
             self.stopped = True
-            return [self._event("stopped", "stop requested")]
+            return [self._event(EventKind.STOPPED, "stop requested")]
         if c == "remove":
             return self.remove(msg.robot_id, f"robot {msg.robot_id} removed by control")
         if c == "seek":
-            return [self._event("bad-control", "seek is for replays; a live world cannot go back in time")]
+            return [self._event(EventKind.BAD_CONTROL, "seek is for replays; a live world cannot go back in time")]
         return self._obstacle(msg)
 
     def _obstacle(self, msg: Control) -> list[Outgoing]:
         ob = msg.obstacle
         if ob is None:
-            return [self._event("bad-control", f"{msg.command} needs an obstacle", key=keys.control(self.cfg.sim))]
+            return [
+                self._event(EventKind.BAD_CONTROL, f"{msg.command} needs an obstacle", key=keys.control(self.cfg.sim))
+            ]
         if msg.command == "remove_obstacle":
             if self.obstacles.pop(ob.name, None) is None:
-                return [self._event("bad-control", f"no obstacle named {ob.name!r}")]
+                return [self._event(EventKind.BAD_CONTROL, f"no obstacle named {ob.name!r}")]
         else:
             x0, x1 = sorted((ob.x0, ob.x1))
             y0, y1 = sorted((ob.y0, ob.y1))
             corners = ((x0, y0), (x1, y0), (x1, y1), (x0, y1))
             why = check_wall(corners, self.base_lab.width_m, self.base_lab.height_m)
             if why:
-                return [self._event("bad-control", f"obstacle {ob.name!r}: {why}")]
+                return [self._event(EventKind.BAD_CONTROL, f"obstacle {ob.name!r}: {why}")]
             if msg.command == "move_obstacle" and ob.name not in self.obstacles:
-                return [self._event("bad-control", f"no obstacle named {ob.name!r} to move")]
+                return [self._event(EventKind.BAD_CONTROL, f"no obstacle named {ob.name!r} to move")]
             self.obstacles[ob.name] = msgspec.structs.replace(ob, x0=x0, y0=y0, x1=x1, y1=y1)
         walls = tuple(
             Wall(((o.x0, o.y0), (o.x1, o.y0), (o.x1, o.y1), (o.x0, o.y1)), o.height) for o in self.obstacles.values()
@@ -335,7 +351,7 @@ class WorldCore:
         self.scene = Scene(self.base_lab.with_walls(walls))
         self.registry.scene = self.scene
         self.revision += 1
-        return [self._event("obstacle", f"{msg.command} {ob.name!r}", name=ob.name)]
+        return [self._event(EventKind.OBSTACLE, f"{msg.command} {ob.name!r}", payload=ObstacleData(name=ob.name))]
 
     def on_alive(self, role: str, name: str, alive: bool, now_ns: int) -> list[Outgoing]:
         """Tracks collision and sensors processes and agents; an agent lost zeroes its robots at once."""
@@ -344,15 +360,17 @@ class WorldCore:
         if role == "collision":
             was = bool(self.collision_alive)
             (self.collision_alive.add if alive else self.collision_alive.discard)(name)
-            if was and not self.collision_alive and self.cfg.mode == "lockstep":
+            if was and not self.collision_alive and self.cfg.mode == Mode.LOCKSTEP:
                 self.holding = "no collision process is alive: lock-step waits until one is back"
-                out.append(self._event("holding", f"every robot held still: {self.holding}"))
+                out.append(self._event(EventKind.HOLDING, f"every robot held still: {self.holding}"))
         elif role == "sensors":
             was = bool(self.sensors_alive)
             (self.sensors_alive.add if alive else self.sensors_alive.discard)(name)
-            if was and not self.sensors_alive and self.cfg.mode == "lockstep":
+            if was and not self.sensors_alive and self.cfg.mode == Mode.LOCKSTEP:
                 out.append(
-                    self._event("sensors-lost", "no sensors process is alive: lock-step waits until one is back")
+                    self._event(
+                        EventKind.SENSORS_LOST, "no sensors process is alive: lock-step waits until one is back"
+                    )
                 )
         elif role == "agent":
             if alive:
@@ -367,7 +385,12 @@ class WorldCore:
                         e.lost_ns = now_ns
                         e.cmd = (0.0, 0.0)
                         out.append(
-                            self._event("agent-lost", f"agent {name!r} is gone: robot {rid} stopped", rid, agent=name)
+                            self._event(
+                                EventKind.AGENT_LOST,
+                                f"agent {name!r} is gone: robot {rid} stopped",
+                                rid,
+                                payload=AgentLostData(agent=name),
+                            )
                         )
         return out
 
@@ -386,7 +409,11 @@ class WorldCore:
         make a run depend on when those processes joined)."""
         if self.stopped or len(self.registry.entries) < self.cfg.expect and self.tick == 0:
             return False
-        if self.cfg.mode == "lockstep" and self.registry.entries and not (self.sensors_alive and self.collision_alive):
+        if (
+            self.cfg.mode == Mode.LOCKSTEP
+            and self.registry.entries
+            and not (self.sensors_alive and self.collision_alive)
+        ):
             return False
         return self.running or self.steps_left > 0
 
@@ -408,7 +435,7 @@ class WorldCore:
         """Applies commands and watchdogs, proposes next poses; returns the proposal to publish."""
         out: list[Outgoing] = []
         timeout_ns = int(self.cfg.action_timeout_ms * MS)
-        lockstep = self.cfg.mode == "lockstep"
+        lockstep = self.cfg.mode == Mode.LOCKSTEP
         for rid, e in list(self.registry.entries.items()):
             if e.lost_ns is not None and now_ns - e.lost_ns > self.cfg.grace_ms * MS:
                 out += self.remove(
@@ -429,7 +456,9 @@ class WorldCore:
                 e.watchdog = True
                 out.append(
                     self._event(
-                        "watchdog", f"robot {rid}: no actions for {self.cfg.action_timeout_ms:g} ms, motors zeroed", rid
+                        EventKind.WATCHDOG,
+                        f"robot {rid}: no actions for {self.cfg.action_timeout_ms:g} ms, motors zeroed",
+                        rid,
                     )
                 )
             if not (e.watchdog or e.lost_ns is not None):
@@ -500,12 +529,12 @@ class WorldCore:
             reason = "no collision process is alive" if not self.collision_alive else "the collision verdict is late"
             hold = np.ones(len(ids), dtype=bool)
             if ids and self.holding != reason:  # an empty world holds nobody (a world starting first)
-                out.append(self._event("holding", f"every robot held still: {reason}"))
+                out.append(self._event(EventKind.HOLDING, f"every robot held still: {reason}"))
                 self.holding = reason
             col = Collisions.none(len(ids))
         else:
             if self.holding:
-                out.append(self._event("resumed", "collision verdicts are back; robots move again"))
+                out.append(self._event(EventKind.RESUMED, "collision verdicts are back; robots move again"))
             self.holding = ""
             c = np.asarray(verdict.collided, dtype=bool)
             col = Collisions(c, c.copy(), c.copy(), np.zeros((0, 2), dtype=np.int64), np.zeros((0, 2), dtype=np.int64))
@@ -527,7 +556,12 @@ class WorldCore:
                     robots = [h.other for h in by_robot.get(rid, []) if h.other >= 0]
                     reason = f"robot {rid} hit {what or 'something'} at ({x:.2f}, {y:.2f})"
                     out.append(
-                        self._event("collision", reason, rid, x=float(x), y=float(y), walls=walls, robots=robots)
+                        self._event(
+                            EventKind.COLLISION,
+                            reason,
+                            rid,
+                            payload=CollisionData(x=float(x), y=float(y), walls=walls, robots=robots),
+                        )
                     )
         if self.steps_left > 0:
             self.steps_left -= 1
@@ -557,7 +591,7 @@ class WorldCore:
         out.append((keys.tick(self.cfg.sim), self.tick_msg()))
         if self.cfg.duration_ticks and n >= self.cfg.duration_ticks:
             self.stopped = True
-            out.append(self._event("stopped", f"duration reached: {n} ticks"))
+            out.append(self._event(EventKind.STOPPED, f"duration reached: {n} ticks"))
         return out
 
     def tick_msg(self) -> Tick:
@@ -566,7 +600,7 @@ class WorldCore:
             tick=self.tick,
             sim_time_ns=self.sim_time_ns(),
             period_ns=self.cfg.period_ns,
-            mode="lockstep" if self.cfg.mode == "lockstep" else "realtime",
+            mode=Mode(self.cfg.mode),
             running=self.running,
             revision=self.revision,
         )
@@ -586,8 +620,8 @@ class WorldCore:
             revision=self.revision,
             lab=lab_to_msg(lab),
             grid=grid_to_msg(self.grid),
-            profile="ciberrato" if self.cfg.profile == "ciberrato" else "native",
-            mode="lockstep" if self.cfg.mode == "lockstep" else "realtime",
+            profile=Profile(self.cfg.profile),
+            mode=Mode(self.cfg.mode),
             period_ns=self.cfg.period_ns,
             seed=self.cfg.seed,
             robots=self._robots_msg(),

@@ -23,21 +23,21 @@ from iw_zenoh import keys
 from iw_zenoh.convert import lab_from_msg, spec_from_msg
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.lab import Scene
-from iw_zenoh.errors import IwError
-from iw_zenoh.messages import Event, WorldInfo, WorldState, decode
+from iw_zenoh.errors import DecodeError, IwError
+from iw_zenoh.messages import CollisionData, Event, EventKind, WorldInfo, WorldState, decode, event_payload
 
 __all__ = ["Incident", "find_incidents", "main"]
 
 EVENT_KINDS = {
-    "collision": "collision",
-    "watchdog": "watchdog stop",
-    "agent-lost": "agent lost",
-    "holding": "robots held (no collision verdict)",
-    "refused": "registration refused",
-    "radio-dropped": "radio messages dropped",
-    "bad-message": "malformed message",
-    "laggard": "lock-step laggard",
-    "removed": "robot removed",
+    EventKind.COLLISION: "collision",
+    EventKind.WATCHDOG: "watchdog stop",
+    EventKind.AGENT_LOST: "agent lost",
+    EventKind.HOLDING: "robots held (no collision verdict)",
+    EventKind.REFUSED: "registration refused",
+    EventKind.RADIO_DROPPED: "radio messages dropped",
+    EventKind.BAD_MESSAGE: "malformed message",
+    EventKind.LAGGARD: "lock-step laggard",
+    EventKind.REMOVED: "robot removed",
 }
 
 
@@ -106,9 +106,13 @@ def find_incidents(f: IO[bytes], *, near_m: float = 0.2) -> list[Incident]:
                 continue
             who = [ev.robot_id] if ev.robot_id >= 0 else []
             at = [last_pos[ev.robot_id]] if ev.robot_id in last_pos else []
-            if ev.kind == "collision" and "x" in ev.data:
-                at = [(float(ev.data["x"]), float(ev.data["y"]))]
-            out.append(Incident(ev.sim_time_ns / 1e9, ev.kind, f"{label}: {ev.reason}", who, at))
+            if ev.kind == EventKind.COLLISION:
+                try:
+                    hit = event_payload(ev, CollisionData)
+                    at = [(hit.x, hit.y)]
+                except DecodeError:
+                    pass  # where the robot last was, then
+            out.append(Incident(ev.sim_time_ns / 1e9, str(ev.kind), f"{label}: {ev.reason}", who, at))
         elif kind == "state" and view is not None:
             try:
                 st = decode(data, WorldState)

@@ -26,12 +26,30 @@ from mcap.reader import make_reader  # noqa: E402
 from iw_zenoh import keys  # noqa: E402
 from iw_zenoh.convert import spec_from_msg  # noqa: E402
 from iw_zenoh.core.bodies import Bodies  # noqa: E402
-from iw_zenoh.errors import IwError  # noqa: E402
-from iw_zenoh.messages import ActionBatch, Actions, Event, SensorReading, WorldInfo, WorldState, decode  # noqa: E402
+from iw_zenoh.errors import DecodeError, IwError  # noqa: E402
+from iw_zenoh.messages import (  # noqa: E402
+    ActionBatch,
+    Actions,
+    CollisionData,
+    Event,
+    EventKind,
+    SensorReading,
+    WorldInfo,
+    WorldState,
+    decode,
+    event_payload,
+)
 
 __all__ = ["main", "render"]
 
-INCIDENTS = ("collision", "watchdog", "agent-lost", "holding", "refused", "laggard")
+INCIDENTS = (
+    EventKind.COLLISION,
+    EventKind.WATCHDOG,
+    EventKind.AGENT_LOST,
+    EventKind.HOLDING,
+    EventKind.REFUSED,
+    EventKind.LAGGARD,
+)
 
 
 def render(f: IO[bytes], out: Path, *, at_s: float, window_s: float = 10.0, robot: int | None = None) -> int:
@@ -135,9 +153,12 @@ def render(f: IO[bytes], out: Path, *, at_s: float, window_s: float = 10.0, robo
                     )
                 )
     for e in events:
-        ex, ey = e.data.get("x"), e.data.get("y")
-        if isinstance(ex, int | float) and isinstance(ey, int | float):
-            ax.plot([ex], [ey], "rx", ms=14, mew=3)
+        if e.kind == EventKind.COLLISION:
+            try:
+                place = event_payload(e, CollisionData)
+                ax.plot([place.x], [place.y], "rx", ms=14, mew=3)
+            except DecodeError:
+                pass  # no place to mark
         ax.text(
             0.01,
             0.01 + 0.03 * events.index(e),

@@ -22,11 +22,13 @@ from mcap.reader import make_reader
 from iw_zenoh import keys
 from iw_zenoh.convert import grid_from_msg, lab_from_msg, spec_from_msg
 from iw_zenoh.core.lab import Scene
+from iw_zenoh.core.modes import Mode
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import (
     ActionBatch,
     Actions,
     Event,
+    EventKind,
     Proposed,
     RegisterReply,
     RegisterRequest,
@@ -93,7 +95,7 @@ def load_run(f: IO[bytes]) -> RecordedRun:
             continue  # a malformed message was recorded as received; it never reached the world
     if info is None:
         raise IwError("the recording holds no world description (iw/SIM/world/info); record with a current iwz")
-    if info.mode != "lockstep":
+    if info.mode != Mode.LOCKSTEP:
         raise IwError("only lock-step recordings can be re-simulated exactly (this one ran in real time)")
     return RecordedRun(info, list(specs.values()), actions, states, collisions)
 
@@ -129,7 +131,7 @@ def resimulate(
     cfg = WorldConfig(
         sim=info.sim,
         period_ms=info.period_ns / 1e6,
-        mode="lockstep",
+        mode=Mode.LOCKSTEP,
         profile=info.profile,
         seed=info.seed,
         action_timeout_ms=1e12,
@@ -162,7 +164,7 @@ def resimulate(
         state = next(m for _, m in done if isinstance(m, WorldState))
         result.ticks = n
         for k, m in done:
-            if isinstance(m, Event) and m.kind == "collision":
+            if isinstance(m, Event) and m.kind == EventKind.COLLISION:
                 result.collisions.append((m.sim_time_ns / 1e9, m.robot_id, m.reason))
             if out is not None:
                 out.add(k, encode(m), now)
