@@ -454,13 +454,8 @@ class WorldCore:
             stale = now_ns - e.last_action_ns > timeout_ns and not answered
             if stale and not e.watchdog and e.lost_ns is None and e.spec.type != RobotType.REAL:
                 e.watchdog = True
-                out.append(
-                    self._event(
-                        EventKind.WATCHDOG,
-                        f"robot {rid}: no actions for {self.cfg.action_timeout_ms:g} ms, motors zeroed",
-                        rid,
-                    )
-                )
+                why = f"robot {rid}: no actions for {self.cfg.action_timeout_ms:g} ms, motors zeroed"
+                out.append(self._event(EventKind.WATCHDOG, why, rid))
             if not (e.watchdog or e.lost_ns is not None):
                 cmd[i] = e.cmd
             if e.report is not None:
@@ -555,14 +550,8 @@ class WorldCore:
                     walls = [h.wall for h in by_robot.get(rid, []) if h.wall >= 0]
                     robots = [h.other for h in by_robot.get(rid, []) if h.other >= 0]
                     reason = f"robot {rid} hit {what or 'something'} at ({x:.2f}, {y:.2f})"
-                    out.append(
-                        self._event(
-                            EventKind.COLLISION,
-                            reason,
-                            rid,
-                            payload=CollisionData(x=float(x), y=float(y), walls=walls, robots=robots),
-                        )
-                    )
+                    hit = CollisionData(x=float(x), y=float(y), walls=walls, robots=robots)
+                    out.append(self._event(EventKind.COLLISION, reason, rid, payload=hit))
         if self.steps_left > 0:
             self.steps_left -= 1
         s = self.state
