@@ -34,19 +34,14 @@ from iw_zenoh.convert import spec_from_msg, spec_to_msg
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import DecodeError, IwError
+from iw_zenoh.hosting import Command, Outbox, WorldRegistration
 from iw_zenoh.messages import (
-    ActionBatch,
-    Actions,
     Heard,
-    PoseReport,
     RadioBatch,
-    RegisterReply,
     RegisterRequest,
-    Say,
     SensorReading,
     WorldInfo,
     decode,
-    encode,
     readings_of,
 )
 from iw_zenoh.nodes.base import NodeIO
@@ -56,27 +51,6 @@ __all__ = ["BATCH_FROM", "Agent", "AgentHost", "Command", "RegistrationRefused"]
 logger = logging.getLogger(__name__)
 
 BATCH_FROM = 8  # robots in one host from which `iwz agent` reads and answers in batches
-
-
-@dataclass(frozen=True)
-class Command:
-    """What an agent does this tick.
-
-    Attributes:
-        left: Left motor power, [-0.15, 0.15] (the world clamps).
-        right: Right motor power.
-        say: A radio message (at most 100 bytes), or None.
-        end_led: Ciber-Rato's end LED (and the other two).
-        pose: For Real robots: the pose (x, y, dir_deg) from the robot's own odometry.
-    """
-
-    left: float = 0.0
-    right: float = 0.0
-    say: str | None = None
-    end_led: bool = False
-    returning_led: bool = False
-    visiting_led: bool = False
-    pose: tuple[float, float, float] | None = None
 
 
 class Agent(Protocol):
@@ -129,6 +103,7 @@ class AgentHost:
         self._fresh: dict[int, int] = {}  # tick -> how many hosted robots have that tick's readings
         self.lockstep = False
         self._requests = 0
+        self.outbox = Outbox(bus, sim, name, batched=batched)
         bus.watch_alive(keys.all_alive(sim), self._on_alive)
         self.io.alive()
 
@@ -154,21 +129,20 @@ class AgentHost:
             if asked.id > 0 and not self.batched
             else None
         )
-        deadline = time.monotonic() + timeout_s
-        answers: list[bytes] = []
-        while not answers and time.monotonic() < deadline and not self.io.stop.is_set():
-            # the world may still be starting: ask again until it answers
-            answers = self.io.bus.query(keys.register(self.sim), encode(req), timeout_s=min(1.0, timeout_s))
-            if not answers:
-                self.io.stop.wait(0.2)
-        if not answers:
+        # the world may still be starting: asked again until it answers
+        reg = WorldRegistration(
+            self.io.bus, self.sim, req, now=time.monotonic(), patience_s=timeout_s, query_timeout_s=min(1.0, timeout_s)
+        )
+        while not reg.poll(time.monotonic()) and not self.io.stop.is_set():
+            reg.wait(self.io.stop, time.monotonic())
+        reply = reg.reply()
+        if reply is None:
             if early is not None:
                 early.undeclare()
             raise RegistrationRefused(
                 f"no world answered on {keys.register(self.sim)} within {timeout_s:g} s; "
                 f"is `iwz world` running with --sim {self.sim}?"
             )
-        reply = decode(answers[0], RegisterReply)
         if early is not None and (not reply.ok or reply.robot_id != asked.id):
             early.undeclare()
             early = None
@@ -239,43 +213,14 @@ class AgentHost:
             if n is None:
                 return False
         heard_now = self._heard.get(n, {})
-        batch: list[Actions] = []
         for h in self.hosted.values():
             r = h.reading
             if r is None or r.tick <= h.answered:
                 continue
             cmd = h.agent.on_sensors(r, heard_now.get(h.robot_id, []))
-            if cmd.say is not None:
-                self.io.send(
-                    keys.say(self.sim, h.robot_id),
-                    Say(tick=r.tick, sim_time_ns=r.sim_time_ns, robot_id=h.robot_id, text=cmd.say),
-                )
-            if cmd.pose is not None:
-                x, y, d = cmd.pose
-                self.io.send(
-                    keys.pose_report(self.sim, h.robot_id),
-                    PoseReport(tick=r.tick, sim_time_ns=r.sim_time_ns, robot_id=h.robot_id, x=x, y=y, dir_deg=d),
-                )
-            act = Actions(
-                tick=r.tick,
-                sim_time_ns=r.sim_time_ns,
-                robot_id=h.robot_id,
-                left=cmd.left,
-                right=cmd.right,
-                end_led=cmd.end_led,
-                returning_led=cmd.returning_led,
-                visiting_led=cmd.visiting_led,
-            )
-            if self.batched:
-                batch.append(act)
-            else:
-                self.io.send(keys.actions(self.sim, h.robot_id), act)
+            self.outbox.command(h.robot_id, cmd, tick=r.tick, sim_time_ns=r.sim_time_ns)
             h.answered = r.tick
-        if batch:
-            self.io.send(
-                keys.agent_actions(self.sim, self.name),
-                ActionBatch(tick=n, sim_time_ns=batch[-1].sim_time_ns, agent=self.name, actions=batch),
-            )
+        self.outbox.flush()
         for t in [t for t in self._heard if t <= n]:
             del self._heard[t]
         for t in [t for t in self._fresh if t <= n]:

@@ -1,0 +1,175 @@
+"""What every process that drives robots of the world shares, the agent host and the legacy
+bridge alike: a registration asked of the world until a world answers, and the outgoing path of
+a robot's commands (its radio message and pose report at once, its actions on its own key or
+in one batch per pass for the whole process).
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+
+from iw_zenoh import keys
+from iw_zenoh.bus import Asked, Bus
+from iw_zenoh.messages import (
+    ActionBatch,
+    Actions,
+    PoseReport,
+    RegisterReply,
+    RegisterRequest,
+    Say,
+    decode,
+    encode,
+)
+
+__all__ = ["ASK_AGAIN_S", "Command", "Outbox", "WorldRegistration"]
+
+ASK_AGAIN_S = 0.2  # a registration no queryable answered is asked again at most this often
+
+
+@dataclass(frozen=True)
+class Command:
+    """What an agent does this tick.
+
+    Attributes:
+        left: Left motor power, [-0.15, 0.15] (the world clamps).
+        right: Right motor power.
+        say: A radio message (at most 100 bytes), or None.
+        end_led: Ciber-Rato's end LED (and the other two).
+        pose: For Real robots: the pose (x, y, dir_deg) from the robot's own odometry.
+    """
+
+    left: float = 0.0
+    right: float = 0.0
+    say: str | None = None
+    end_led: bool = False
+    returning_led: bool = False
+    visiting_led: bool = False
+    pose: tuple[float, float, float] | None = None
+
+
+class Outbox:
+    """A process's outgoing path for the robots it drives.
+
+    Args:
+        bus: The bus.
+        sim: Simulation name.
+        agent: The process's agent name (the key of its batches).
+        batched: Keep each robot's newest actions and send them all in one :class:`ActionBatch`
+            on :meth:`flush`; otherwise each robot's actions go at once on its own key.
+    """
+
+    def __init__(self, bus: Bus, sim: str, agent: str, *, batched: bool) -> None:
+        self.bus = bus
+        self.sim = sim
+        self.agent = agent
+        self.batched = batched
+        self._batch: dict[int, Actions] = {}  # robot -> newest actions not yet sent
+
+    def command(self, robot_id: int, cmd: Command, *, tick: int, sim_time_ns: int) -> Actions:
+        """Sends a robot's radio message and pose report now; its actions now or with the batch.
+
+        Args:
+            robot_id: The robot.
+            cmd: What it does.
+            tick: The tick its command answers (the tick of the readings it was made from).
+            sim_time_ns: That tick's simulation time.
+
+        Returns:
+            The robot's actions, as sent or queued.
+        """
+        if cmd.say is not None:
+            say = Say(tick=tick, sim_time_ns=sim_time_ns, robot_id=robot_id, text=cmd.say)
+            self.bus.publish(keys.say(self.sim, robot_id), encode(say))
+        if cmd.pose is not None:
+            x, y, d = cmd.pose
+            report = PoseReport(tick=tick, sim_time_ns=sim_time_ns, robot_id=robot_id, x=x, y=y, dir_deg=d)
+            self.bus.publish(keys.pose_report(self.sim, robot_id), encode(report))
+        act = Actions(
+            tick=tick,
+            sim_time_ns=sim_time_ns,
+            robot_id=robot_id,
+            left=cmd.left,
+            right=cmd.right,
+            end_led=cmd.end_led,
+            returning_led=cmd.returning_led,
+            visiting_led=cmd.visiting_led,
+        )
+        if self.batched:
+            self._batch[robot_id] = act
+        else:
+            self.bus.publish(keys.actions(self.sim, robot_id), encode(act))
+        return act
+
+    def flush(self) -> None:
+        """Sends the queued actions, every robot's in one message stamped with the newest tick."""
+        if not self._batch:
+            return
+        acts = list(self._batch.values())
+        self._batch.clear()
+        last = max(acts, key=lambda a: a.tick)
+        batch = ActionBatch(tick=last.tick, sim_time_ns=last.sim_time_ns, agent=self.agent, actions=acts)
+        self.bus.publish(keys.agent_actions(self.sim, self.agent), encode(batch))
+
+
+class WorldRegistration:
+    """One robot's registration, asked of the world without waiting; asked again while no world
+    answers (a world still starting) until ``patience_s`` has passed.
+
+    Args:
+        bus: The bus.
+        sim: Simulation name.
+        request: The registration.
+        now: The time of asking, in seconds of a monotonic clock (the caller's).
+        patience_s: How long a registration no world answers is asked again.
+        query_timeout_s: How long one ask waits for its answers.
+    """
+
+    def __init__(
+        self, bus: Bus, sim: str, request: RegisterRequest, *, now: float, patience_s: float, query_timeout_s: float
+    ) -> None:
+        self.bus = bus
+        self.key = keys.register(sim)
+        self.request = request
+        self.payload = encode(request)
+        self.since = now
+        self.patience_s = patience_s
+        self.query_timeout_s = query_timeout_s
+        self.asked_at = now
+        self.asked: Asked = bus.ask(self.key, self.payload, timeout_s=query_timeout_s)
+
+    def poll(self, now: float) -> bool:
+        """Whether the registration is over (answered, or no world answered in time); asks again
+        when the last ask went unanswered and ASK_AGAIN_S has passed since it.
+
+        Args:
+            now: Seconds, of the clock ``now`` was given in at construction.
+        """
+        if not self.asked.answered():
+            return False
+        if self.asked.replies or now - self.since >= self.patience_s:
+            return True
+        if now - self.asked_at >= ASK_AGAIN_S:  # no queryable answers at once: not in a busy loop
+            self.asked = self.bus.ask(self.key, self.payload, timeout_s=self.query_timeout_s)
+            self.asked_at = now
+        return False
+
+    def wait(self, stop: threading.Event, now: float) -> None:
+        """Blocks until the next :meth:`poll` has something to do, or ``stop`` is set.
+
+        Args:
+            stop: Set when the caller is stopping.
+            now: Seconds, of the clock ``now`` was given in at construction.
+        """
+        if not self.asked.answered():
+            self.asked.done.wait(self.query_timeout_s)  # every answer in, or the query's timeout
+        else:
+            stop.wait(max(0.0, ASK_AGAIN_S - (now - self.asked_at)))
+
+    def reply(self) -> RegisterReply | None:
+        """The world's answer, or None when no world answered.
+
+        Raises:
+            DecodeError: When the answer does not decode.
+        """
+        return decode(self.asked.replies[0], RegisterReply) if self.asked.replies else None
