@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from iw_zenoh.bridges.ciberrato.node import FloodGuard
+from iw_zenoh.bridges.ciberrato.registrar import FloodGuard
 
 
 def test_peers_of_one_address_each_have_their_own_budget() -> None:
