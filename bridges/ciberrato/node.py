@@ -16,19 +16,15 @@ when Measures go is the :class:`~.delivery.Delivery`'s; its sockets are given to
 
 from __future__ import annotations
 
-import argparse
 import logging
 import selectors
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import Protocol
 
 from iw_zenoh import keys
-from iw_zenoh.bus import Bus, Queue, ZenohBus
-from iw_zenoh.cliargs import add_common_arguments, net_from_args
+from iw_zenoh.bus import ZenohBus
+from iw_zenoh.cliargs import net_from_args
 from iw_zenoh.convert import grid_from_msg, lab_from_msg
-from iw_zenoh.core.modes import Profile
 from iw_zenoh.core.params import SimParameters
 from iw_zenoh.errors import IwError, ProtocolError
 from iw_zenoh.hosting import Outbox
@@ -51,11 +47,12 @@ from iw_zenoh.nodes.base import NodeIO, install_stop_signals, setup_logging
 
 from .codec import build_refusal, build_reply, parse_actions, parse_registration, parse_viewer_command
 from .delivery import Delivery
+from .options import parser
 from .referee import Referee
 from .registrar import FLOOD_PER_S, FloodGuard, Pending, RefusalThrottle, Registrar
 from .robot import LegacyRobot
 from .scoring import Mode
-from .transport import DatagramTransport, TransportFactory, UdpTransport, udp_factory
+from .transport import DatagramTransport, QueueBus, RobotLink, TransportFactory, UdpTransport, Viewer, udp_factory
 
 __all__ = ["Bridge", "FloodGuard", "main"]
 
@@ -65,31 +62,6 @@ RECV_BYTES = 4096
 POLL_S = 0.001  # the loop looks at the bus queues at least this often
 
 Peer = tuple[str, int]
-
-
-class QueueBus(Bus, Protocol):
-    """A bus that also gives lossless queues polled from the node's loop (:class:`ZenohBus`)."""
-
-    def queue(self, key_expr: str, capacity: int = 200_000) -> Queue:
-        """A queue of every payload matching ``key_expr``."""
-
-
-@dataclass
-class Viewer:
-    """A legacy viewer (or panel) and its own socket."""
-
-    kind: str  # viewer, panel
-    addr: Peer
-    transport: DatagramTransport
-
-
-@dataclass
-class RobotLink:
-    """A legacy robot's address, its own socket and its state."""
-
-    addr: Peer
-    transport: DatagramTransport
-    robot: LegacyRobot
 
 
 class Bridge:
@@ -131,7 +103,6 @@ class Bridge:
         self.robots: dict[int, LegacyRobot] = {}
         self.info: WorldInfo | None = None
         self.running = True
-        self.finished_at: int | None = None  # the simulator's Time frozen at SimTime, once reached
         # Zenoh's own queues, polled by the UDP loop every millisecond: no Python callback thread
         # competing for the interpreter lock with the loop 100 times a cycle (that contention,
         # not the work, was most of the Measures jitter at 100 robots)
@@ -236,7 +207,7 @@ class Bridge:
         except ProtocolError as e:
             self._refuse(peer, str(e))
             return
-        cmd = robot.on_actions(frame, sim_finished=self.finished_at is not None)
+        cmd = robot.on_actions(frame, sim_finished=self.referee.finished_at is not None)
         tick, sim_ns = robot.stamp()
         self.outbox.command(robot.robot_id, cmd, tick=tick, sim_time_ns=sim_ns)  # sent with the pass's
 
@@ -251,7 +222,7 @@ class Bridge:
             v.transport.sendto(lab_to_xml(lab_from_msg(info.lab), legacy=True) + b"\x00", peer)
         elif cmd.kind == "gridreq" and info is not None:
             v.transport.sendto(grid_to_xml(grid_from_msg(info.grid), legacy=True) + b"\x00", peer)
-        elif cmd.kind in ("start", "stop") and self.finished_at is None:  # Finished is terminal
+        elif cmd.kind in ("start", "stop") and self.referee.finished_at is None:  # Finished is terminal
             self.io.send(keys.control(self.sim), Control(command="start" if cmd.kind == "start" else "pause"))
         elif cmd.kind == "remove":
             self.io.send(keys.control(self.sim), Control(command="remove", robot_id=cmd.robot_id))
@@ -330,26 +301,19 @@ class Bridge:
                     self._send_measures(robot, t.tick, force=True)
 
     def _check_finished(self, tick: int) -> None:
-        """Ciber-Rato's simulator finishes when its Time reaches SimTime (SimTime > 0): in a world
-        of the ciberrato profile the bridge then pauses the world for good; robots and viewers go
-        on receiving every cycle with Time frozen and both buttons Off, and Start is ignored."""
-        sim_time = self.params.sim_time
-        info = self.info
-        if self.finished_at is not None or sim_time <= 0 or tick < sim_time:
-            return
-        if info is None or info.profile != Profile.CIBERRATO:
-            return  # a native world's length is its own (a legacy viewer may watch a long run)
-        self.finished_at = sim_time
-        for robot in self.robots.values():
-            robot.left = robot.right = 0.0
-        self.io.send(keys.control(self.sim), Control(command="pause"))
-        self.io.event(
-            EventKind.LEGACY_FINISHED, f"Time reached SimTime {sim_time}: the simulation is finished", tick=tick
-        )
+        """At SimTime the legacy simulation finishes: the world is paused for good."""
+        if self.referee.finish(tick, self.info, self.robots):
+            sim_time = self.params.sim_time
+            self.io.send(keys.control(self.sim), Control(command="pause"))
+            self.io.event(
+                EventKind.LEGACY_FINISHED, f"Time reached SimTime {sim_time}: the simulation is finished", tick=tick
+            )
 
     def _next_measures(self, robot: LegacyRobot, tick: int, *, force: bool = False) -> bytes | None:
         """The robot's Measures of ``tick``, once a tick (unless forced)."""
-        return robot.next_measures(tick, self.params, running=self.running, finished_at=self.finished_at, force=force)
+        return robot.next_measures(
+            tick, self.params, running=self.running, finished_at=self.referee.finished_at, force=force
+        )
 
     def _send_to(self, robot: LegacyRobot, data: bytes) -> None:
         link = self.by_robot.get(robot.robot_id)
@@ -408,49 +372,13 @@ class Bridge:
         self.reception.close()
 
 
-def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
-        prog="iwz bridge ciberrato",
-        description="Let unmodified Ciber-Rato / Intellwheels agents and viewers (XML/UDP) join a Zenoh simulation.",
-        epilog=(
-            "Example: iwz bridge ciberrato --param maps/ciberrato/C1-config.xml\n"
-            "then start the legacy agents and viewers against UDP port 6000, unchanged."
-        ),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    p.add_argument("--port", type=int, default=6000, help="registration port (default 6000: unmodified clients use it)")
-    p.add_argument(
-        "--bind", default="127.0.0.1", help="address to listen on (default loopback only; 0.0.0.0 to open it)"
-    )
-    p.add_argument("--param", help="a Ciber-Rato parameters file (what clients are told: sensors on/off, noise)")
-    p.add_argument(
-        "--scoring",
-        type=int,
-        choices=[0, 1, 2, 3],
-        default=0,
-        help="the legacy --scoring: 0 competitive (default), 1 control (C1), 2 mapping, 3 planning (C2-C5); "
-        "scores go to viewers, and in Measures when the parameters' ScoreSensor is On",
-    )
-    p.add_argument(
-        "--pace",
-        choices=["auto", "off"],
-        default="auto",
-        help="real-time worlds: send every Measures of a cycle at a steady offset from the cycle's start, "
-        "learned from how late readings come (auto, default: one period between Measures as the legacy "
-        "server keeps it); off: send each as soon as its readings arrive",
-    )
-    p.add_argument("--name", default="ciberrato", help="process name (liveliness)")
-    add_common_arguments(p)
-    return p
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Runs ``iwz bridge ciberrato``."""
     args_in = list(argv or [])
     if args_in[:1] != ["ciberrato"]:
         print("usage: iwz bridge ciberrato [options]   (iwz bridge ciberrato --help)")
         return 2 if args_in[:1] not in (["-h"], ["--help"]) else 0
-    args = _parser().parse_args(args_in[1:])
+    args = parser().parse_args(args_in[1:])
     setup_logging(args.verbose, "bridge")
     try:
         params = load_parameters(args.param) if args.param else SimParameters()

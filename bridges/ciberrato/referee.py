@@ -8,6 +8,7 @@ import threading
 from collections.abc import Callable, Mapping
 
 from iw_zenoh.convert import lab_from_msg
+from iw_zenoh.core.modes import Profile
 from iw_zenoh.core.params import SimParameters
 from iw_zenoh.messages import LabMsg, Verdict, WorldInfo, WorldState
 
@@ -37,6 +38,7 @@ class Referee:
         self._space: tuple[LabMsg, list[FreeSpace]] | None = None
         self._hit: dict[int, bool] = {}  # native robots: in contact at the last state
         self._collisions: dict[int, int] = {}  # native robots: collisions counted here
+        self.finished_at: int | None = None  # the simulator's Time frozen at SimTime, once reached
 
     def on_verdict(self, v: Verdict) -> None:
         """Notes which collisions of a tick were walls and which robots."""
@@ -98,6 +100,30 @@ class Referee:
                     game.path = PathLength(game.lab, robot.start, space=space)
             wall, other = hits.get(rid, (hit, False))
             robot.step(st.tick, x, y, collision=hit, hit_wall=wall, hit_robot=other)
+
+    def finish(self, tick: int, info: WorldInfo | None, robots: Mapping[int, LegacyRobot]) -> bool:
+        """Whether the simulation finishes at ``tick``: Ciber-Rato's simulator finishes when its
+        Time reaches SimTime (SimTime > 0), in a world of the ciberrato profile; robots and viewers
+        then go on receiving every cycle with Time frozen and both buttons Off, Start is ignored,
+        and every robot stops.
+
+        Args:
+            tick: A committed state's tick.
+            info: The world's description as last received.
+            robots: The bridge's robots by id.
+
+        Returns:
+            True once, at the tick it finishes (the world is then to be paused for good).
+        """
+        sim_time = self.params.sim_time
+        if self.finished_at is not None or sim_time <= 0 or tick < sim_time:
+            return False
+        if info is None or info.profile != Profile.CIBERRATO:
+            return False  # a native world's length is its own (a legacy viewer may watch a long run)
+        self.finished_at = sim_time
+        for robot in robots.values():
+            robot.left = robot.right = 0.0
+        return True
 
     def robot_states(
         self, st: WorldState, robots: Mapping[int, LegacyRobot], info: WorldInfo | None, *, running: bool

@@ -1,4 +1,5 @@
-"""The datagram sockets the legacy bridge is given: a small protocol, and the real one on UDP.
+"""The datagram sockets the legacy bridge is given (a small protocol, and the real one on UDP),
+and the legacy clients on them.
 
 The node never opens a socket itself: it is handed a reception transport and a factory of the
 per-client ones, so its logic runs in a test against fakes, and against real UDP in production.
@@ -8,9 +9,22 @@ from __future__ import annotations
 
 import socket
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Protocol
 
-__all__ = ["DatagramTransport", "TransportFactory", "UdpTransport", "udp_factory"]
+from iw_zenoh.bus import Bus, Queue
+
+from .robot import LegacyRobot
+
+__all__ = [
+    "DatagramTransport",
+    "QueueBus",
+    "RobotLink",
+    "TransportFactory",
+    "UdpTransport",
+    "Viewer",
+    "udp_factory",
+]
 
 Peer = tuple[str, int]
 
@@ -83,3 +97,28 @@ class UdpTransport:
 def udp_factory(bind: str) -> TransportFactory:
     """Per-client UDP sockets on ``bind``, each on a free port (as the legacy server's)."""
     return lambda: UdpTransport(bind)
+
+
+class QueueBus(Bus, Protocol):
+    """A bus that also gives lossless queues polled from the node's loop (:class:`ZenohBus`)."""
+
+    def queue(self, key_expr: str, capacity: int = 200_000) -> Queue:
+        """A queue of every payload matching ``key_expr``."""
+
+
+@dataclass
+class Viewer:
+    """A legacy viewer (or panel) and its own socket."""
+
+    kind: str  # viewer, panel
+    addr: Peer
+    transport: DatagramTransport
+
+
+@dataclass
+class RobotLink:
+    """A legacy robot's address, its own socket and its state."""
+
+    addr: Peer
+    transport: DatagramTransport
+    robot: LegacyRobot
