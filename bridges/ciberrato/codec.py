@@ -101,6 +101,24 @@ def _float(el: etree._Element, *names: str) -> float | None:
     return None
 
 
+def _digits(raw: str | None, what: str) -> int | None:
+    """A whole number written in ASCII digits (spaces around allowed); None when absent or not
+    digits at all (the caller's legacy rule applies).
+
+    Raises:
+        ProtocolError: For digits that are not ASCII: ``str.isdigit()`` holds for "²" or "٣",
+            which ``int()`` refuses or reads as another number than the legacy server would.
+    """
+    if raw is None:
+        return None
+    text = raw.strip()
+    if not text.isdigit():
+        return None
+    if not text.isascii():
+        raise ProtocolError(f"{what}={raw!r} is not written in ASCII digits")
+    return int(text)
+
+
 @dataclass(frozen=True)
 class Registration:
     """A registration datagram on port 6000.
@@ -151,20 +169,18 @@ def parse_registration(datagram: bytes) -> Registration:
         return Registration(kind=str(tag).lower())
     if tag not in ("Robot", "RobotBeacon"):
         raise ProtocolError(f"unknown registration <{tag}>; expected Robot, RobotBeacon, View or Panel")
-    raw_id = root.get("Id", "0")
-    robot_id = int(raw_id) if raw_id.strip().isdigit() else 0  # legacy: a bad Id means "any"
+    robot_id = _digits(root.get("Id"), "Id")
+    robot_id = 0 if robot_id is None else robot_id  # legacy: a missing or bad Id means "any"
     ir: list[tuple[int, float, float | None, float | None, float | None]] = []
     for child in root:
         if not isinstance(child.tag, str):
             continue
         if child.tag != "IRSensor":
             raise ProtocolError(f"unknown element <{child.tag}> in <{tag}>")
-        sid, angle = child.get("Id"), child.get("Angle")
-        if sid is None or angle is None or not sid.strip().isdigit():
+        sid, angle = _digits(child.get("Id"), "IRSensor Id"), child.get("Angle")
+        if sid is None or angle is None:
             continue  # the legacy server ignores an IRSensor without Id or Angle
-        ir.append(
-            (int(sid), _float(child, "Angle") or 0.0, _float(child, "X"), _float(child, "Y"), _float(child, "Cone"))
-        )
+        ir.append((sid, _float(child, "Angle") or 0.0, _float(child, "X"), _float(child, "Y"), _float(child, "Cone")))
     body = {k: v for k, names in _BODY_ATTRS.items() if (v := _float(root, *names)) is not None}
     return Registration(
         kind="beacon" if tag == "RobotBeacon" else "robot",
@@ -342,8 +358,10 @@ def parse_viewer_command(datagram: bytes) -> ViewerCommand:
     simple = {"Start": "start", "Stop": "stop", "LabReq": "labreq", "GridReq": "gridreq"}
     if root.tag in simple:
         return ViewerCommand(simple[str(root.tag)])
-    if root.tag == "Robot" and root.get("Removed") == "Yes" and (root.get("Id") or "").isdigit():
-        return ViewerCommand("remove", int(root.get("Id", "0")))
+    if root.tag == "Robot" and root.get("Removed") == "Yes":
+        robot_id = _digits(root.get("Id"), "Id")
+        if robot_id is not None:
+            return ViewerCommand("remove", robot_id)
     raise ProtocolError(
         f'unknown viewer command <{root.tag}>; expected Start, Stop, LabReq, GridReq or Robot Id= Removed="Yes"'
     )
