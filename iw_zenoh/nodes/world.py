@@ -1,4 +1,4 @@
-"""``iwz world MAP``: the world process (see :mod:`iw_zenoh.nodes.world_core` for the logic).
+"""``iwz world MAP``: the world process (see :mod:`iw_zenoh.sim.world` for the logic).
 
 Wiring: registration and info queryables, actions / pose reports / control / verdict inboxes,
 liveliness of collision processes and agents; then the tick loop in real time or lock-step.
@@ -35,7 +35,7 @@ from iw_zenoh.messages import (
     encode,
 )
 from iw_zenoh.nodes.base import NodeIO, install_stop_signals, setup_logging
-from iw_zenoh.nodes.world_core import MS, WorldConfig, WorldCore
+from iw_zenoh.sim.world import MS, WorldConfig, WorldCore
 
 __all__ = ["main", "run"]
 

@@ -41,8 +41,8 @@ from iw_zenoh.messages import (
 from iw_zenoh.nodes.collision import CollisionNode
 from iw_zenoh.nodes.info import WorldView
 from iw_zenoh.nodes.sensors import SensorsNode
-from iw_zenoh.nodes.world_core import WorldConfig, WorldCore
 from iw_zenoh.record.recording import Recorder
+from iw_zenoh.sim.world import WorldConfig, WorldCore
 
 __all__ = ["Resim", "load_run", "main", "resimulate"]
 

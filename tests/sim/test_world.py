@@ -15,7 +15,7 @@ from iw_zenoh.messages import (
     Verdict,
     WorldState,
 )
-from iw_zenoh.nodes.world_core import MS, WorldConfig, WorldCore
+from iw_zenoh.sim.world import MS, WorldConfig, WorldCore
 from tests.conftest import box_wall
 
 
@@ -255,7 +255,7 @@ def test_a_registration_asked_again_gets_its_first_answer() -> None:
 
 
 def test_robots_registered_between_ticks_are_built_once_and_placed_apart(monkeypatch: pytest.MonkeyPatch) -> None:
-    from iw_zenoh.nodes import world_core
+    from iw_zenoh.sim import world as world_core
 
     core = _core()
     builds: list[int] = []  # sizes of roster builds (placing one newcomer builds just its body)
