@@ -1,5 +1,5 @@
-"""``iwz collision``: verdicts on each tick's proposed poses (robot-robot and robot-wall, on the
-next pose, exact polygons; or the Ciber-Rato rule in the legacy profile)."""
+"""``iwz collision``: verdicts on each tick's proposed poses (the logic:
+:mod:`iw_zenoh.sim.collision`)."""
 
 from __future__ import annotations
 
@@ -8,52 +8,19 @@ import logging
 import time
 from collections.abc import Sequence
 
-import numpy as np
-
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus, ZenohBus
 from iw_zenoh.cliargs import add_common_arguments, net_from_args
-from iw_zenoh.core.collision import check_collisions, check_collisions_ciberrato
 from iw_zenoh.core.contact import warm_up
-from iw_zenoh.core.modes import Profile
-from iw_zenoh.core.spec import RobotType
 from iw_zenoh.errors import IwError
-from iw_zenoh.messages import Hit, Proposed, Verdict
+from iw_zenoh.messages import Proposed
 from iw_zenoh.nodes.base import NodeIO, install_stop_signals, setup_logging
-from iw_zenoh.nodes.info import InfoCache, WorldView
+from iw_zenoh.nodes.info import InfoCache
+from iw_zenoh.sim.collision import CollisionNode
 
-__all__ = ["CollisionNode", "main", "run"]
+__all__ = ["main", "run"]
 
 logger = logging.getLogger(__name__)
-
-
-class CollisionNode:
-    """Turns a proposal into a verdict (logic only)."""
-
-    def on_proposed(self, msg: Proposed, view: WorldView) -> Verdict:
-        """The verdict on one proposal."""
-        ids = msg.ids
-        now = np.column_stack([msg.x, msg.y, msg.heading]) if ids else np.zeros((0, 3))
-        nxt = np.column_stack([msg.next_x, msg.next_y, msg.next_heading]) if ids else np.zeros((0, 3))
-        active = np.asarray(msg.active, dtype=bool)
-        bodies = view.bodies_for(ids)
-        if view.info.profile == Profile.CIBERRATO:
-            col = check_collisions_ciberrato(view.scene, now, nxt, np.asarray(msg.linear), active=active)
-            hits = [Hit(robot_id=ids[i], other=ids[j]) for i, j in col.robot_pairs]
-        else:
-            doors = np.asarray([t == RobotType.DOOR for t in bodies.types], dtype=bool)
-            col = check_collisions(view.scene, bodies.outline, now, nxt, active=active, ignore_walls=doors)
-            hits = [Hit(robot_id=ids[i], other=ids[j]) for i, j in col.robot_pairs]
-            hits += [Hit(robot_id=ids[j], other=ids[i]) for i, j in col.robot_pairs]
-        hits += [Hit(robot_id=ids[i], wall=int(w)) for i, w in col.wall_pairs]
-        return Verdict(
-            tick=msg.tick,
-            sim_time_ns=msg.sim_time_ns,
-            revision=msg.revision,
-            ids=list(ids),
-            collided=col.collided.tolist(),
-            hits=hits,
-        )
 
 
 def run(bus: Bus, sim: str, *, name: str = "collision", io: NodeIO | None = None) -> None:

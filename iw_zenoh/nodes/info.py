@@ -1,41 +1,22 @@
-"""The world's description as other nodes see it: fetched from ``world/info`` whenever a batched
-message names a revision this node has not seen (a robot registered or left, an obstacle moved)."""
+"""The world's description as other nodes see it (a :class:`~iw_zenoh.sim.view.WorldView`):
+fetched from ``world/info`` whenever a batched message names a revision this node has not seen
+(a robot registered or left, an obstacle moved)."""
 
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus
 from iw_zenoh.convert import lab_from_msg, spec_from_msg
-from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.lab import Scene
-from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import WorldInfo, decode
+from iw_zenoh.sim.view import WorldView
 
-__all__ = ["InfoCache", "WorldView"]
+__all__ = ["InfoCache"]
 
 logger = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True, eq=False)
-class WorldView:
-    """What one revision of the world looks like: its scene and its robots in array order."""
-
-    info: WorldInfo
-    scene: Scene
-    specs: dict[int, RobotSpec]
-    _bodies: dict[tuple[int, ...], Bodies] = field(default_factory=dict)
-
-    def bodies_for(self, ids: list[int]) -> Bodies:
-        """Body arrays for these robots, in this order (built once per roster)."""
-        key = tuple(ids)
-        got = self._bodies.get(key)
-        if got is None:
-            got = self._bodies[key] = Bodies.from_specs([self.specs[i] for i in ids])
-        return got
 
 
 class InfoCache:

@@ -35,7 +35,8 @@ from iw_zenoh.messages import (
     encode,
 )
 from iw_zenoh.nodes.base import NodeIO, install_stop_signals, setup_logging
-from iw_zenoh.sim.world import MS, WorldConfig, WorldCore
+from iw_zenoh.sim.config import MS, WorldConfig
+from iw_zenoh.sim.world import WorldCore
 
 __all__ = ["main", "run"]
 

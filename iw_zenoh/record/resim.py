@@ -38,11 +38,12 @@ from iw_zenoh.messages import (
     decode,
     encode,
 )
-from iw_zenoh.nodes.collision import CollisionNode
-from iw_zenoh.nodes.info import WorldView
-from iw_zenoh.nodes.sensors import SensorsNode
 from iw_zenoh.record.recording import Recorder
-from iw_zenoh.sim.world import WorldConfig, WorldCore
+from iw_zenoh.sim.collision import CollisionNode
+from iw_zenoh.sim.config import WorldConfig
+from iw_zenoh.sim.sensors import SensorsNode
+from iw_zenoh.sim.view import WorldView
+from iw_zenoh.sim.world import WorldCore
 
 __all__ = ["Resim", "load_run", "main", "resimulate"]
 

@@ -1,5 +1,5 @@
 """The world's roster: who is registered, with which spec, driven by which agent, commanding
-what; and the rules that accept or refuse a registration."""
+what; the rules that accept or refuse a registration; and the order of the arrays a tick steps."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import shapely
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.lab import Grid, Scene
 from iw_zenoh.core.spec import RobotSpec, RobotType
+from iw_zenoh.core.world import WorldState
 
 __all__ = ["Entry", "Registry", "Refused"]
 
@@ -46,12 +47,20 @@ class Entry:
 
 
 class Registry:
-    """Robots by id, in registration order (the order of every batched array)."""
+    """Robots by id, in registration order (the order of every batched array).
+
+    A robot that registers or leaves changes the roster at once, but the arrays a tick steps are
+    rebuilt once, when the next tick begins (:meth:`arrange`): a thousand robots registering one
+    by one rebuilt them a thousand times, minutes.
+    """
 
     def __init__(self, scene: Scene, grid: Grid) -> None:
         self.scene = scene
         self.grid = grid
         self.entries: dict[int, Entry] = {}
+        self.arrayed: list[int] = []  # robot ids in the order of the arrays last built
+        self._stale = False  # the roster changed since the arrays were built
+        self._new_poses: dict[int, np.ndarray] = {}  # start poses of robots not yet in the arrays
 
     @property
     def ids(self) -> list[int]:
@@ -123,11 +132,121 @@ class Registry:
         return placed
 
     def add(self, spec: RobotSpec, agent: str, now_ns: int) -> Entry:
-        """Adds an accepted robot."""
+        """Adds an accepted robot (placed: its id and start pose set)."""
         e = Entry(spec=spec, agent=agent, last_action_ns=now_ns)
         self.entries[spec.id] = e
+        self._new_poses[spec.id] = np.array([spec.x_m or 0.0, spec.y_m or 0.0, np.radians(spec.dir_deg or 0.0)])
+        self._stale = True
         return e
 
     def remove(self, robot_id: int) -> Entry | None:
         """Removes a robot; returns it, or None if there was none."""
-        return self.entries.pop(robot_id, None)
+        e = self.entries.pop(robot_id, None)
+        if e is not None:
+            self._stale = True
+        return e
+
+    def poses(self, state: WorldState) -> dict[int, tuple[float, float, float]]:
+        """Current pose (x, y, heading rad) of every registered robot by id, newcomers at their
+        start pose.
+
+        Args:
+            state: The state of the arrays last built.
+        """
+        out = {
+            rid: (float(p[0]), float(p[1]), float(p[2]))
+            for rid, p in zip(self.arrayed, state.pose, strict=True)
+            if rid in self.entries
+        }
+        for rid, p in self._new_poses.items():
+            if rid in self.entries:
+                out[rid] = (float(p[0]), float(p[1]), float(p[2]))
+        return out
+
+    def arrange(self, state: WorldState) -> tuple[WorldState, Bodies] | None:
+        """The arrays for the current roster when it changed since they were last built, keeping
+        every surviving robot's pose, motor outputs and collision flag; None when it did not.
+
+        Args:
+            state: The state of the arrays last built.
+
+        Returns:
+            The state in the new order (commands and distances rolled zero) and its bodies.
+        """
+        if not self._stale:
+            return None
+        self._stale = False
+        keep_pose, self._new_poses = self._new_poses, {}
+        old = {rid: i for i, rid in enumerate(self.arrayed)}
+        ids = self.ids
+        n = len(ids)
+        pose = np.zeros((n, 3))
+        out = np.zeros((n, 2))
+        col = np.zeros(n, dtype=bool)
+        for i, rid in enumerate(ids):
+            if rid in old:
+                j = old[rid]
+                pose[i] = state.pose[j]
+                out[i] = state.motor_out[j]
+                col[i] = state.collided[j]
+            else:
+                pose[i] = keep_pose[rid]
+        self.arrayed = ids
+        arranged = WorldState(state.tick, pose, out, np.zeros((n, 2)), col, np.zeros((n, 2)))
+        return arranged, Bodies.from_specs(self.specs())
+
+    def commands(
+        self, ids: list[int], *, now_ns: int, timeout_ns: int, answered_tick: int | None
+    ) -> tuple[np.ndarray, np.ndarray, list[int]]:
+        """What to apply this tick, firing the watchdog of robots whose actions are stale.
+
+        Args:
+            ids: Robot ids in array order.
+            now_ns: Monotonic time now.
+            timeout_ns: Actions older than this are stale.
+            answered_tick: Lock-step: a robot that answered this sensors tick is on time however
+                long ago that was (None in real time).
+
+        Returns:
+            (N, 2) powers (zero for a robot whose watchdog fired or whose agent is lost), (N, 3)
+            reported poses of Real robots (NaN for the others), and the robots whose watchdog
+            fired now, in array order.
+        """
+        cmd = np.zeros((len(ids), 2))
+        report = np.full((len(ids), 3), np.nan)
+        fired: list[int] = []
+        for i, rid in enumerate(ids):
+            e = self.entries[rid]
+            # lock-step: a robot that answered the last tick is on time however long the
+            # others took (a wall-clock watchdog there zeroed a door that had answered while a
+            # chair planned, differently each run)
+            answered = answered_tick is not None and e.last_action_tick >= answered_tick
+            stale = now_ns - e.last_action_ns > timeout_ns and not answered
+            if stale and not e.watchdog and e.lost_ns is None and e.spec.type != RobotType.REAL:
+                e.watchdog = True
+                fired.append(rid)
+            if not (e.watchdog or e.lost_ns is not None):
+                cmd[i] = e.cmd
+            if e.report is not None:
+                report[i] = e.report
+        return cmd, report, fired
+
+    def agent_back(self, agent: str) -> None:
+        """An agent is (again) alive: its robots are no longer due for removal."""
+        for e in self.entries.values():
+            if e.agent == agent:
+                e.lost_ns = None
+
+    def agent_lost(self, agent: str, now_ns: int) -> list[int]:
+        """An agent is gone: its robots stop at once, due for removal after the grace period.
+
+        Returns:
+            The robots newly lost, in registration order.
+        """
+        lost: list[int] = []
+        for rid, e in self.entries.items():
+            if e.agent == agent and e.lost_ns is None:
+                e.lost_ns = now_ns
+                e.cmd = (0.0, 0.0)
+                lost.append(rid)
+        return lost

@@ -276,7 +276,8 @@ def test_the_sensors_node_catches_up_a_tick_of_backlog(net: Net) -> None:
     # as after a slow tick. Every tick's readings must come, none skipped.
     from iw_zenoh.core.lab import Grid, GridPosition, Lab
     from iw_zenoh.messages import Proposed, RegisterRequest, Verdict
-    from iw_zenoh.sim.world import MS, WorldConfig, WorldCore
+    from iw_zenoh.sim.config import MS, WorldConfig
+    from iw_zenoh.sim.world import WorldCore
 
     core = WorldCore(WorldConfig(sim=net.sim), Lab("t", 20.0, 10.0), Grid((GridPosition(2, 5, 0),)))
     assert core.register(RegisterRequest(spec=RobotSpecMsg(name="a")), 0)[0].ok

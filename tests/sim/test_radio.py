@@ -1,7 +1,7 @@
 from __future__ import annotations
 
 from iw_zenoh.messages import Event, Hear, RadioBatch, Say, WorldState
-from iw_zenoh.nodes.radio import RadioConfig, RadioNode
+from iw_zenoh.sim.radio import RadioConfig, RadioNode
 
 
 def _state(xs: list[float]) -> WorldState:

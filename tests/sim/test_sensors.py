@@ -8,8 +8,8 @@ from iw_zenoh.convert import lab_to_msg, spec_to_msg
 from iw_zenoh.core.lab import Lab, Scene
 from iw_zenoh.core.spec import IrSensorSpec, RobotSpec
 from iw_zenoh.messages import Proposed, SensorReading, WorldInfo, WorldState, encode
-from iw_zenoh.nodes.info import WorldView
-from iw_zenoh.nodes.sensors import SensorsNode
+from iw_zenoh.sim.sensors import SensorsNode
+from iw_zenoh.sim.view import WorldView
 from tests.conftest import box_wall
 
 LAB = Lab("t", 20.0, 10.0, (box_wall(9.0, 0.0, 10.0, 3.0),))

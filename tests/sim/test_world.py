@@ -15,7 +15,8 @@ from iw_zenoh.messages import (
     Verdict,
     WorldState,
 )
-from iw_zenoh.sim.world import MS, WorldConfig, WorldCore
+from iw_zenoh.sim.config import MS, WorldConfig
+from iw_zenoh.sim.world import WorldCore
 from tests.conftest import box_wall
 
 

@@ -1,0 +1,53 @@
+"""How the world runs: its period, mode, profile, seed, timeouts and roster (from ``iwz world``'s
+options, a scenario, or a recording to re-simulate)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from iw_zenoh.core.modes import Mode, Profile
+
+__all__ = ["MS", "WorldConfig"]
+
+MS = 1_000_000
+
+
+@dataclass(frozen=True)
+class WorldConfig:
+    """How the world runs.
+
+    Attributes:
+        sim: Simulation name.
+        period_ms: Tick period (simulated time per tick; real time too in real-time mode).
+        mode: ``realtime`` or ``lockstep``.
+        profile: ``native`` or ``ciberrato``.
+        seed: Seeds movement noise.
+        action_timeout_ms: Actions older than this (wall clock) zero the motors.
+        grace_ms: A robot whose agent is gone is removed after this.
+        lockstep_timeout_ms: Lock-step waits this long for a tick's actions before going on.
+        verdict_timeout_ms: Longest wait for a collision verdict (lock-step); real time waits
+            at most half a period.
+        expect: Robots to wait for before the first tick (a scenario's roster).
+        duration_ticks: Stop after this many ticks (0: run until stopped).
+        start_paused: Do not tick until a ``start`` control arrives.
+        motors_noise_pct: Ciber-Rato MotorsNoise (legacy profile).
+    """
+
+    sim: str = "default"
+    period_ms: float = 100.0
+    mode: Mode = Mode.REALTIME
+    profile: Profile = Profile.NATIVE
+    seed: int = 0
+    action_timeout_ms: float = 500.0
+    grace_ms: float = 5000.0
+    lockstep_timeout_ms: float = 2000.0
+    verdict_timeout_ms: float = 2000.0
+    expect: int = 0
+    duration_ticks: int = 0
+    start_paused: bool = False
+    motors_noise_pct: float = 0.0
+
+    @property
+    def period_ns(self) -> int:
+        """The period in ns."""
+        return int(round(self.period_ms * MS))

@@ -1,0 +1,96 @@
+"""The radio's logic: robot-to-robot messages, delivered only within range.
+
+Defaults follow Ciber-Rato DCOSS: 8 m range, at most 100 bytes a message, at most 400 bytes
+heard per robot per tick; a message said during tick n is heard in tick n+1 by every robot
+(the speaker included) whose centre is closer than the range, in sender order. What is dropped
+(too long, over a robot's budget, from an unknown robot) is counted in a ``radio-dropped`` event.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from iw_zenoh import keys
+from iw_zenoh.messages import (
+    EventKind,
+    Hear,
+    Heard,
+    Outgoing,
+    RadioBatch,
+    RadioDroppedData,
+    Say,
+    WorldState,
+    make_event,
+)
+
+__all__ = ["RadioConfig", "RadioNode"]
+
+
+@dataclass(frozen=True)
+class RadioConfig:
+    """Radio limits."""
+
+    range_m: float = 8.0
+    max_message_bytes: int = 100
+    max_heard_bytes: int = 400
+
+
+class RadioNode:
+    """Collects says and delivers them on the next state (logic only)."""
+
+    def __init__(self, sim: str, cfg: RadioConfig | None = None) -> None:
+        self.sim = sim
+        self.cfg = cfg or RadioConfig()
+        self._said: dict[int, str] = {}
+        self._dropped: dict[str, int] = {}
+
+    def on_say(self, msg: Say) -> None:
+        """Keeps a robot's latest message of this tick (one per robot, the last wins)."""
+        if len(msg.text.encode("utf-8")) > self.cfg.max_message_bytes:
+            self._dropped["too_long"] = self._dropped.get("too_long", 0) + 1
+            return
+        self._said[msg.robot_id] = msg.text
+
+    def on_state(self, msg: WorldState) -> list[Outgoing]:
+        """Delivers what was said since the last state."""
+        said, self._said = self._said, {}
+        dropped, self._dropped = self._dropped, {}
+        index = {rid: i for i, rid in enumerate(msg.ids)}
+        xy = np.column_stack([msg.x, msg.y]) if msg.ids else np.zeros((0, 2))
+        hear: dict[int, list[Heard]] = {}
+        budget = dict.fromkeys(msg.ids, self.cfg.max_heard_bytes)
+        for sender in sorted(said):
+            if sender not in index:
+                dropped["unknown_sender"] = dropped.get("unknown_sender", 0) + 1
+                continue
+            text = said[sender]
+            size = len(text.encode("utf-8"))
+            d = np.hypot(*(xy - xy[index[sender]]).T)
+            for i in np.flatnonzero(d < self.cfg.range_m):
+                rid = msg.ids[int(i)]
+                if budget[rid] < size:
+                    dropped["over_budget"] = dropped.get("over_budget", 0) + 1
+                    continue
+                budget[rid] -= size
+                hear.setdefault(rid, []).append(Heard(sender=sender, distance_m=float(d[i]), text=text))
+        out: list[Outgoing] = []
+        batch = [
+            Hear(tick=msg.tick, sim_time_ns=msg.sim_time_ns, robot_id=rid, messages=m)
+            for rid, m in sorted(hear.items())
+        ]
+        out += [(keys.hear(self.sim, h.robot_id), h) for h in batch]
+        out.append((keys.radio(self.sim), RadioBatch(tick=msg.tick, sim_time_ns=msg.sim_time_ns, hear=batch)))
+        if dropped:
+            total = sum(dropped.values())
+            ev = make_event(
+                EventKind.RADIO_DROPPED,
+                RadioDroppedData(**dropped),
+                reason=f"{total} radio messages dropped",
+                tick=msg.tick,
+                sim_time_ns=msg.sim_time_ns,
+                source="radio",
+            )
+            out.append((keys.event(self.sim, EventKind.RADIO_DROPPED), ev))
+        return out

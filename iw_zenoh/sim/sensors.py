@@ -1,0 +1,281 @@
+"""The sensors' logic: every robot's readings each tick, for one shard of the robots.
+
+A shard ``(K, N)`` computes the robots whose id is K modulo N (K from 1), so several sensor
+processes, on several hosts, split the robots; every robot is still an obstacle to every sensor.
+Noise comes from each robot's own seeded stream, so a robot's readings are the same whichever
+shard computes them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from iw_zenoh import keys
+from iw_zenoh.core.bodies import Bodies
+from iw_zenoh.core.modes import Profile
+from iw_zenoh.core.noise import NoiseStreams, Stream
+from iw_zenoh.core.sensors import Readings, SensorParams, noise_layout, read_sensors
+from iw_zenoh.messages import Outgoing, Proposed, SensorReading, WorldState, encode
+from iw_zenoh.sim.view import WorldView
+
+__all__ = ["Computed", "SensorsNode", "state_from_proposal"]
+
+ALL_AGAIN = 0.25  # when this share of robots is touched, all are computed again (no merging)
+
+
+@dataclass
+class Computed:
+    """One tick's readings of a shard, encoded, with what they were computed from.
+
+    Attributes:
+        msg: The state they were computed from (or the proposal's state, when ahead).
+        ids: The roster, in array order.
+        out: ``(key, reading)`` of this shard's robots, in roster order.
+        encoded: Each reading encoded, the same order.
+        enc: (N,) encoder counts after this tick, roster order (other shards' robots kept as were).
+    """
+
+    msg: WorldState
+    ids: list[int]
+    out: list[tuple[str, SensorReading]]
+    encoded: list[bytes]
+    enc: np.ndarray
+
+
+def state_from_proposal(p: Proposed) -> WorldState:
+    """The state tick n will commit if no robot collides and none is held."""
+    n = len(p.ids)
+    return WorldState(
+        tick=p.tick,
+        sim_time_ns=p.sim_time_ns,
+        revision=p.revision,
+        ids=list(p.ids),
+        x=list(p.next_x),
+        y=list(p.next_y),
+        heading=list(p.next_heading),
+        collided=[False] * n,
+        rolled_left=list(p.rolled_left),
+        rolled_right=list(p.rolled_right),
+        speed=[0.0] * n,  # not read by sensors
+        tick_wall_ns=p.tick_wall_ns,
+    )
+
+
+class SensorsNode:
+    """Computes the readings of one shard's robots from a committed state (logic only).
+
+    It may also compute ahead from the world's proposal of tick n (:meth:`ahead`) while the
+    collision process checks it; when the committed state then equals the proposal (nothing
+    collided, nothing held) those readings are the state's, bit for bit, and go out at once
+    (:meth:`settle`). Robots that collided, and robots whose sensors reach them, are computed
+    again from the state. Noise is drawn once per tick however often a tick is computed.
+
+    Args:
+        sim: Simulation name.
+        seed: The run's seed (each robot's sensor stream derives from it).
+        shard: ``(K, N)``.
+    """
+
+    def __init__(self, sim: str, seed: int = 0, shard: tuple[int, int] = (1, 1)) -> None:
+        self.sim = sim
+        self.seed = seed
+        self.shard = shard
+        self.last_tick = -1  # the newest tick whose readings went out
+        self._noise = NoiseStreams(seed, Stream.SENSORS)
+        self._z: tuple[int, list[int], np.ndarray] | None = None  # (tick, roster, its normals)
+        self._enc_ids: list[int] = []  # the roster of the last tick, and its encoder counts
+        self._enc = np.zeros((0, 2))
+        self._keys: dict[int, str] = {}  # robot id -> its sensors key (built once)
+
+    def on_state(self, msg: WorldState, view: WorldView) -> list[Outgoing]:
+        """Every reading of this shard's robots for tick n (computed and committed)."""
+        c = self.compute(msg, view)
+        self.commit(c)
+        return list(c.out)
+
+    def ahead(self, proposal: Proposed, view: WorldView) -> Computed | None:
+        """Readings of tick n computed from its proposal (not committed), or None when the
+        previous tick's readings are not out yet (encoder counts would be stale)."""
+        if self.last_tick >= 0 and proposal.tick != self.last_tick + 1:
+            return None
+        return self.compute(state_from_proposal(proposal), view)
+
+    def settle(self, ahead: Computed | None, msg: WorldState, view: WorldView) -> tuple[Computed, int]:
+        """The readings of committed state ``msg`` (committed), reusing what was computed ahead
+        where the state equals the proposal; also how many robots were computed again."""
+        if ahead is None or not _same_frame(ahead.msg, msg):
+            c = self.compute(msg, view)
+            self.commit(c)
+            return c, len(c.out)
+        again = _touched(ahead.msg, msg, view)
+        if not again.any():
+            c = replace(ahead, msg=msg)
+        elif (
+            again.mean() > ALL_AGAIN
+            or view.info.profile == Profile.CIBERRATO  # its IR model's rays have no range to bound
+            or any(view.specs[i].beacon_height_m is not None for i in msg.ids)  # a beacon that moves
+        ):
+            c = self.compute(msg, view)
+        else:
+            c = _merge(ahead, self.compute(msg, view, subset=again), again)
+        self.commit(c)
+        return c, int(again.sum()) if len(c.out) else 0
+
+    def commit(self, c: Computed) -> None:
+        """Makes ``c`` the newest tick: its encoder counts are the next tick's start."""
+        self._enc_ids, self._enc = c.ids, c.enc
+        self.last_tick = c.msg.tick
+        if self._z is not None and self._z[0] <= c.msg.tick:
+            self._z = None
+
+    def _normals(self, tick: int, ids: list[int], counts: list[int], starts: list[int], only: np.ndarray) -> np.ndarray:
+        """This tick's standard normals, drawn once per tick (a tick computed again reuses them)."""
+        if self._z is not None and self._z[0] == tick and self._z[1] == ids:
+            return self._z[2]
+        z = np.zeros(int(sum(counts)))
+        take = self._noise.take
+        for i, rid, s0, c in zip(range(len(ids)), ids, starts, counts, strict=True):
+            if only[i]:
+                z[s0 : s0 + c] = take(rid, c)
+        self._z = (tick, ids, z)
+        return z
+
+    def compute(self, msg: WorldState, view: WorldView, subset: np.ndarray | None = None) -> Computed:
+        """Readings of this shard's robots for ``msg`` (of ``subset`` only, if given), not committed."""
+        ids = list(msg.ids)
+        if not ids:
+            return Computed(msg, ids, [], [], np.zeros((0, 2)))
+        bodies = view.bodies_for(ids)
+        pose = np.column_stack([msg.x, msg.y, msg.heading])
+        k, n = self.shard
+        mine = np.asarray(ids, dtype=np.int64) % n == k % n
+        only = mine if subset is None else mine & subset
+        # robots that carry a beacon (Ciber-Rato's RobotBeacon), in id order after the lab's
+        moving = tuple((i, h) for i, rid in enumerate(ids) if (h := view.specs[rid].beacon_height_m) is not None)
+        nb = len(view.scene.lab.beacons) + len(moving)
+        counts, starts = noise_layout(bodies, nb)
+        z = self._normals(msg.tick, ids, counts.tolist(), starts.tolist(), mine)
+        enc = self._encoders(ids)
+        r = read_sensors(
+            view.scene,
+            bodies,
+            pose,
+            collided=np.asarray(msg.collided, dtype=bool),
+            encoder_acc=enc,
+            rolled_m=np.column_stack([msg.rolled_left, msg.rolled_right]),
+            z=z,
+            params=SensorParams(),
+            only=only,
+            legacy_ir=view.info.profile == Profile.CIBERRATO,
+            moving_beacons=moving,
+        )
+        out = self._readings(msg, ids, bodies, r, only)
+        # each reading is encoded once: on its robot's key and inside the shard's batch
+        encoded = [encode(m) for _, m in out]
+        return Computed(msg, ids, out, encoded, np.where(only[:, None], r.encoder_acc, enc))
+
+    def _encoders(self, ids: list[int]) -> np.ndarray:
+        """(N, 2) encoder counts before this tick, for roster ``ids``."""
+        if ids == self._enc_ids:
+            return self._enc
+        # the roster changed: carry each remaining robot's count over
+        before = {rid: row for rid, row in zip(self._enc_ids, self._enc.tolist(), strict=True)}
+        return np.asarray([before.get(rid, (0.0, 0.0)) for rid in ids], dtype=np.float64).reshape(-1, 2)
+
+    def _readings(
+        self, msg: WorldState, ids: list[int], bodies: Bodies, r: Readings, only: np.ndarray
+    ) -> list[tuple[str, SensorReading]]:
+        """One message per robot of ``only``, with its key, from the arrays of ``r``."""
+        out: list[tuple[str, SensorReading]] = []
+        # whole arrays to Python lists once; each robot's sensors are a contiguous run
+        m_first = np.searchsorted(bodies.ir_owner, np.arange(len(ids))).tolist()
+        m_last = np.searchsorted(bodies.ir_owner, np.arange(len(ids)), side="right").tolist()
+        b_first = np.searchsorted(bodies.bumper_owner, np.arange(len(ids))).tolist()
+        b_last = np.searchsorted(bodies.bumper_owner, np.arange(len(ids)), side="right").tolist()
+        prox = np.where(np.isfinite(r.proximity_m), r.proximity_m, np.nan).tolist()
+        prox = [None if v != v else v for v in prox]  # NaN (nothing in range) -> null
+        legacy = r.proximity_legacy.tolist()
+        pids = bodies.ir_id.tolist()
+        beacons = [[None if v != v else v for v in row] for row in r.beacon_deg.tolist()]
+        gps = r.gps.tolist()
+        compass = r.compass_deg.tolist()
+        ground = r.ground.tolist()
+        collision = r.collision.tolist()
+        ticks = r.encoder_ticks.tolist()
+        bumpers = r.bumpers.tolist()
+        for i in np.flatnonzero(only).tolist():
+            rid = ids[i]
+            lo, hi = m_first[i], m_last[i]
+            reading = SensorReading(
+                tick=msg.tick,
+                sim_time_ns=msg.sim_time_ns,
+                robot_id=rid,
+                proximity_ids=pids[lo:hi],
+                proximity_m=prox[lo:hi],
+                proximity_legacy=legacy[lo:hi],
+                compass_deg=compass[i],
+                beacons_deg=beacons[i],
+                gps=(gps[i][0], gps[i][1], gps[i][2]),
+                ground=ground[i],
+                collision=collision[i],
+                encoders=(ticks[i][0], ticks[i][1]),
+                bumpers=bumpers[b_first[i] : b_last[i]],
+                tick_wall_ns=msg.tick_wall_ns,
+            )
+            key = self._keys.get(rid)
+            if key is None:
+                key = self._keys[rid] = keys.sensors(self.sim, rid)
+            out.append((key, reading))
+        return out
+
+
+def _same_frame(a: WorldState, b: WorldState) -> bool:
+    """Whether two states of one tick share everything but poses, flags and distances rolled."""
+    return (a.tick, a.sim_time_ns, a.revision, a.tick_wall_ns, a.ids) == (
+        b.tick,
+        b.sim_time_ns,
+        b.revision,
+        b.tick_wall_ns,
+        b.ids,
+    )
+
+
+def _touched(ahead: WorldState, msg: WorldState, view: WorldView) -> np.ndarray:
+    """(N,) robots whose readings may differ between two states of one roster: those whose pose,
+    collision flag or wheels differ, and every robot whose sensors or body reach one of them."""
+    a = np.column_stack([ahead.x, ahead.y, ahead.heading, ahead.rolled_left, ahead.rolled_right])
+    b = np.column_stack([msg.x, msg.y, msg.heading, msg.rolled_left, msg.rolled_right])
+    changed = np.asarray(np.any(a != b, axis=1) | (np.asarray(ahead.collided) != np.asarray(msg.collided)), dtype=bool)
+    if not changed.any():
+        return changed
+    bodies = view.bodies_for(list(msg.ids))
+    # how far a robot's readings reach from its centre of movement: its outline, its bumpers,
+    # its cones (mounting point plus range)
+    reach = bodies.bound_radius_m.copy()
+    if len(bodies.ir_owner):
+        cone = np.hypot(bodies.ir_xy[:, 0], bodies.ir_xy[:, 1]) + bodies.ir_range_m
+        np.maximum.at(reach, bodies.ir_owner, cone)
+    if len(bodies.bumper_owner):
+        bump = np.hypot(bodies.bumper_outline[..., 0], bodies.bumper_outline[..., 1]).max(axis=1)
+        np.maximum.at(reach, bodies.bumper_owner, bump)
+    out = changed.copy()
+    for c in np.flatnonzero(changed):
+        for xy in (a[c, :2], b[c, :2]):
+            d = np.hypot(b[:, 0] - xy[0], b[:, 1] - xy[1])
+            out |= d <= reach + bodies.bound_radius_m[c] + 1e-6
+    return out
+
+
+def _merge(ahead: Computed, again: Computed, which: np.ndarray) -> Computed:
+    """The readings computed ahead, with those of robots ``which`` taken from ``again``."""
+    redo = {o[1].robot_id: (o, e) for o, e in zip(again.out, again.encoded, strict=True)}
+    out: list[tuple[str, SensorReading]] = []
+    encoded: list[bytes] = []
+    for o, e in zip(ahead.out, ahead.encoded, strict=True):
+        o2, e2 = redo.get(o[1].robot_id, (o, e))
+        out.append(o2)
+        encoded.append(e2)
+    enc = np.asarray(np.where(which[:, None], again.enc, ahead.enc), dtype=np.float64)
+    return Computed(again.msg, again.ids, out, encoded, enc)
