@@ -20,7 +20,6 @@ from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.collision import Collisions
 from iw_zenoh.core.lab import Grid, Lab, Scene
 from iw_zenoh.core.modes import Mode, Profile
-from iw_zenoh.core.noise import Stream, rng_for, standard_normals
 from iw_zenoh.core.spec import RobotType
 from iw_zenoh.core.world import Proposal, commit, initial_state, propose
 from iw_zenoh.errors import SpecError
@@ -44,6 +43,7 @@ from iw_zenoh.messages import (
 )
 from iw_zenoh.sim.batches import collision_reports, proposed_msg, speeds, state_msg
 from iw_zenoh.sim.config import MS, WorldConfig
+from iw_zenoh.sim.motion import MotionNoise
 from iw_zenoh.sim.obstacles import Obstacles
 from iw_zenoh.sim.presence import Presence
 from iw_zenoh.sim.registry import Refused, Registry
@@ -77,7 +77,7 @@ class WorldCore:
         self.collision_alive = self.presence.collision
         self.sensors_alive = self.presence.sensors
         self.agents_alive = self.presence.agents
-        self._motion_rngs: dict[int, np.random.Generator] = {}
+        self.motion = MotionNoise(cfg.seed)
         self._pending: tuple[int, Proposal] | None = None
         self._robot_msgs: tuple[int, list[RobotSpecMsg]] = (-1, [])  # info's robots, by revision
         self._tick_wall_ns = 0
@@ -203,7 +203,7 @@ class WorldCore:
         """Removes a robot from the world."""
         if self.registry.remove(robot_id) is None:
             return []
-        self._motion_rngs.pop(robot_id, None)
+        self.motion.forget(robot_id)
         self._roster_changed()
         return [self._event(EventKind.REMOVED, reason, robot_id)]
 
@@ -246,12 +246,6 @@ class WorldCore:
     def on_alive(self, role: str, name: str, alive: bool, now_ns: int) -> list[Outgoing]:
         """Tracks collision and sensors processes and agents; an agent lost zeroes its robots at once."""
         return self.presence.on_alive(role, name, alive, now_ns)
-
-    def _motion_rng(self, rid: int) -> np.random.Generator:
-        g = self._motion_rngs.get(rid)
-        if g is None:  # built once per robot
-            g = self._motion_rngs[rid] = rng_for(self.cfg.seed, rid, Stream.MOTION)
-        return g
 
     # --- the tick --------------------------------------------------------------------------
 
@@ -317,7 +311,7 @@ class WorldCore:
             and self.cfg.motors_noise_pct > 0
             or bool(np.any(self.bodies.noise_std["motion"] > 0))
         ):
-            return standard_normals([self._motion_rng(rid) for rid in ids], 2)
+            return self.motion.normals(ids)
         return None
 
     def verdict_ok(self, v: Verdict) -> bool:
