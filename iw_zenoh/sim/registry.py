@@ -231,6 +231,20 @@ class Registry:
                 report[i] = e.report
         return cmd, report, fired
 
+    def excuse_pause(self, now_ns: int, *, last_tick_ns: int | None) -> None:
+        """The world ticks again after a pause: the watchdog counts only time it ran.
+
+        Args:
+            now_ns: Monotonic time of the first tick after the pause.
+            last_tick_ns: When the last tick before the pause began (None: the world never ran,
+                so every robot's silence starts now).
+        """
+        for e in self.entries.values():
+            if last_tick_ns is None:
+                e.last_action_ns = max(e.last_action_ns, now_ns)
+            else:
+                e.last_action_ns += max(0, now_ns - max(last_tick_ns, e.last_action_ns))
+
     def agent_back(self, agent: str) -> None:
         """An agent is (again) alive: its robots are no longer due for removal."""
         for e in self.entries.values():

@@ -72,6 +72,8 @@ class WorldCore:
         self.running = not cfg.start_paused
         self.steps_left = 0
         self.stopped = False
+        self._last_tick_ns: int | None = None  # when the last tick began (None: not yet)
+        self._paused = cfg.start_paused  # a pause's length is not silence (see begin_tick)
         self.presence = Presence(self.registry, lockstep=cfg.mode == Mode.LOCKSTEP, event=self._event)
         # the same sets, by the names the wiring and the tests use
         self.collision_alive = self.presence.collision
@@ -214,10 +216,10 @@ class WorldCore:
             self.running, self.steps_left = True, 0
             return [self._event(EventKind.STARTED, "simulation running")]
         if c == "pause":
-            self.running = False
+            self.running, self._paused = False, True
             return [self._event(EventKind.PAUSED, "simulation paused")]
         if c == "step":
-            self.running = False
+            self.running, self._paused = False, True
             self.steps_left += msg.steps
             return []
         if c == "stop":
@@ -269,6 +271,11 @@ class WorldCore:
     def begin_tick(self, now_ns: int, wall_ns: int = 0) -> list[Outgoing]:
         """Applies commands and watchdogs, proposes next poses; returns the proposal to publish."""
         out: list[Outgoing] = []
+        if self._paused:
+            # agents hear nothing while the world is paused, so the pause is not their silence
+            self.registry.excuse_pause(now_ns, last_tick_ns=self._last_tick_ns)
+            self._paused = False
+        self._last_tick_ns = now_ns
         for rid, e in list(self.registry.entries.items()):
             if e.lost_ns is not None and now_ns - e.lost_ns > self.cfg.grace_ms * MS:
                 out += self.remove(

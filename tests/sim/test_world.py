@@ -83,6 +83,42 @@ def test_actions_move_the_chair_at_the_next_tick_and_stale_ones_trip_the_watchdo
     assert core.state.cmd.tolist() == [[0.0, 0.0]]
 
 
+def test_a_pause_is_not_silence_resume_never_trips_the_watchdog() -> None:
+    core = _core(action_timeout_ms=500.0)
+    core.collision_alive.add("c")
+    core.register(RegisterRequest(spec=RobotSpecMsg(name="a")), 0)
+    core.on_actions(Actions(robot_id=1, left=0.15, right=0.15), 0)
+    _tick(core, 100 * MS)
+    core.on_control(Control(command="pause"))
+    core.on_control(Control(command="start"))
+    out = core.begin_tick(10_000 * MS)  # ten seconds paused, 100 ms of silence while running
+    assert "watchdog" not in _kinds(out)
+    assert core.state.cmd.tolist() == [[0.15, 0.15]]
+
+
+def test_silence_before_a_pause_still_counts_after_it() -> None:
+    core = _core(action_timeout_ms=500.0)
+    core.collision_alive.add("c")
+    core.register(RegisterRequest(spec=RobotSpecMsg(name="a")), 0)
+    core.on_actions(Actions(robot_id=1, left=0.15, right=0.15), 0)
+    _tick(core, 400 * MS)
+    core.on_control(Control(command="pause"))
+    core.on_control(Control(command="step", steps=2))
+    _tick(core, 10_000 * MS)  # 400 ms silent before the pause: 100 ms left
+    out = core.begin_tick(10_200 * MS)
+    assert "watchdog" in _kinds(out)
+
+
+def test_a_world_started_late_does_not_count_the_wait_as_silence() -> None:
+    core = _core(action_timeout_ms=500.0, start_paused=True)
+    core.collision_alive.add("c")
+    core.register(RegisterRequest(spec=RobotSpecMsg(name="a")), 0)
+    core.on_actions(Actions(robot_id=1, left=0.15, right=0.15), 0)
+    core.on_control(Control(command="start"))
+    out = core.begin_tick(5_000 * MS)
+    assert "watchdog" not in _kinds(out)
+
+
 def test_lockstep_a_robot_that_answered_the_last_tick_is_on_time_however_long_the_tick_took() -> None:
     core = _core(mode="lockstep", action_timeout_ms=500.0)
     core.collision_alive.add("c")
