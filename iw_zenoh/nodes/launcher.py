@@ -29,7 +29,7 @@ from iw_zenoh.core.modes import Mode
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import Control, Event, EventKind, WorldState, decode, encode
 from iw_zenoh.net import DEFAULT_PORT, NetConfig, free_port, port_in_use
-from iw_zenoh.nodes.base import setup_logging
+from iw_zenoh.runtime import setup_logging
 
 __all__ = ["Child", "Launcher", "main"]
 

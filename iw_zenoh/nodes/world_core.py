@@ -36,6 +36,7 @@ from iw_zenoh.messages import (
     Hit,
     Obstacle,
     ObstacleData,
+    Outgoing,
     PoseReport,
     Proposed,
     RefusedData,
@@ -51,7 +52,6 @@ from iw_zenoh.messages import (
 from iw_zenoh.messages import (
     WorldState as WorldStateMsg,
 )
-from iw_zenoh.nodes.base import Outgoing
 from iw_zenoh.nodes.registry import Refused, Registry
 
 __all__ = ["WorldConfig", "WorldCore"]
