@@ -57,8 +57,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         rest,
         role="agent",
         prog=f"iwz agent {name}",
-        description=(module.__doc__ or "").strip().splitlines()[0],
-        epilog=f"Every option of the program: iwz agent {name} --help; the programs: iwz agent --help",
+        description=" ".join((module.__doc__ or "").strip().split("\n\n")[0].split()),
+        epilog=(
+            "Examples:\n"
+            f"  maps/*.toml          the [[agents]] tables with program = {name!r}, at work in a scenario\n"
+            "  docs/agents.md       every program, the planner and the door protocol\n"
+            "  iwz agent --help     the other programs"
+        ),
         arguments=arguments,
         prepare=module.make,
         run=_host,

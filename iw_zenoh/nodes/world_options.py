@@ -1,7 +1,7 @@
 """The options of ``iwz world`` (a msgspec Struct) and the flags that fill it.
 
 Apart from the world process itself so that ``iwz run`` builds a world's options from a scenario
-(and reads a scenario's ``world.args`` with the world's own flags) without loading the world.
+(and reads a scenario's ``world.args`` with the world's own flags) without the world's loop.
 """
 
 from __future__ import annotations
@@ -13,9 +13,12 @@ import msgspec
 
 from iw_zenoh.core.modes import Mode, Profile
 from iw_zenoh.messages import Obstacle
+from iw_zenoh.nodes.world_core import WorldConfig
 from iw_zenoh.runtime import add_options_argument, option
 
 __all__ = ["WorldOptions", "add_arguments", "parse_obstacle"]
+
+_CORE = WorldConfig()  # the world core's defaults are the options' defaults
 
 
 class WorldOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -40,17 +43,17 @@ class WorldOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
 
     map: str = ""
     grid: str = ""
-    period_ms: Annotated[float, msgspec.Meta(gt=0)] = 100.0
-    mode: Mode = Mode.REALTIME
-    profile: Profile = Profile.NATIVE
-    seed: int = 0
-    action_timeout_ms: float = 500.0
-    grace_ms: float = 5000.0
-    lockstep_timeout_ms: float = 2000.0
-    expect: int = 0
+    period_ms: Annotated[float, msgspec.Meta(gt=0)] = _CORE.period_ms
+    mode: Mode = _CORE.mode
+    profile: Profile = _CORE.profile
+    seed: int = _CORE.seed
+    action_timeout_ms: float = _CORE.action_timeout_ms
+    grace_ms: float = _CORE.grace_ms
+    lockstep_timeout_ms: float = _CORE.lockstep_timeout_ms
+    expect: int = _CORE.expect
     duration_s: float = 0.0
-    start_paused: bool = False
-    motors_noise_pct: float = 0.0
+    start_paused: bool = _CORE.start_paused
+    motors_noise_pct: float = _CORE.motors_noise_pct
     obstacles: tuple[Obstacle, ...] = ()
 
 
