@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import math
 import os
 import signal
 import subprocess
@@ -18,7 +17,6 @@ import tempfile
 import threading
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import msgspec
@@ -28,8 +26,10 @@ from iw_zenoh.bus import Inbox, ZenohBus
 from iw_zenoh.config import Scenario, load_scenario
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.errors import ConfigError, IwError
-from iw_zenoh.messages import Control, Event, EventKind, WorldState, decode, encode
+from iw_zenoh.messages import Control, Event, WorldState, decode, encode
 from iw_zenoh.net import DEFAULT_PORT, NetConfig, free_port, port_in_use
+from iw_zenoh.nodes.child import Child
+from iw_zenoh.nodes.tally import Tally
 from iw_zenoh.nodes.world_options import WorldOptions
 from iw_zenoh.nodes.world_options import add_arguments as add_world_arguments
 from iw_zenoh.runtime import options_from_argv, setup_logging
@@ -40,66 +40,6 @@ logger = logging.getLogger(__name__)
 
 RESTARTABLE = ("collision", "sensors", "radio", "bridge")
 MAX_RESTARTS = 3
-
-
-@dataclass
-class Child:
-    """One supervised process."""
-
-    role: str
-    name: str
-    argv: list[str]
-    log: Path
-    proc: subprocess.Popen[bytes] | None = None
-    restarts: int = 0
-    expected_exit: bool = False
-    cwd: Path | None = None
-
-    def start(self, env: dict[str, str]) -> None:
-        """Starts (or restarts) the process, its output to its log file."""
-        with self.log.open("ab") as f:
-            self.proc = subprocess.Popen(
-                self.argv,
-                stdout=f,
-                stderr=subprocess.STDOUT,
-                stdin=subprocess.DEVNULL,
-                env=env,
-                start_new_session=True,
-                cwd=self.cwd,
-            )
-
-    def alive(self) -> bool:
-        """Whether it is running."""
-        return self.proc is not None and self.proc.poll() is None
-
-    def stop(self) -> None:
-        """Asks it to stop (SIGTERM)."""
-        self.expected_exit = True
-        if self.alive():
-            assert self.proc is not None
-            self.proc.send_signal(signal.SIGTERM)
-
-    def tail(self, lines: int = 8) -> str:
-        """The last lines of its log."""
-        try:
-            return "\n".join(self.log.read_text(errors="replace").splitlines()[-lines:])
-        except OSError:
-            return ""
-
-
-@dataclass
-class Tally:
-    """What the launcher saw of the run."""
-
-    tick: int = 0
-    sim_s: float = 0.0
-    robots: int = 0
-    collisions: int = 0
-    positions: dict[int, tuple[float, float]] = field(default_factory=dict)
-    reached: dict[int, float] = field(default_factory=dict)
-    events: dict[str, int] = field(default_factory=dict)
-    holding: str = ""
-    agents_alive: set[str] = field(default_factory=set)
 
 
 class Launcher:
@@ -253,31 +193,16 @@ class Launcher:
         return states, events
 
     def _update(self, states: Inbox, events: Inbox) -> None:
-        t = self.tally
         for _, data, _ in events.drain():
             try:
-                ev = decode(data, Event)
+                self.tally.on_event(decode(data, Event))
             except IwError:
                 continue
-            t.events[str(ev.kind)] = t.events.get(str(ev.kind), 0) + 1
-            if ev.kind == EventKind.COLLISION:
-                t.collisions += 1
-            if ev.kind == EventKind.HOLDING:
-                t.holding = ev.reason
-            if ev.kind == EventKind.RESUMED:
-                t.holding = ""
         for _, data, _ in states.drain():
             try:
-                st = decode(data, WorldState)
+                self.tally.on_state(decode(data, WorldState), self.sc.criteria.reach)
             except IwError:
                 continue
-            t.tick, t.sim_s, t.robots = st.tick, st.sim_time_ns / 1e9, len(st.ids)
-            for rid, x, y in zip(st.ids, st.x, st.y, strict=True):
-                t.positions[rid] = (x, y)
-            for r in self.sc.criteria.reach:
-                p = t.positions.get(r.robot)
-                if p is not None and r.robot not in t.reached and math.hypot(p[0] - r.x, p[1] - r.y) <= r.within:
-                    t.reached[r.robot] = t.sim_s
 
     def supervise(self, bus: ZenohBus) -> int:
         """Watches the run until the world ends it, a criterion stops it, or Ctrl-C."""
@@ -385,25 +310,7 @@ class Launcher:
 
     def verdict(self) -> tuple[bool, list[str]]:
         """Whether the criteria are met, and a line per criterion."""
-        lines: list[str] = []
-        ok = True
-        crit = self.sc.criteria
-        t = self.tally
-        if crit.max_collisions is not None:
-            good = t.collisions <= crit.max_collisions
-            ok &= good
-            lines.append(f"{'PASS' if good else 'FAIL'} collisions {t.collisions} (at most {crit.max_collisions})")
-        for r in crit.reach:
-            when = t.reached.get(r.robot)
-            good = when is not None
-            ok &= good
-            at = t.positions.get(r.robot)
-            where = f"last at ({at[0]:.2f}, {at[1]:.2f})" if at else "never seen"
-            lines.append(
-                f"{'PASS' if good else 'FAIL'} robot {r.robot} within {r.within:g} m of ({r.x:g}, {r.y:g})"
-                + (f" at t={when:.1f} s" if good else f": {where}")
-            )
-        return ok, lines
+        return self.tally.verdict(self.sc.criteria)
 
 
 def world_options(sc: Scenario) -> tuple[WorldOptions, list[str]]:
