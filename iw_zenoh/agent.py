@@ -44,7 +44,7 @@ from iw_zenoh.messages import (
     decode,
     readings_of,
 )
-from iw_zenoh.nodes.base import NodeIO
+from iw_zenoh.runtime import NodeIO
 
 __all__ = ["BATCH_FROM", "Agent", "AgentHost", "Command", "RegistrationRefused"]
 
@@ -86,10 +86,11 @@ class AgentHost:
         name: This process's agent name (its liveliness token; the world stops its robots when
             the token goes).
         batched: Read sensor batches and answer in one ActionBatch a tick (for many robots).
+        io: The process's node handle (default: a new one, role ``agent``).
     """
 
-    def __init__(self, bus: Bus, sim: str, name: str, *, batched: bool = False) -> None:
-        self.io = NodeIO(bus, sim, "agent", name)
+    def __init__(self, bus: Bus, sim: str, name: str, *, batched: bool = False, io: NodeIO | None = None) -> None:
+        self.io = io or NodeIO(bus, sim, "agent", name)
         self.sim = sim
         self.name = name
         self.hosted: dict[int, _Hosted] = {}

@@ -36,3 +36,26 @@ def test_bad_scenarios_are_refused_naming_the_field(toml: str, field: str) -> No
     with pytest.raises(ConfigError) as e:
         parse_scenario(toml, MAPS)
     assert e.value.field == field
+
+
+def test_a_scenario_file_that_is_not_text_is_refused_naming_it(tmp_path: Path) -> None:
+    bad = tmp_path / "binary.toml"
+    bad.write_bytes(b"\xff\xfe\x00\x01 not toml")
+    with pytest.raises(ConfigError) as e:
+        load_scenario(bad)
+    assert str(bad) in e.value.field
+    assert "UTF-8" in e.value.reason
+
+
+def test_a_refusal_names_the_field_path_and_the_value() -> None:
+    with pytest.raises(ConfigError) as e:
+        parse_scenario('[world]\nmap = "liacc.xml"\n[[agents]]\nprogram = "waypoint"\nrobots = -1', MAPS)
+    assert e.value.field == "agents[0].robots"
+    assert "-1" in e.value.reason
+
+
+def test_scenario_paths_are_relative_to_the_file() -> None:
+    sc = load_scenario(MAPS / "ciberrato-c1.toml")
+    assert sc.world.map == MAPS / "ciberrato" / "C1-lab.xml"
+    assert sc.bridge is not None
+    assert sc.bridge.params is None or sc.bridge.params.is_file()

@@ -43,7 +43,7 @@ from iw_zenoh.messages import (
     WorldState,
     decode,
 )
-from iw_zenoh.nodes.base import NodeIO, install_stop_signals, setup_logging
+from iw_zenoh.runtime import NodeIO, install_stop_signals, setup_logging
 
 from .codec import build_refusal, build_reply, parse_actions, parse_registration, parse_viewer_command
 from .delivery import Delivery

@@ -11,11 +11,8 @@ import pkgutil
 from collections.abc import Sequence
 
 from iw_zenoh import keys
-from iw_zenoh.agent import BATCH_FROM, AgentHost, RegistrationRefused
-from iw_zenoh.bus import ZenohBus
-from iw_zenoh.cliargs import add_common_arguments, net_from_args
-from iw_zenoh.errors import IwError
-from iw_zenoh.nodes.base import install_stop_signals, setup_logging
+from iw_zenoh.agent import BATCH_FROM, Agent, AgentHost, RegistrationRefused
+from iw_zenoh.runtime import Process, start_role
 
 __all__ = ["available", "main"]
 
@@ -43,38 +40,49 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"iwz agent: no agent program {name!r}; choose one of {', '.join(names)}")
         return 2
     module = importlib.import_module(f"iw_zenoh.agents.{name}")
-    p = argparse.ArgumentParser(prog=f"iwz agent {name}", description=(module.__doc__ or "").strip().splitlines()[0])
-    module.add_arguments(p)
-    p.add_argument("--name", default="", help="agent process name (liveliness; default NAME-PID)")
-    p.add_argument(
-        "--batch",
-        choices=["auto", "on", "off"],
-        default="auto",
-        help=(
-            "read sensor batches and answer all robots in one message a tick (auto: when hosting "
-            f"{BATCH_FROM} robots or more; off: each robot's own keys)"
+
+    def arguments(p: argparse.ArgumentParser) -> None:
+        module.add_arguments(p)
+        p.add_argument(
+            "--batch",
+            choices=["auto", "on", "off"],
+            default="auto",
+            help=(
+                "read sensor batches and answer all robots in one message a tick (auto: when hosting "
+                f"{BATCH_FROM} robots or more; off: each robot's own keys)"
+            ),
+        )
+
+    return start_role(
+        rest,
+        role="agent",
+        prog=f"iwz agent {name}",
+        description=" ".join((module.__doc__ or "").strip().split("\n\n")[0].split()),
+        epilog=(
+            "Examples:\n"
+            f"  maps/*.toml          the [[agents]] tables with program = {name!r}, at work in a scenario\n"
+            "  docs/agents.md       every program, the planner and the door protocol\n"
+            "  iwz agent --help     the other programs"
         ),
+        arguments=arguments,
+        prepare=module.make,
+        run=_host,
+        name=lambda _args: f"{name}-{os.getpid()}",
+        name_help="NAME-PID",
     )
-    add_common_arguments(p)
-    args = p.parse_args(rest)
-    setup_logging(args.verbose, f"agent {name}")
-    try:
-        agents = module.make(args)
-        bus = ZenohBus(net_from_args(args))
-    except (IwError, ValueError) as e:
-        print(f"iwz agent {name}: {e}")
-        return 2
-    batched = args.batch == "on" or (args.batch == "auto" and len(agents) >= BATCH_FROM)
-    host = AgentHost(bus, keys.chunk(args.sim), keys.chunk(args.name or f"{name}-{os.getpid()}"), batched=batched)
-    install_stop_signals(host.io.stop, host.io.wake.set)
+
+
+def _host(proc: Process, agents: list[Agent]) -> int:
+    """Registers every agent, then runs them until stopped."""
+    batch = proc.args.batch
+    batched = batch == "on" or (batch == "auto" and len(agents) >= BATCH_FROM)
+    host = AgentHost(proc.bus, proc.sim, keys.chunk(proc.name), batched=batched, io=proc.io)
     try:
         for a in agents:
             rid = host.add(a)
             logger.info("robot %d registered for %s", rid, a.spec().name)
         host.run()
     except RegistrationRefused as e:
-        print(f"iwz agent {name}: registration refused: {e}")
+        print(f"{proc.prog}: registration refused: {e}")
         return 3
-    finally:
-        bus.close()
     return 0

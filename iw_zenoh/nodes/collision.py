@@ -3,19 +3,16 @@
 
 from __future__ import annotations
 
-import argparse
 import logging
 import time
 from collections.abc import Sequence
 
 from iw_zenoh import keys
-from iw_zenoh.bus import Bus, ZenohBus
-from iw_zenoh.cliargs import add_common_arguments, net_from_args
+from iw_zenoh.bus import Bus
 from iw_zenoh.core.contact import warm_up
-from iw_zenoh.errors import IwError
 from iw_zenoh.messages import Proposed
-from iw_zenoh.nodes.base import NodeIO, install_stop_signals, setup_logging
 from iw_zenoh.nodes.info import InfoCache
+from iw_zenoh.runtime import NodeIO, start_role
 from iw_zenoh.sim.collision import CollisionNode
 
 __all__ = ["main", "run"]
@@ -60,24 +57,11 @@ def run(bus: Bus, sim: str, *, name: str = "collision", io: NodeIO | None = None
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Runs ``iwz collision``."""
-    p = argparse.ArgumentParser(prog="iwz collision", description="Collision verdicts on every tick's proposed poses.")
-    p.add_argument("--name", default="collision", help="instance name (liveliness)")
-    add_common_arguments(p)
-    args = p.parse_args(argv)
-    setup_logging(args.verbose, "collision")
-    t0 = time.monotonic()
-    warm_up()  # before joining: the first verdict must not wait for a compilation
-    if time.monotonic() - t0 > 1.0:
-        logger.info("contact kernel compiled in %.1f s (cached for later runs)", time.monotonic() - t0)
-    try:
-        bus = ZenohBus(net_from_args(args))
-    except (IwError, ValueError) as e:
-        print(f"iwz collision: {e}")
-        return 2
-    io = NodeIO(bus, keys.chunk(args.sim), "collision", args.name)
-    install_stop_signals(io.stop, io.wake.set)
-    try:
-        run(bus, args.sim, io=io)
-    finally:
-        bus.close()
-    return 0
+    return start_role(
+        argv,
+        role="collision",
+        description="Collision verdicts on every tick's proposed poses (robot-robot and robot-wall, on the next pose).",
+        epilog="Example (beside a world; iwz run starts it for you):\n  iwz collision -v",
+        warm_up=warm_up,  # before joining: the first verdict must not wait for a compilation
+        run=lambda proc: run(proc.bus, proc.sim, io=proc.io),
+    )

@@ -8,9 +8,7 @@ refused; 3 a role could not start; 130 interrupted.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import logging
-import math
 import os
 import signal
 import subprocess
@@ -19,84 +17,29 @@ import tempfile
 import threading
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
+
+import msgspec
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Inbox, ZenohBus
 from iw_zenoh.config import Scenario, load_scenario
 from iw_zenoh.core.modes import Mode
-from iw_zenoh.errors import IwError
-from iw_zenoh.messages import Control, Event, EventKind, WorldState, decode, encode
+from iw_zenoh.errors import ConfigError, IwError
+from iw_zenoh.messages import Control, Event, WorldState, decode, encode
 from iw_zenoh.net import DEFAULT_PORT, NetConfig, free_port, port_in_use
-from iw_zenoh.nodes.base import setup_logging
+from iw_zenoh.nodes.child import Child
+from iw_zenoh.nodes.tally import Tally
+from iw_zenoh.nodes.world_options import WorldOptions
+from iw_zenoh.nodes.world_options import add_arguments as add_world_arguments
+from iw_zenoh.runtime import options_from_argv, setup_logging
 
-__all__ = ["Child", "Launcher", "main"]
+__all__ = ["Child", "Launcher", "main", "world_options"]
 
 logger = logging.getLogger(__name__)
 
 RESTARTABLE = ("collision", "sensors", "radio", "bridge")
 MAX_RESTARTS = 3
-
-
-@dataclass
-class Child:
-    """One supervised process."""
-
-    role: str
-    name: str
-    argv: list[str]
-    log: Path
-    proc: subprocess.Popen[bytes] | None = None
-    restarts: int = 0
-    expected_exit: bool = False
-    cwd: Path | None = None
-
-    def start(self, env: dict[str, str]) -> None:
-        """Starts (or restarts) the process, its output to its log file."""
-        with self.log.open("ab") as f:
-            self.proc = subprocess.Popen(
-                self.argv,
-                stdout=f,
-                stderr=subprocess.STDOUT,
-                stdin=subprocess.DEVNULL,
-                env=env,
-                start_new_session=True,
-                cwd=self.cwd,
-            )
-
-    def alive(self) -> bool:
-        """Whether it is running."""
-        return self.proc is not None and self.proc.poll() is None
-
-    def stop(self) -> None:
-        """Asks it to stop (SIGTERM)."""
-        self.expected_exit = True
-        if self.alive():
-            assert self.proc is not None
-            self.proc.send_signal(signal.SIGTERM)
-
-    def tail(self, lines: int = 8) -> str:
-        """The last lines of its log."""
-        try:
-            return "\n".join(self.log.read_text(errors="replace").splitlines()[-lines:])
-        except OSError:
-            return ""
-
-
-@dataclass
-class Tally:
-    """What the launcher saw of the run."""
-
-    tick: int = 0
-    sim_s: float = 0.0
-    robots: int = 0
-    collisions: int = 0
-    positions: dict[int, tuple[float, float]] = field(default_factory=dict)
-    reached: dict[int, float] = field(default_factory=dict)
-    events: dict[str, int] = field(default_factory=dict)
-    holding: str = ""
-    agents_alive: set[str] = field(default_factory=set)
 
 
 class Launcher:
@@ -134,6 +77,7 @@ class Launcher:
         self.tally = Tally()
         self.stop_event = threading.Event()
         self.env = dict(os.environ, PYTHONUNBUFFERED="1")
+        self.world_options = world_options(scenario)
 
     def _cmd(self, *args: str) -> list[str]:
         return [sys.executable, "-m", "iw_zenoh.cli", *args]
@@ -149,42 +93,23 @@ class Launcher:
         sc = self.sc
         self._child("router", "router", client=False)
         if self.record is not None:
-            meta = ["--meta", f"scenario={sc.name}", "--meta", f"seed={sc.seed}", "--meta", f"map={sc.map}"]
+            meta = ["--meta", f"scenario={sc.name}", "--meta", f"seed={sc.world.seed}", "--meta", f"map={sc.world.map}"]
             self._child("record", "recorder", "-o", str(self.record), "--quiet", *meta)
-        world = [
-            "world",
-            str(sc.map),
-            "--period-ms",
-            f"{sc.period_ms:g}",
-            "--seed",
-            str(sc.seed),
-            "--duration",
-            f"{sc.duration_s:g}",
-            "--expect",
-            str(sc.robots),
-            "--profile",
-            sc.profile.value,
-        ]
-        if sc.grid:
-            world += ["--grid", str(sc.grid)]
-        if sc.mode == Mode.LOCKSTEP:
-            world.append("--lockstep")
-        for o in sc.obstacles:
-            world += ["--obstacle", f"{o.name}:{o.x0:g},{o.y0:g},{o.x1:g},{o.y1:g},{o.height:g}"]
-        world += list(sc.world_args)
-        self._child(*world[:1], "world", *world[1:])
+        options, rest = self.world_options
+        self._child("world", "world", "--options", msgspec.json.encode(options).decode(), *rest)
         self._child("collision", "collision")
-        for k in range(1, sc.sensors_shards + 1):
-            self._child("sensors", f"sensors-{k}", "--shard", f"{k}/{sc.sensors_shards}")
-        if sc.radio:
+        shards = sc.roles.sensors_shards
+        for k in range(1, shards + 1):
+            self._child("sensors", f"sensors-{k}", "--shard", f"{k}/{shards}")
+        if sc.roles.radio:
             self._child("radio", "radio")
-        if sc.bridge_port is not None:
-            extra = ["--param", str(sc.bridge_params)] if sc.bridge_params else []
-            extra += ["--scoring", str(sc.bridge_scoring)]
-            self._child("bridge", "bridge", "ciberrato", "--port", str(sc.bridge_port), *extra)
+        if sc.bridge is not None:
+            b = sc.bridge
+            extra = ["--param", str(b.params)] if b.params else []
+            self._child("bridge", "bridge", "ciberrato", "--port", str(b.port), *extra, "--scoring", str(b.scoring))
         for i, a in enumerate(sc.agents):
             name = a.name or f"agent-{i + 1}-{a.program}"
-            self._child("agent", name, a.program, *a.args, "--name", name).cwd = sc.base.resolve()
+            self._child("agent", name, a.program, *a.argv, "--name", name).cwd = sc.base.resolve()
 
     def _wait_router(self, timeout_s: float = 15.0) -> bool:
         deadline = time.monotonic() + timeout_s
@@ -221,7 +146,7 @@ class Launcher:
             # agents last, once collision and every sensors shard are up: a chair registered
             # before would get no readings for its first ticks (its motors zeroed by the
             # watchdog) or be held still (a sensors process compiles its kernel on a first run)
-            roles = {"collision": 1, "sensors": self.sc.sensors_shards}
+            roles = {"collision": 1, "sensors": self.sc.roles.sensors_shards}
             if not self._wait_roles(roles, timeout_s=60.0) and not self.stop_event.is_set():
                 print(
                     f"iwz run: collision and sensors not all up after 60 s; starting the agents anyway ({self.log_dir})"
@@ -268,31 +193,16 @@ class Launcher:
         return states, events
 
     def _update(self, states: Inbox, events: Inbox) -> None:
-        t = self.tally
         for _, data, _ in events.drain():
             try:
-                ev = decode(data, Event)
+                self.tally.on_event(decode(data, Event))
             except IwError:
                 continue
-            t.events[str(ev.kind)] = t.events.get(str(ev.kind), 0) + 1
-            if ev.kind == EventKind.COLLISION:
-                t.collisions += 1
-            if ev.kind == EventKind.HOLDING:
-                t.holding = ev.reason
-            if ev.kind == EventKind.RESUMED:
-                t.holding = ""
         for _, data, _ in states.drain():
             try:
-                st = decode(data, WorldState)
+                self.tally.on_state(decode(data, WorldState), self.sc.criteria.reach)
             except IwError:
                 continue
-            t.tick, t.sim_s, t.robots = st.tick, st.sim_time_ns / 1e9, len(st.ids)
-            for rid, x, y in zip(st.ids, st.x, st.y, strict=True):
-                t.positions[rid] = (x, y)
-            for r in self.sc.criteria.reach:
-                p = t.positions.get(r.robot)
-                if p is not None and r.robot not in t.reached and math.hypot(p[0] - r.x, p[1] - r.y) <= r.within:
-                    t.reached[r.robot] = t.sim_s
 
     def supervise(self, bus: ZenohBus) -> int:
         """Watches the run until the world ends it, a criterion stops it, or Ctrl-C."""
@@ -301,53 +211,64 @@ class Launcher:
         last_print = 0.0
         world = next(c for c in self.children if c.role == "world")
         agents = [c for c in self.children if c.role == "agent"]
-        limit = self.sc.duration_s * (1.0 if self.sc.mode == Mode.REALTIME else 5.0) + 60.0
-        interrupted = False
+        limit = self.sc.world.duration_s * (1.0 if self.sc.world.mode == Mode.REALTIME else 5.0) + 60.0
+        code: int | None = None
         try:
-            while not self.stop_event.is_set():
+            while code is None and not self.stop_event.is_set():
                 self.stop_event.wait(0.1)
                 self._update(states, events)
-                crit = self.sc.criteria
-                if crit.reach and crit.stop_when_reached and all(r.robot in self.tally.reached for r in crit.reach):
-                    self._say("every goal reached: stopping")
-                    bus.publish(keys.control(self.sim), encode(Control(command="stop")))
-                    if world.proc is not None:
-                        try:
-                            world.proc.wait(10)
-                        except subprocess.TimeoutExpired:
-                            self._say("the world did not stop by itself")
-                    break
-                if not world.alive():
-                    code = world.proc.returncode if world.proc else 0
-                    if code:
-                        self._say(f"the world exited with {code}:\n{world.tail()}")
-                        return 3
-                    break
-                for c in self.children:
-                    if c.alive() or c.expected_exit or c.proc is None:
-                        continue
-                    code = c.proc.returncode
-                    if c.role in RESTARTABLE and c.restarts < MAX_RESTARTS:
-                        c.restarts += 1
-                        self._say(f"{c.name} exited with {code}; restarting ({c.restarts}/{MAX_RESTARTS})")
-                        c.start(self.env)
-                    else:
-                        c.expected_exit = True
-                        self._say(f"{c.name} exited with {code}:\n{c.tail()}")
-                        if c.role == "router":
-                            return 3
-                if time.monotonic() - started > limit:
+                code = self._ended(bus, world)
+                if code is None:
+                    code = self._restart_lost()
+                if code is None and time.monotonic() - started > limit:
                     self._say(f"wall-clock limit of {limit:.0f} s reached: stopping")
-                    break
+                    code = 0
                 now = time.monotonic()
-                if self.status and now - last_print >= (1.0 if sys.stdout.isatty() else 5.0):
+                if code is None and self.status and now - last_print >= (1.0 if sys.stdout.isatty() else 5.0):
                     last_print = now
                     self._status_line(now - started, agents)
         except KeyboardInterrupt:
-            interrupted = True
-        if sys.stdout.isatty() and self.status:
+            code = 130
+        if code != 3 and sys.stdout.isatty() and self.status:
             print()
-        return 130 if interrupted else 0
+        return code or 0
+
+    def _ended(self, bus: ZenohBus, world: Child) -> int | None:
+        """0 when every goal is reached (the world is told to stop) or the world ended; 3 when it failed."""
+        crit = self.sc.criteria
+        if crit.reach and crit.stop_when_reached and all(r.robot in self.tally.reached for r in crit.reach):
+            self._say("every goal reached: stopping")
+            bus.publish(keys.control(self.sim), encode(Control(command="stop")))
+            if world.proc is not None:
+                try:
+                    world.proc.wait(10)
+                except subprocess.TimeoutExpired:
+                    self._say("the world did not stop by itself")
+            return 0
+        if not world.alive():
+            code = world.proc.returncode if world.proc else 0
+            if code:
+                self._say(f"the world exited with {code}:\n{world.tail()}")
+                return 3
+            return 0
+        return None
+
+    def _restart_lost(self) -> int | None:
+        """Restarts a lost role that may be restarted; 3 when the router is lost."""
+        for c in self.children:
+            if c.alive() or c.expected_exit or c.proc is None:
+                continue
+            code = c.proc.returncode
+            if c.role in RESTARTABLE and c.restarts < MAX_RESTARTS:
+                c.restarts += 1
+                self._say(f"{c.name} exited with {code}; restarting ({c.restarts}/{MAX_RESTARTS})")
+                c.start(self.env)
+            else:
+                c.expected_exit = True
+                self._say(f"{c.name} exited with {code}:\n{c.tail()}")
+                if c.role == "router":
+                    return 3
+        return None
 
     def _status_line(self, wall_s: float, agents: list[Child]) -> None:
         t = self.tally
@@ -389,25 +310,31 @@ class Launcher:
 
     def verdict(self) -> tuple[bool, list[str]]:
         """Whether the criteria are met, and a line per criterion."""
-        lines: list[str] = []
-        ok = True
-        crit = self.sc.criteria
-        t = self.tally
-        if crit.max_collisions is not None:
-            good = t.collisions <= crit.max_collisions
-            ok &= good
-            lines.append(f"{'PASS' if good else 'FAIL'} collisions {t.collisions} (at most {crit.max_collisions})")
-        for r in crit.reach:
-            when = t.reached.get(r.robot)
-            good = when is not None
-            ok &= good
-            at = t.positions.get(r.robot)
-            where = f"last at ({at[0]:.2f}, {at[1]:.2f})" if at else "never seen"
-            lines.append(
-                f"{'PASS' if good else 'FAIL'} robot {r.robot} within {r.within:g} m of ({r.x:g}, {r.y:g})"
-                + (f" at t={when:.1f} s" if good else f": {where}")
-            )
-        return ok, lines
+        return self.tally.verdict(self.sc.criteria)
+
+
+def world_options(sc: Scenario) -> tuple[WorldOptions, list[str]]:
+    """The world's options for a scenario, and what of its ``world.args`` is not an option flag.
+
+    Raises:
+        ConfigError: A ``world.args`` flag the world refuses (naming the scenario field).
+    """
+    w = sc.world
+    options = WorldOptions(
+        map=str(w.map),
+        grid=str(w.grid) if w.grid else "",
+        period_ms=w.period_ms,
+        mode=w.mode,
+        profile=w.profile,
+        seed=w.seed,
+        duration_s=w.duration_s,
+        expect=sc.robots,
+        obstacles=sc.obstacles,
+    )
+    try:
+        return options_from_argv(w.argv, WorldOptions, add_world_arguments, base=options, prog="iwz world")
+    except IwError as e:
+        raise ConfigError(f"{sc.name}: world.args", str(e)) from None
 
 
 def default_recording(name: str) -> Path:
@@ -446,7 +373,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         sc = load_scenario(args.scenario)
         if args.lockstep:
-            sc = dataclasses.replace(sc, mode=Mode.LOCKSTEP)
+            sc = msgspec.structs.replace(sc, world=msgspec.structs.replace(sc.world, mode=Mode.LOCKSTEP))
         launcher = Launcher(
             sc,
             port=args.port,
@@ -459,7 +386,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"iwz run: {e}")
         return 2
     print(
-        f"iwz run: scenario {sc.name!r} on {sc.map.name}, {sc.mode}, {sc.robots} robots, "
+        f"iwz run: scenario {sc.name!r} on {sc.world.map.name}, {sc.world.mode}, {sc.robots} robots, "
         f"router {launcher.endpoint}, logs in {launcher.log_dir}",
         flush=True,
     )
@@ -483,6 +410,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         if bus is not None:
             bus.close()
         launcher.shutdown()
+    ok = _summary(launcher)
+    if code:
+        return code
+    return 0 if ok else 1
+
+
+def _summary(launcher: Launcher) -> bool:
+    """Prints how the run ended and each criterion; whether every criterion is met."""
     ok, lines = launcher.verdict()
     t = launcher.tally
     print(
@@ -493,6 +428,4 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"  {line}")
     if launcher.record is not None and launcher.record.exists():
         print(f"iwz run: recorded to {launcher.record} (see iwz replay, iwz incidents, iwz doctor)")
-    if code:
-        return code
-    return 0 if ok else 1
+    return ok

@@ -8,11 +8,9 @@ import logging
 from collections.abc import Sequence
 
 from iw_zenoh import keys
-from iw_zenoh.bus import Bus, ZenohBus
-from iw_zenoh.cliargs import add_common_arguments, net_from_args
-from iw_zenoh.errors import IwError
+from iw_zenoh.bus import Bus
 from iw_zenoh.messages import Say, WorldState
-from iw_zenoh.nodes.base import NodeIO, install_stop_signals, setup_logging
+from iw_zenoh.runtime import NodeIO, start_role
 from iw_zenoh.sim.radio import RadioConfig, RadioNode
 
 __all__ = ["main", "run"]
@@ -45,29 +43,26 @@ def run(bus: Bus, sim: str, cfg: RadioConfig | None = None, *, name: str = "radi
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Runs ``iwz radio``."""
-    p = argparse.ArgumentParser(
-        prog="iwz radio", description="Robot-to-robot messages, delivered only to robots within range."
+    return start_role(
+        argv,
+        role="radio",
+        description="Robot-to-robot messages, delivered only to robots within range.",
+        epilog="Example (a shorter range than Ciber-Rato's 8 m):\n  iwz radio --range 4",
+        arguments=_arguments,
+        prepare=_config,
+        run=lambda proc, cfg: run(proc.bus, proc.sim, cfg, io=proc.io),
     )
+
+
+def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--range", type=float, default=8.0, help="delivery range in metres (default 8)")
     p.add_argument(
         "--max-bytes", type=int, default=100, help="longest message in bytes; longer ones are dropped (default 100)"
     )
     p.add_argument("--budget", type=int, default=400, help="bytes a robot hears per tick at most (default 400)")
-    p.add_argument("--name", default="radio", help="instance name (liveliness)")
-    add_common_arguments(p)
-    args = p.parse_args(argv)
-    setup_logging(args.verbose, "radio")
-    try:
-        if args.range <= 0 or args.max_bytes <= 0 or args.budget <= 0:
-            raise ValueError("--range, --max-bytes and --budget must be > 0")
-        bus = ZenohBus(net_from_args(args))
-    except (IwError, ValueError) as e:
-        print(f"iwz radio: {e}")
-        return 2
-    io = NodeIO(bus, keys.chunk(args.sim), "radio", args.name)
-    install_stop_signals(io.stop, io.wake.set)
-    try:
-        run(bus, args.sim, RadioConfig(args.range, args.max_bytes, args.budget), io=io)
-    finally:
-        bus.close()
-    return 0
+
+
+def _config(args: argparse.Namespace) -> RadioConfig:
+    if args.range <= 0 or args.max_bytes <= 0 or args.budget <= 0:
+        raise ValueError("--range, --max-bytes and --budget must be > 0")
+    return RadioConfig(args.range, args.max_bytes, args.budget)

@@ -17,10 +17,8 @@ from pathlib import Path
 
 from iw_zenoh import __version__, keys
 from iw_zenoh.bus import ZenohBus
-from iw_zenoh.cliargs import add_common_arguments, net_from_args
-from iw_zenoh.errors import IwError
-from iw_zenoh.nodes.base import NodeIO, install_stop_signals, setup_logging
 from iw_zenoh.record.recording import Recorder
+from iw_zenoh.runtime import NodeIO, Process, start_role
 
 __all__ = ["default_path", "main", "record"]
 
@@ -96,14 +94,22 @@ def record(
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Runs ``iwz record``."""
-    p = argparse.ArgumentParser(
+    return start_role(
+        argv,
+        role="recorder",
         prog="iwz record",
         description=(
             "Record every key of a simulation (iw/SIM/**) to an MCAP file: one channel per key, "
             "JSON Schemas, zstd chunks."
         ),
-        epilog="Example: iwz record -o recordings/today.mcap    (Ctrl-C finishes the file)",
+        epilog="Example (Ctrl-C finishes the file):\n  iwz record -o recordings/today.mcap --meta scenario=demo",
+        arguments=_arguments,
+        prepare=_prepare,
+        run=_run,
     )
+
+
+def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("-o", "--output", help="MCAP file to write (default recordings/SIM-DATE-TIME.mcap)")
     p.add_argument(
         "--meta",
@@ -112,37 +118,29 @@ def main(argv: Sequence[str] | None = None) -> int:
         metavar="KEY=VALUE",
         help="metadata to store (repeatable), e.g. scenario=demo",
     )
-    p.add_argument("--name", default="recorder", help="instance name (liveliness)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
-    add_common_arguments(p)
-    args = p.parse_args(argv)
-    setup_logging(args.verbose, "record")
-    out = Path(args.output) if args.output else default_path(args.sim)
+
+
+def _prepare(args: argparse.Namespace) -> tuple[Path, dict[str, str]]:
+    """Where to write and the user's metadata."""
     extra: dict[str, str] = {}
     for item in args.meta:
         k, sep, v = item.partition("=")
         if not sep or not k:
-            print(f"iwz record: --meta takes KEY=VALUE, got {item!r}")
-            return 2
+            raise ValueError(f"--meta takes KEY=VALUE, got {item!r}")
         extra[k] = v
-    try:
-        bus = ZenohBus(net_from_args(args))
-    except (IwError, ValueError) as e:
-        print(f"iwz record: {e}")
-        return 2
-    io = NodeIO(bus, keys.chunk(args.sim), "recorder", args.name)
-    install_stop_signals(io.stop, io.wake.set)
-    print(f"iwz record: recording iw/{args.sim}/** to {out}", flush=True)
-    try:
-        rec = record(
-            bus,
-            args.sim,
-            out,
-            io=io,
-            metadata={"iw.user": extra, "iw.versions.recorder": {"iw-zenoh": __version__}},
-            status=not args.quiet,
-        )
-    finally:
-        bus.close()
+    return (Path(args.output) if args.output else default_path(args.sim)), extra
+
+
+def _run(proc: Process, target: tuple[Path, dict[str, str]]) -> None:
+    out, extra = target
+    print(f"iwz record: recording iw/{proc.sim}/** to {out}", flush=True)
+    rec = record(
+        proc.bus,
+        proc.sim,
+        out,
+        io=proc.io,
+        metadata={"iw.user": extra, "iw.versions.recorder": {"iw-zenoh": __version__}},
+        status=not proc.args.quiet,
+    )
     print(f"iwz record: {sum(rec.counts.values())} messages on {len(rec.counts)} keys written to {out}", flush=True)
-    return 0

@@ -12,11 +12,9 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from iw_zenoh import keys
-from iw_zenoh.bus import ZenohBus
-from iw_zenoh.cliargs import add_common_arguments, net_from_args
 from iw_zenoh.errors import IwError
-from iw_zenoh.nodes.base import install_stop_signals, setup_logging
 from iw_zenoh.record.replay import Player, ReplayOptions
+from iw_zenoh.runtime import Process, start_role
 
 __all__ = ["main"]
 
@@ -25,15 +23,22 @@ logger = logging.getLogger(__name__)
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Runs ``iwz replay``."""
-    p = argparse.ArgumentParser(
-        prog="iwz replay",
+    return start_role(
+        argv,
+        role="replay",
         description="Play a recording back into Zenoh, as if it were live (viewers and agents cannot tell).",
         epilog=(
-            "Examples: iwz replay recordings/demo.mcap --rate 2 --start 10 --end 25\n"
-            "          iwz replay run.mcap --as-sim replay --keys 'iw/*/world/**'    (beside a live run)"
+            "Examples:\n"
+            "  iwz replay recordings/demo.mcap --rate 2 --start 10 --end 25\n"
+            "  iwz replay run.mcap --as-sim replay --keys 'iw/*/world/**'    (beside a live run)"
         ),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        arguments=_arguments,
+        prepare=_options,
+        run=_run,
     )
+
+
+def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", help="MCAP recording")
     p.add_argument("--rate", type=float, default=1.0, help="speed factor; 0 = as fast as possible (default 1)")
     p.add_argument("--start", type=float, help="simulation time to start at, seconds")
@@ -47,14 +52,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     p.add_argument("--as-sim", help="play into this simulation name (beside a live run)")
     p.add_argument("--paused", action="store_true", help="start paused; send a 'start' control to play")
-    add_common_arguments(p)
-    args = p.parse_args(argv)
-    setup_logging(args.verbose, "replay")
+
+
+def _options(args: argparse.Namespace) -> ReplayOptions:
     if args.rate < 0:
-        print("iwz replay: --rate must be >= 0")
-        return 2
-    path = Path(args.file)
-    opts = ReplayOptions(
+        raise ValueError("--rate must be >= 0")
+    return ReplayOptions(
         rate=args.rate,
         start_ns=int(args.start * 1e9) if args.start is not None else None,
         end_ns=int(args.end * 1e9) if args.end is not None else None,
@@ -64,17 +67,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         as_sim=args.as_sim,
         paused=args.paused,
     )
-    try:
-        bus = ZenohBus(net_from_args(args))
-    except (IwError, ValueError) as e:
-        print(f"iwz replay: {e}")
-        return 2
+
+
+def _run(proc: Process, opts: ReplayOptions) -> int:
+    path = Path(proc.args.file)
     try:
         with path.open("rb") as f:
-            player = Player(f, bus, opts)
-            bus.token(keys.alive(player.target, "replay", "replay"))
-            install_stop_signals(player.stop, player.wake.set)
-            print(f"iwz replay: {path} into iw/{player.target}/ at {args.rate:g}x", flush=True)
+            player = Player(f, proc.bus, opts)
+            proc.bus.token(keys.alive(player.target, "replay", "replay"))
+            proc.on_stop(player.stop.set)
+            proc.on_stop(player.wake.set)
+            print(f"iwz replay: {path} into iw/{player.target}/ at {opts.rate:g}x", flush=True)
             sent = player.run()
         print(f"iwz replay: {sent} messages played", flush=True)
     except (OSError, IwError) as e:
@@ -83,6 +86,4 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Exception as e:  # a file that is not MCAP, or cut off
         print(f"iwz replay: cannot read {path}: {e}; check it with iwz doctor")
         return 2
-    finally:
-        bus.close()
     return 0

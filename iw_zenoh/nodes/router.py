@@ -6,15 +6,10 @@ Default: listens on tcp/127.0.0.1:7447 only, multicast scouting off. For several
 
 from __future__ import annotations
 
-import argparse
 import logging
 from collections.abc import Sequence
 
-from iw_zenoh import keys
-from iw_zenoh.bus import ZenohBus
-from iw_zenoh.cliargs import add_common_arguments, net_from_args
-from iw_zenoh.errors import IwError
-from iw_zenoh.nodes.base import NodeIO, install_stop_signals, setup_logging
+from iw_zenoh.runtime import Process, start_role
 
 __all__ = ["main"]
 
@@ -23,32 +18,18 @@ logger = logging.getLogger(__name__)
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Runs ``iwz router`` until Ctrl-C or SIGTERM."""
-    p = argparse.ArgumentParser(
-        prog="iwz router",
+    return start_role(
+        argv,
+        role="router",
         description="A Zenoh router for the simulation's processes (loopback only unless --listen says otherwise).",
-        epilog="Example (serve a LAN): iwz router --listen tcp/0.0.0.0:7447",
+        epilog="Example (serve a LAN):\n  iwz router --listen tcp/0.0.0.0:7447",
+        run=_serve,
+        default_mode="router",
     )
-    p.add_argument("--name", default="router", help="instance name (liveliness)")
-    add_common_arguments(p, default_mode="router")
-    args = p.parse_args(argv)
-    setup_logging(args.verbose, "router")
-    try:
-        bus = ZenohBus(net_from_args(args))
-    except (IwError, ValueError) as e:
-        print(f"iwz router: {e}")
-        return 2
-    except Exception as e:  # zenoh's own error when the port is taken
-        print(
-            f"iwz router: cannot open the router: {e}; is another router on that port? Use --listen tcp/127.0.0.1:PORT"
-        )
-        return 2
-    io = NodeIO(bus, keys.chunk(args.sim), "router", args.name)
-    io.alive()
-    install_stop_signals(io.stop, io.wake.set)
-    print(f"iwz router: listening on {', '.join(bus.net.listen) or 'tcp/127.0.0.1:7447'}", flush=True)
-    try:
-        while not io.stop.is_set():
-            io.stop.wait(1.0)
-    finally:
-        bus.close()
-    return 0
+
+
+def _serve(proc: Process) -> None:
+    proc.io.alive()
+    print(f"iwz router: listening on {', '.join(proc.bus.net.listen) or 'tcp/127.0.0.1:7447'}", flush=True)
+    while not proc.io.stop.is_set():
+        proc.io.stop.wait(1.0)

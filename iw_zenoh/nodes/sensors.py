@@ -13,13 +13,11 @@ import time
 from collections.abc import Sequence
 
 from iw_zenoh import keys
-from iw_zenoh.bus import Bus, Delivery, Inbox, ZenohBus
-from iw_zenoh.cliargs import add_common_arguments, net_from_args
+from iw_zenoh.bus import Bus, Delivery, Inbox
 from iw_zenoh.core.cones import warm_up
-from iw_zenoh.errors import IwError
 from iw_zenoh.messages import Proposed, WorldState, encode_sensor_batch
-from iw_zenoh.nodes.base import NodeIO, install_stop_signals, setup_logging
 from iw_zenoh.nodes.info import InfoCache
+from iw_zenoh.runtime import NodeIO, start_role
 from iw_zenoh.sim.sensors import Computed, SensorsNode
 
 __all__ = ["main", "parse_shard", "run"]
@@ -137,40 +135,32 @@ def _publish(bus: Bus, sim: str, shard: tuple[int, int], c: Computed) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Runs ``iwz sensors``."""
-    p = argparse.ArgumentParser(
-        prog="iwz sensors",
+    return start_role(
+        argv,
+        role="sensors",
         description=(
             "Computes every robot's sensors each tick (proximity cones, compass, beacons, GPS, "
             "ground, collision, encoders, bumpers)."
         ),
-        epilog="Split the robots between processes or hosts: iwz sensors --shard 1/2 on one, --shard 2/2 on another.",
+        epilog=(
+            "Split the robots between processes or hosts, one shard on each:\n"
+            "  iwz sensors --shard 1/2\n"
+            "  iwz sensors --shard 2/2 --connect tcp/HOST:7447"
+        ),
+        arguments=_arguments,
+        warm_up=warm_up,  # before joining: the first tick must not wait for a compilation
+        prepare=lambda args: parse_shard(args.shard),
+        run=lambda proc, shard: run(proc.bus, proc.sim, shard=shard, io=proc.io, ahead=not proc.args.no_ahead),
+        name=lambda args: "sensors-{}-{}".format(*parse_shard(args.shard)),
+        name_help="sensors-K-N",
     )
+
+
+def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--shard", default="1/1", help="K/N: compute the robots whose id is K modulo N (default 1/1, all)")
-    p.add_argument("--name", default="", help="instance name (liveliness; default sensors-K-N)")
     p.add_argument(
         "--no-ahead",
         action="store_true",
         help="do not compute a tick ahead from the world's proposal (the same readings, later; "
         "to compare, or on a machine with one core)",
     )
-    add_common_arguments(p)
-    args = p.parse_args(argv)
-    setup_logging(args.verbose, "sensors")
-    t0 = time.monotonic()
-    warm_up()  # before joining: the first tick must not wait for a compilation
-    if time.monotonic() - t0 > 1.0:
-        logger.info("proximity kernel compiled in %.1f s (cached for later runs)", time.monotonic() - t0)
-    try:
-        shard = parse_shard(args.shard)
-        bus = ZenohBus(net_from_args(args))
-    except (IwError, ValueError) as e:
-        print(f"iwz sensors: {e}")
-        return 2
-    name = args.name or f"sensors-{shard[0]}-{shard[1]}"
-    io = NodeIO(bus, keys.chunk(args.sim), "sensors", name)
-    install_stop_signals(io.stop, io.wake.set)
-    try:
-        run(bus, args.sim, shard=shard, io=io, ahead=not args.no_ahead)
-    finally:
-        bus.close()
-    return 0

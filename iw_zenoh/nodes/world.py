@@ -12,20 +12,19 @@ import time
 from collections.abc import Sequence
 
 from iw_zenoh import keys
-from iw_zenoh.bus import Bus, ZenohBus
-from iw_zenoh.cliargs import add_common_arguments, net_from_args
+from iw_zenoh.bus import Bus
 from iw_zenoh.clock import Clock, WallClock
 from iw_zenoh.core.lab import Grid
-from iw_zenoh.core.modes import Mode, Profile
+from iw_zenoh.core.modes import Mode
 from iw_zenoh.errors import IwError
 from iw_zenoh.maps import load_grid, load_lab
 from iw_zenoh.messages import (
     ActionBatch,
     Actions,
     Control,
+    Event,
     EventKind,
     LaggardData,
-    Obstacle,
     PoseReport,
     RefusedData,
     RegisterReply,
@@ -34,11 +33,12 @@ from iw_zenoh.messages import (
     decode,
     encode,
 )
-from iw_zenoh.nodes.base import NodeIO, install_stop_signals, setup_logging
+from iw_zenoh.nodes.world_options import WorldOptions, add_arguments, parse_obstacle
+from iw_zenoh.runtime import NodeIO, Process, options_from_args, start_role
 from iw_zenoh.sim.config import MS, WorldConfig
 from iw_zenoh.sim.world import WorldCore
 
-__all__ = ["main", "run"]
+__all__ = ["WorldOptions", "add_arguments", "main", "parse_obstacle", "prepare", "run", "world_config"]
 
 logger = logging.getLogger(__name__)
 
@@ -46,11 +46,11 @@ logger = logging.getLogger(__name__)
 class _World:
     """The world's I/O loop around a :class:`WorldCore`."""
 
-    def __init__(self, bus: Bus, core: WorldCore, clock: Clock, name: str) -> None:
+    def __init__(self, bus: Bus, core: WorldCore, clock: Clock, name: str, io: NodeIO | None = None) -> None:
         self.core = core
         self.clock = clock
         sim = core.cfg.sim
-        self.io = NodeIO(bus, sim, "world", name)
+        self.io = io or NodeIO(bus, sim, "world", name)
         self.actions = self.io.inbox(keys.all_actions(sim))
         self.batches = self.io.inbox(keys.all_agent_actions(sim))
         self.reports = self.io.inbox(keys.all_pose_reports(sim))
@@ -227,132 +227,54 @@ def run(bus: Bus, core: WorldCore, clock: Clock | None = None, *, name: str = "w
     _World(bus, core, clock or WallClock(), name).loop()
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The arguments of ``iwz world``."""
-    p = argparse.ArgumentParser(
-        prog="iwz world",
-        description=(
-            "The world process: the clock, motors and kinematics, registration. "
-            "Every other role talks to it over Zenoh."
-        ),
-        epilog="Example: iwz world maps/liacc.xml --grid maps/liacc-grid.xml --lockstep --seed 7",
+def world_config(opts: WorldOptions, sim: str) -> WorldConfig:
+    """The world core's configuration from the options, in simulation ``sim``."""
+    return WorldConfig(
+        sim=sim,
+        period_ms=opts.period_ms,
+        mode=opts.mode,
+        profile=opts.profile,
+        seed=opts.seed,
+        action_timeout_ms=opts.action_timeout_ms,
+        grace_ms=opts.grace_ms,
+        lockstep_timeout_ms=opts.lockstep_timeout_ms,
+        expect=opts.expect,
+        duration_ticks=int(round(opts.duration_s * 1000.0 / opts.period_ms)) if opts.duration_s > 0 else 0,
+        start_paused=opts.start_paused,
+        motors_noise_pct=opts.motors_noise_pct,
     )
-    p.add_argument("map", help="Lab XML file (Ciber-Rato / Intellwheels)")
-    p.add_argument("--grid", help="Grid XML file of start positions (default: none; robots then give X and Y)")
-    p.add_argument("--period-ms", type=float, default=100.0, help="tick period in ms (default 100; Ciber-Rato uses 50)")
-    p.add_argument(
-        "--lockstep",
-        action="store_true",
-        help="lock-step: wait for every live agent's actions each tick (default: real time)",
-    )
-    p.add_argument(
-        "--profile",
-        choices=[p.value for p in Profile],
-        default=Profile.NATIVE.value,
-        help="motion and collision rules (default native)",
-    )
-    p.add_argument("--seed", type=int, default=0, help="seed of movement noise (default 0)")
-    p.add_argument(
-        "--action-timeout-ms",
-        type=float,
-        default=500.0,
-        help="zero a robot's motors when its actions are older (default 500)",
-    )
-    p.add_argument(
-        "--grace-ms", type=float, default=5000.0, help="remove a robot this long after its agent is gone (default 5000)"
-    )
-    p.add_argument(
-        "--lockstep-timeout-ms",
-        type=float,
-        default=2000.0,
-        help="lock-step: wait this long for a tick's actions (default 2000)",
-    )
-    p.add_argument("--expect", type=int, default=0, help="wait for this many robots before the first tick (default 0)")
-    p.add_argument(
-        "--duration",
-        type=float,
-        default=0.0,
-        help="stop after this many simulated seconds (default: run until stopped)",
-    )
-    p.add_argument("--paused", action="store_true", help="start paused; a 'start' control runs it")
-    p.add_argument("--motors-noise", type=float, default=0.0, help="Ciber-Rato MotorsNoise, percent (legacy profile)")
-    p.add_argument(
-        "--obstacle",
-        action="append",
-        default=[],
-        metavar="NAME:X0,Y0,X1,Y1[,H]",
-        help="a rectangular obstacle from the start (repeatable)",
-    )
-    p.add_argument("--name", default="world", help="instance name (liveliness)")
-    add_common_arguments(p)
-    return p
 
 
-def parse_obstacle(text: str) -> Obstacle:
-    """Parses ``NAME:X0,Y0,X1,Y1[,H]``.
+def prepare(args: argparse.Namespace) -> WorldCore:
+    """The world's core from its options: the map and grid loaded, the obstacles placed.
 
     Raises:
-        ValueError: Saying what the form is.
+        IwError: A refused option, a map that cannot be read.
+        ValueError: An obstacle the world refuses.
     """
-    name, sep, rest = text.partition(":")
-    try:
-        v = [float(x) for x in rest.split(",")]
-    except ValueError:
-        v = []
-    if not sep or not name or len(v) not in (4, 5):
-        raise ValueError(f"--obstacle takes NAME:X0,Y0,X1,Y1[,HEIGHT], got {text!r}")
-    return Obstacle(name=name, x0=v[0], y0=v[1], x1=v[2], y1=v[3], height=v[4] if len(v) == 5 else 1.0)
+    opts = options_from_args(args, WorldOptions)
+    if not opts.map:
+        raise IwError("a map is required: iwz world MAP (or a map in --options)")
+    lab = load_lab(opts.map)
+    grid = load_grid(opts.grid, lab) if opts.grid else Grid(())
+    core = WorldCore(world_config(opts, keys.chunk(args.sim)), lab, grid)
+    for o in opts.obstacles:
+        bad = [m for _, m in core.on_control(Control(command="add_obstacle", obstacle=o)) if isinstance(m, Event)]
+        bad = [m for m in bad if m.kind == EventKind.BAD_CONTROL]
+        if bad:
+            raise ValueError(bad[0].reason)
+    return core
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Runs ``iwz world``."""
-    args = build_parser().parse_args(argv)
-    setup_logging(args.verbose, "world")
-    try:
-        lab = load_lab(args.map)
-        grid = load_grid(args.grid, lab) if args.grid else Grid(())
-        cfg = WorldConfig(
-            sim=keys.chunk(args.sim),
-            period_ms=args.period_ms,
-            mode=Mode.LOCKSTEP if args.lockstep else Mode.REALTIME,
-            profile=Profile(args.profile),
-            seed=args.seed,
-            action_timeout_ms=args.action_timeout_ms,
-            grace_ms=args.grace_ms,
-            lockstep_timeout_ms=args.lockstep_timeout_ms,
-            expect=args.expect,
-            duration_ticks=int(round(args.duration * 1000.0 / args.period_ms)) if args.duration > 0 else 0,
-            start_paused=args.paused,
-            motors_noise_pct=args.motors_noise,
-        )
-        if args.period_ms <= 0:
-            raise IwError(f"--period-ms must be > 0, got {args.period_ms:g}")
-        bus = ZenohBus(net_from_args(args))
-    except (IwError, ValueError) as e:
-        print(f"iwz world: {e}")
-        return 2
-    core = WorldCore(cfg, lab, grid)
-    try:
-        for text in args.obstacle:
-            bad = [
-                m
-                for _, m in core.on_control(Control(command="add_obstacle", obstacle=parse_obstacle(text)))
-                if getattr(m, "kind", "") == EventKind.BAD_CONTROL
-            ]
-            if bad:
-                raise ValueError(bad[0].reason)  # type: ignore[attr-defined]
-    except ValueError as e:
-        print(f"iwz world: {e}")
-        bus.close()
-        return 2
-    w = _World(bus, core, WallClock(), args.name)
-    install_stop_signals(w.io.stop, w.io.wake.set)
+def _run(proc: Process, core: WorldCore) -> None:
+    w = _World(proc.bus, core, WallClock(), proc.name, io=proc.io)
+    cfg, lab = core.cfg, core.obstacles.base_lab
     logger.info(
         "world %r on %s: %d walls, %d start positions, %s, %g ms",
         cfg.sim,
         lab.name,
         len(lab.walls),
-        len(grid.positions),
+        len(core.grid.positions),
         cfg.mode,
         cfg.period_ms,
     )
@@ -360,5 +282,24 @@ def main(argv: Sequence[str] | None = None) -> int:
         w.loop()
     finally:
         time.sleep(0.05)  # let the last state and events leave before the session closes
-        bus.close()
-    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Runs ``iwz world``."""
+    return start_role(
+        argv,
+        role="world",
+        description=(
+            "The world process: the clock, motors and kinematics, registration. "
+            "Every other role talks to it over Zenoh."
+        ),
+        epilog=(
+            "Examples:\n"
+            "  iwz world maps/liacc.xml --grid maps/liacc-grid.xml --lockstep --seed 7\n"
+            "  iwz world maps/liacc.xml --obstacle A:16.5,5.2,17,5.9 --duration 60\n"
+            '  iwz world --options \'{"map": "maps/liacc.xml", "mode": "lockstep"}\'    (as iwz run starts it)'
+        ),
+        arguments=add_arguments,
+        prepare=prepare,
+        run=_run,
+    )

@@ -1,0 +1,55 @@
+"""One process that ``iwz run`` starts and supervises: its command line, log, start, stop."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+from dataclasses import dataclass
+from pathlib import Path
+
+__all__ = ["Child"]
+
+
+@dataclass
+class Child:
+    """One supervised process."""
+
+    role: str
+    name: str
+    argv: list[str]
+    log: Path
+    proc: subprocess.Popen[bytes] | None = None
+    restarts: int = 0
+    expected_exit: bool = False
+    cwd: Path | None = None
+
+    def start(self, env: dict[str, str]) -> None:
+        """Starts (or restarts) the process, its output to its log file."""
+        with self.log.open("ab") as f:
+            self.proc = subprocess.Popen(
+                self.argv,
+                stdout=f,
+                stderr=subprocess.STDOUT,
+                stdin=subprocess.DEVNULL,
+                env=env,
+                start_new_session=True,
+                cwd=self.cwd,
+            )
+
+    def alive(self) -> bool:
+        """Whether it is running."""
+        return self.proc is not None and self.proc.poll() is None
+
+    def stop(self) -> None:
+        """Asks it to stop (SIGTERM)."""
+        self.expected_exit = True
+        if self.alive():
+            assert self.proc is not None
+            self.proc.send_signal(signal.SIGTERM)
+
+    def tail(self, lines: int = 8) -> str:
+        """The last lines of its log."""
+        try:
+            return "\n".join(self.log.read_text(errors="replace").splitlines()[-lines:])
+        except OSError:
+            return ""

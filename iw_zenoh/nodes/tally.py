@@ -1,0 +1,66 @@
+"""What ``iwz run`` sees of a run (ticks, positions, events) and its verdict on the criteria."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from iw_zenoh.config import Criteria, Reach
+from iw_zenoh.messages import Event, EventKind, WorldState
+
+__all__ = ["Tally"]
+
+
+@dataclass
+class Tally:
+    """What the launcher saw of the run."""
+
+    tick: int = 0
+    sim_s: float = 0.0
+    robots: int = 0
+    collisions: int = 0
+    positions: dict[int, tuple[float, float]] = field(default_factory=dict)
+    reached: dict[int, float] = field(default_factory=dict)
+    events: dict[str, int] = field(default_factory=dict)
+    holding: str = ""
+    agents_alive: set[str] = field(default_factory=set)
+
+    def on_event(self, ev: Event) -> None:
+        """Counts an event; a collision, a hold and its end are also kept."""
+        self.events[str(ev.kind)] = self.events.get(str(ev.kind), 0) + 1
+        if ev.kind == EventKind.COLLISION:
+            self.collisions += 1
+        if ev.kind == EventKind.HOLDING:
+            self.holding = ev.reason
+        if ev.kind == EventKind.RESUMED:
+            self.holding = ""
+
+    def on_state(self, st: WorldState, reach: tuple[Reach, ...]) -> None:
+        """Keeps the tick, the time and every robot's position; notes each goal when first reached."""
+        self.tick, self.sim_s, self.robots = st.tick, st.sim_time_ns / 1e9, len(st.ids)
+        for rid, x, y in zip(st.ids, st.x, st.y, strict=True):
+            self.positions[rid] = (x, y)
+        for r in reach:
+            p = self.positions.get(r.robot)
+            if p is not None and r.robot not in self.reached and math.hypot(p[0] - r.x, p[1] - r.y) <= r.within:
+                self.reached[r.robot] = self.sim_s
+
+    def verdict(self, crit: Criteria) -> tuple[bool, list[str]]:
+        """Whether the criteria are met, and a line per criterion."""
+        lines: list[str] = []
+        ok = True
+        if crit.max_collisions is not None:
+            good = self.collisions <= crit.max_collisions
+            ok &= good
+            lines.append(f"{'PASS' if good else 'FAIL'} collisions {self.collisions} (at most {crit.max_collisions})")
+        for r in crit.reach:
+            when = self.reached.get(r.robot)
+            good = when is not None
+            ok &= good
+            at = self.positions.get(r.robot)
+            where = f"last at ({at[0]:.2f}, {at[1]:.2f})" if at else "never seen"
+            lines.append(
+                f"{'PASS' if good else 'FAIL'} robot {r.robot} within {r.within:g} m of ({r.x:g}, {r.y:g})"
+                + (f" at t={when:.1f} s" if good else f": {where}")
+            )
+        return ok, lines

@@ -1,0 +1,163 @@
+"""The options of ``iwz world`` (a msgspec Struct) and the flags that fill it.
+
+Apart from the world process itself so that ``iwz run`` builds a world's options from a scenario
+(and reads a scenario's ``world.args`` with the world's own flags) without the world's loop.
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Annotated, Any
+
+import msgspec
+
+from iw_zenoh.core.modes import Mode, Profile
+from iw_zenoh.messages import Obstacle
+from iw_zenoh.runtime import add_options_argument, option
+from iw_zenoh.sim.config import WorldConfig
+
+__all__ = ["WorldOptions", "add_arguments", "parse_obstacle"]
+
+_CORE = WorldConfig()  # the world core's defaults are the options' defaults
+
+
+class WorldOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """How ``iwz world`` runs: filled by its flags, or whole by ``--options JSON`` (``iwz run``).
+
+    Attributes:
+        map: Lab XML file (Ciber-Rato / Intellwheels).
+        grid: Grid XML file of start positions ("": none; robots then give X and Y).
+        period_ms: Tick period, ms.
+        mode: ``realtime`` or ``lockstep``.
+        profile: Motion and collision rules, ``native`` or ``ciberrato``.
+        seed: Seeds movement noise.
+        action_timeout_ms: Actions older than this zero a robot's motors.
+        grace_ms: A robot is removed this long after its agent is gone.
+        lockstep_timeout_ms: Lock-step waits this long for a tick's actions.
+        expect: Robots to wait for before the first tick.
+        duration_s: Stop after this many simulated seconds (0: run until stopped).
+        start_paused: Do not tick until a ``start`` control arrives.
+        motors_noise_pct: Ciber-Rato MotorsNoise, percent (legacy profile).
+        obstacles: Rectangular obstacles placed before the first tick.
+    """
+
+    map: str = ""
+    grid: str = ""
+    period_ms: Annotated[float, msgspec.Meta(gt=0)] = _CORE.period_ms
+    mode: Mode = _CORE.mode
+    profile: Profile = _CORE.profile
+    seed: int = _CORE.seed
+    action_timeout_ms: float = _CORE.action_timeout_ms
+    grace_ms: float = _CORE.grace_ms
+    lockstep_timeout_ms: float = _CORE.lockstep_timeout_ms
+    expect: int = _CORE.expect
+    duration_s: float = 0.0
+    start_paused: bool = _CORE.start_paused
+    motors_noise_pct: float = _CORE.motors_noise_pct
+    obstacles: tuple[Obstacle, ...] = ()
+
+
+# each flag of ``iwz world``: the field it fills, how argparse reads it, its help ({default}: the field's)
+_FLAGS: tuple[tuple[str, str, dict[str, Any], str], ...] = (
+    ("--grid", "grid", {"metavar": "FILE"}, "Grid XML file of start positions (default: none; robots give X, Y)"),
+    (
+        "--period-ms",
+        "period_ms",
+        {"type": float, "metavar": "MS"},
+        "tick period in ms (default {default:g}; Ciber-Rato uses 50)",
+    ),
+    (
+        "--lockstep",
+        "mode",
+        {"action": "store_const", "const": Mode.LOCKSTEP.value},
+        "lock-step: wait for every live agent's actions each tick (default: real time)",
+    ),
+    ("--profile", "profile", {"choices": [p.value for p in Profile]}, "motion and collision rules (default {default})"),
+    ("--seed", "seed", {"type": int, "metavar": "N"}, "seed of movement noise (default {default})"),
+    (
+        "--action-timeout-ms",
+        "action_timeout_ms",
+        {"type": float, "metavar": "MS"},
+        "zero a robot's motors when its actions are older (default {default:g})",
+    ),
+    (
+        "--grace-ms",
+        "grace_ms",
+        {"type": float, "metavar": "MS"},
+        "remove a robot this long after its agent is gone (default {default:g})",
+    ),
+    (
+        "--lockstep-timeout-ms",
+        "lockstep_timeout_ms",
+        {"type": float, "metavar": "MS"},
+        "lock-step: wait this long for a tick's actions (default {default:g})",
+    ),
+    (
+        "--expect",
+        "expect",
+        {"type": int, "metavar": "N"},
+        "wait for this many robots before the first tick (default {default})",
+    ),
+    (
+        "--duration",
+        "duration_s",
+        {"type": float, "metavar": "S"},
+        "stop after this many simulated seconds (default: run until stopped)",
+    ),
+    ("--paused", "start_paused", {"action": "store_true"}, "start paused; a 'start' control runs it"),
+    (
+        "--motors-noise",
+        "motors_noise_pct",
+        {"type": float, "metavar": "PCT"},
+        "Ciber-Rato MotorsNoise, percent (legacy profile)",
+    ),
+    (
+        "--obstacle",
+        "obstacles",
+        {"action": "append", "type": "obstacle", "metavar": "NAME:X0,Y0,X1,Y1[,H]"},
+        "a rectangular obstacle from the start (repeatable)",
+    ),
+)
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """Adds the flags of ``iwz world``, each filling a field of :class:`WorldOptions`.
+
+    A flag not given leaves its field to ``--options`` or the default (``argparse.SUPPRESS``).
+    """
+    defaults = WorldOptions()
+    p.add_argument(
+        option("map"),
+        nargs="?",
+        metavar="MAP",
+        default=argparse.SUPPRESS,
+        help="Lab XML file (Ciber-Rato / Intellwheels)",
+    )
+    for flag, name, how, text in _FLAGS:
+        how = {**how, "type": _obstacle_flag} if how.get("type") == "obstacle" else how
+        text = text.format(default=getattr(defaults, name))
+        p.add_argument(flag, dest=option(name), default=argparse.SUPPRESS, help=text, **how)
+    add_options_argument(p, WorldOptions)
+
+
+def parse_obstacle(text: str) -> Obstacle:
+    """Parses ``NAME:X0,Y0,X1,Y1[,H]``.
+
+    Raises:
+        ValueError: Saying what the form is.
+    """
+    name, sep, rest = text.partition(":")
+    try:
+        v = [float(x) for x in rest.split(",")]
+    except ValueError:
+        v = []
+    if not sep or not name or len(v) not in (4, 5):
+        raise ValueError(f"--obstacle takes NAME:X0,Y0,X1,Y1[,HEIGHT], got {text!r}")
+    return Obstacle(name=name, x0=v[0], y0=v[1], x1=v[2], y1=v[3], height=v[4] if len(v) == 5 else 1.0)
+
+
+def _obstacle_flag(text: str) -> Obstacle:
+    try:
+        return parse_obstacle(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None

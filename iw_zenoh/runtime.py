@@ -1,0 +1,396 @@
+"""How a role process starts and stops: its arguments, logging, bus, signals, typed options.
+
+Every role's ``main()`` hands :func:`start_role` only what is its own (its description and
+examples, its flags, a warm-up, what it prepares before joining, what it runs); the rest is
+here, once: ``--sim``, ``-v``, ``--name`` and the network flags, the logging set-up, opening the
+bus (a failure prints ``iwz ROLE: reason`` and exits 2), SIGINT and SIGTERM, closing the bus.
+
+A role the launcher configures declares its options as a ``msgspec.Struct``; its flags fill it
+(:func:`options_from_args`) and ``--options JSON`` hands it whole, decoded and validated by
+msgspec, so ``iwz run`` passes typed configuration instead of strings the child parses again.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import signal
+import threading
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any, TypeVar, overload
+
+import msgspec
+
+from iw_zenoh import keys
+from iw_zenoh.bus import Bus, Delivery, Inbox, ZenohBus
+from iw_zenoh.cliargs import add_common_arguments, net_from_args
+from iw_zenoh.errors import DecodeError, IwError
+from iw_zenoh.messages import EventData, EventKind, Message, Outgoing, decode, encode, make_event
+
+__all__ = [
+    "NodeIO",
+    "Outgoing",
+    "Process",
+    "add_options_argument",
+    "install_stop_signals",
+    "option",
+    "options_from_args",
+    "options_from_argv",
+    "setup_logging",
+    "start_role",
+]
+
+logger = logging.getLogger(__name__)
+
+M = TypeVar("M", bound=Message)
+T = TypeVar("T")
+S = TypeVar("S", bound=msgspec.Struct)
+
+
+class NodeIO:
+    """A node's handle on the bus: inboxes that wake one loop, typed send, safe decode.
+
+    Args:
+        bus: The bus.
+        sim: Simulation name.
+        role: The process role (a liveliness role of :mod:`iw_zenoh.keys`).
+        name: This instance's name.
+    """
+
+    def __init__(self, bus: Bus, sim: str, role: str, name: str) -> None:
+        self.bus = bus
+        self.sim = sim
+        self.role = role
+        self.name = name
+        self.wake = threading.Event()
+        self.stop = threading.Event()
+        self.bad_messages = 0
+
+    def inbox(self, key_expr: str, maxlen: int | None = None) -> Inbox:
+        """Subscribes ``key_expr`` into a new inbox that wakes this node."""
+        box = Inbox(maxlen=maxlen, wake=self.wake)
+        self.bus.subscribe(key_expr, box)
+        return box
+
+    def alive(self) -> None:
+        """Declares this process's liveliness token."""
+        self.bus.token(keys.alive(self.sim, self.role, self.name))
+
+    def send(self, key: str, msg: Message) -> None:
+        """Publishes a message."""
+        self.bus.publish(key, encode(msg))
+
+    def send_all(self, out: list[Outgoing]) -> None:
+        """Publishes several messages in order."""
+        for key, msg in out:
+            self.bus.publish(key, encode(msg))
+
+    def event(
+        self,
+        kind: EventKind,
+        reason: str,
+        payload: EventData | None = None,
+        *,
+        tick: int = 0,
+        sim_time_ns: int = 0,
+        robot_id: int = -1,
+        key: str = "",
+    ) -> None:
+        """Publishes an event of ``kind`` with its payload (see :func:`messages.make_event`), and logs it."""
+        logger.info("event %s: %s", kind, reason)
+        self.send(
+            keys.event(self.sim, kind),
+            make_event(
+                kind,
+                payload,
+                reason=reason,
+                tick=tick,
+                sim_time_ns=sim_time_ns,
+                robot_id=robot_id,
+                key=key,
+                source=f"{self.role}/{self.name}",
+            ),
+        )
+
+    def decode(self, delivery: Delivery, kind: type[M]) -> M | None:
+        """Decodes a delivery; a bad one is dropped with a ``bad-message`` event naming key and reason."""
+        key, data, _ = delivery
+        try:
+            return decode(data, kind)
+        except DecodeError as e:
+            self.bad_message(key, e)
+            return None
+
+    def bad_message(self, key: str, error: Exception) -> None:
+        """Reports a message dropped as malformed: counted, logged, and a ``bad-message`` event."""
+        self.bad_messages += 1
+        logger.warning("dropped a bad message on %s: %s", key, error)
+        self.event(EventKind.BAD_MESSAGE, str(error), key=key)
+
+    def wait(self, timeout_s: float) -> None:
+        """Sleeps until something arrives, a stop is asked, or ``timeout_s`` passes."""
+        if timeout_s > 0:
+            self.wake.wait(timeout_s)
+        self.wake.clear()
+
+
+def install_stop_signals(stop: threading.Event, extra: Callable[[], None] | None = None) -> None:
+    """SIGINT and SIGTERM set ``stop`` (the loop then closes the session and exits 0)."""
+
+    def handler(signum: int, _frame: object) -> None:
+        logger.info("signal %d: stopping", signum)
+        stop.set()
+        if extra is not None:
+            extra()
+
+    signal.signal(signal.SIGINT, handler)
+    signal.signal(signal.SIGTERM, handler)
+
+
+def setup_logging(verbosity: int, role: str) -> None:
+    """Configures logging for a process (``-v`` info, ``-vv`` debug)."""
+    level = logging.WARNING if verbosity <= 0 else logging.INFO if verbosity == 1 else logging.DEBUG
+    logging.basicConfig(level=level, format=f"%(asctime)s {role} %(levelname)s %(name)s: %(message)s")
+
+
+@dataclass
+class Process:
+    """A started role process, as its ``run`` sees it.
+
+    Attributes:
+        args: Its parsed arguments.
+        bus: The open bus (closed by :func:`start_role` when ``run`` returns).
+        io: Its node handle; a stop signal sets ``io.stop`` and ``io.wake``.
+        sim: The simulation name (a valid key chunk).
+        name: This instance's name (liveliness).
+        prog: How it names itself in messages (``iwz ROLE``).
+    """
+
+    args: argparse.Namespace
+    bus: ZenohBus
+    io: NodeIO
+    sim: str
+    name: str
+    prog: str
+    _on_stop: list[Callable[[], None]] = field(default_factory=list)
+
+    def on_stop(self, callback: Callable[[], None]) -> None:
+        """Also calls ``callback`` on a stop signal (at once when one has come already)."""
+        self._on_stop.append(callback)
+        if self.io.stop.is_set():
+            callback()
+
+    def _stop(self) -> None:
+        self.io.wake.set()
+        for callback in list(self._on_stop):
+            callback()
+
+
+OPTION_DEST = "option:"  # the dest of a flag that fills an options field: never clashes with --mode, --name
+
+
+def option(field_name: str) -> str:
+    """The ``dest`` of a flag that fills the options field ``field_name`` (see :func:`options_from_args`)."""
+    return OPTION_DEST + field_name
+
+
+def add_options_argument(parser: argparse.ArgumentParser, kind: type[msgspec.Struct]) -> None:
+    """Adds ``--options JSON``: the role's whole configuration (a ``kind``) as one JSON object.
+
+    The role's flags are added with ``dest=option(FIELD)`` and ``default=argparse.SUPPRESS``, so
+    :func:`options_from_args` knows which field each fills and which ones were given.
+    """
+    parser.add_argument(
+        "--options",
+        metavar="JSON",
+        help=f"every option at once, a JSON object with the fields of {kind.__module__}.{kind.__name__} "
+        "(what iwz run passes); flags given beside it override it",
+    )
+
+
+def options_from_args(args: argparse.Namespace, kind: type[S], base: S | None = None) -> S:
+    """A role's options: ``base`` (or ``--options``, or the defaults), then the flags given.
+
+    Args:
+        args: Parsed arguments whose role flags have ``dest=option(FIELD)`` and
+            ``default=argparse.SUPPRESS``.
+        kind: The options Struct.
+        base: Options to start from instead of ``args.options``.
+
+    Returns:
+        The options, validated by msgspec (types and ranges of ``kind``).
+
+    Raises:
+        IwError: Naming the option (its JSON path) and the reason.
+    """
+    try:
+        if base is None and getattr(args, "options", None):
+            base = msgspec.json.decode(args.options, type=kind)
+        start: dict[str, Any] = msgspec.structs.asdict(base) if base is not None else {}
+        given = {f: getattr(args, option(f)) for f in kind.__struct_fields__ if hasattr(args, option(f))}
+        return msgspec.convert(msgspec.to_builtins({**start, **given}), kind)
+    except msgspec.DecodeError as e:  # ValidationError is one
+        raise IwError(f"refused options: {e}") from None
+
+
+def options_from_argv(
+    argv: Sequence[str],
+    kind: type[S],
+    arguments: Callable[[argparse.ArgumentParser], None],
+    *,
+    base: S,
+    prog: str,
+) -> tuple[S, list[str]]:
+    """Reads a role's own flags out of ``argv`` into its options, over ``base`` (no exit on error).
+
+    For a launcher that holds a role's options and a few of its flags written as text (a
+    scenario's ``world.args``): the flags are read here, once, and the child gets typed options.
+
+    Args:
+        argv: The flags.
+        kind: The options Struct.
+        arguments: Adds the role's flags (as its ``main`` does).
+        base: The options the flags override.
+        prog: The role's program name, for messages.
+
+    Returns:
+        The options, and what in ``argv`` is not one of the role's option flags (for its command line).
+
+    Raises:
+        IwError: A flag's value is refused, or the options are.
+    """
+    parser = argparse.ArgumentParser(prog=prog, add_help=False, exit_on_error=False)
+    arguments(parser)
+    try:
+        args, rest = parser.parse_known_args(list(argv))
+    except argparse.ArgumentError as e:
+        raise IwError(f"{prog}: {e}") from None
+    return options_from_args(args, kind, base), rest
+
+
+@overload
+def start_role(
+    argv: Sequence[str] | None,
+    *,
+    role: str,
+    description: str,
+    epilog: str = ...,
+    arguments: Callable[[argparse.ArgumentParser], None] | None = ...,
+    warm_up: Callable[[], None] | None = ...,
+    prepare: None = ...,
+    run: Callable[[Process], int | None],
+    name: Callable[[argparse.Namespace], str] | None = ...,
+    name_help: str = ...,
+    prog: str = ...,
+    default_mode: str = ...,
+) -> int: ...
+
+
+@overload
+def start_role(
+    argv: Sequence[str] | None,
+    *,
+    role: str,
+    description: str,
+    epilog: str = ...,
+    arguments: Callable[[argparse.ArgumentParser], None] | None = ...,
+    warm_up: Callable[[], None] | None = ...,
+    prepare: Callable[[argparse.Namespace], T],
+    run: Callable[[Process, T], int | None],
+    name: Callable[[argparse.Namespace], str] | None = ...,
+    name_help: str = ...,
+    prog: str = ...,
+    default_mode: str = ...,
+) -> int: ...
+
+
+def start_role(
+    argv: Sequence[str] | None,
+    *,
+    role: str,
+    description: str,
+    epilog: str = "",
+    arguments: Callable[[argparse.ArgumentParser], None] | None = None,
+    warm_up: Callable[[], None] | None = None,
+    prepare: Callable[[argparse.Namespace], Any] | None = None,
+    run: Callable[..., int | None],
+    name: Callable[[argparse.Namespace], str] | None = None,
+    name_help: str = "",
+    prog: str = "",
+    default_mode: str = "client",
+) -> int:
+    """Starts a role process: parse, log, warm up, prepare, join the bus, run, close.
+
+    Args:
+        argv: The arguments (``None``: the command line).
+        role: The role (liveliness role, log name, and ``iwz ROLE`` in messages).
+        description: What it does, for ``--help``.
+        epilog: Examples, for ``--help`` (printed as written).
+        arguments: Adds the role's own flags.
+        warm_up: Called before joining (e.g. compiling kernels, so a first tick never waits).
+        prepare: Turns the arguments into what ``run`` needs, before joining; an
+            :class:`IwError` or ``ValueError`` it raises prints ``iwz ROLE: reason``, exit 2.
+        run: The role's work, given the :class:`Process` (and what ``prepare`` made); returns
+            an exit code or ``None`` (0).
+        name: This instance's default name from the arguments, when ``--name`` is not given
+            (default: the role).
+        name_help: That default, as ``--help`` says it.
+        prog: The program's name (default ``iwz ROLE``).
+        default_mode: The Zenoh session mode by default.
+
+    Returns:
+        The exit code: 0, 2 for refused arguments or no bus, or what ``run`` returns.
+    """
+    prog = prog or f"iwz {role}"
+    args = _parse(argv, prog, description, epilog, arguments, default_mode, name_help or role)
+    setup_logging(args.verbose, prog.removeprefix("iwz "))
+    if warm_up is not None:
+        t0 = time.monotonic()
+        warm_up()
+        if time.monotonic() - t0 > 1.0:
+            logger.info("warmed up in %.1f s (kernels compiled; cached for later runs)", time.monotonic() - t0)
+    try:
+        sim = keys.chunk(args.sim)
+        prepared = prepare(args) if prepare is not None else None
+        bus = ZenohBus(net_from_args(args))
+    except (IwError, ValueError) as e:
+        print(f"{prog}: {e}", flush=True)
+        return 2
+    proc_name = args.name or (name(args) if name is not None else role)
+    proc = Process(args, bus, NodeIO(bus, sim, role, proc_name), sim, proc_name, prog)
+    install_stop_signals(proc.io.stop, proc._stop)
+    try:
+        code = run(proc, prepared) if prepare is not None else run(proc)
+    finally:
+        bus.close()
+    return code or 0
+
+
+class _Formatter(argparse.HelpFormatter):
+    """Fills prose to the terminal's width but keeps example lines (indented, or ``iwz ...``) as written."""
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        lines = []
+        for line in text.splitlines():
+            raw = line.startswith((" ", "iwz ")) or not line.strip()
+            lines.append(indent + line if raw else super()._fill_text(line, width, indent))
+        return "\n".join(lines)
+
+
+def _parse(
+    argv: Sequence[str] | None,
+    prog: str,
+    description: str,
+    epilog: str,
+    arguments: Callable[[argparse.ArgumentParser], None] | None,
+    default_mode: str,
+    name_help: str,
+) -> argparse.Namespace:
+    p = argparse.ArgumentParser(prog=prog, description=description, epilog=epilog, formatter_class=_Formatter)
+    if arguments is not None:
+        arguments(p)
+    p.add_argument("--name", default="", help=f"instance name (liveliness; default {name_help})")
+    add_common_arguments(p, default_mode=default_mode)
+    return p.parse_args(argv)

@@ -1,0 +1,101 @@
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import pytest
+
+from iw_zenoh.config import load_scenario
+from iw_zenoh.errors import ConfigError, IwError
+from iw_zenoh.messages import Obstacle
+from iw_zenoh.nodes.launcher import Launcher, world_options
+from iw_zenoh.nodes.world import world_config
+from iw_zenoh.nodes.world_options import WorldOptions, add_arguments
+from iw_zenoh.runtime import add_options_argument, options_from_args
+
+MAPS = Path(__file__).resolve().parents[2] / "maps"
+
+
+def _parse(*argv: str) -> argparse.Namespace:
+    p = argparse.ArgumentParser()
+    add_arguments(p)
+    return p.parse_args(argv)
+
+
+def test_world_flags_fill_the_options() -> None:
+    opts = options_from_args(
+        _parse("m.xml", "--lockstep", "--period-ms", "50", "--obstacle", "A:1,2,3,4"), WorldOptions
+    )
+    assert opts.map == "m.xml"
+    assert opts.mode == "lockstep"
+    assert opts.period_ms == 50.0
+    assert opts.obstacles == (Obstacle(name="A", x0=1, y0=2, x1=3, y1=4),)
+    assert opts.seed == WorldOptions().seed
+
+
+def test_flags_given_beside_options_override_them() -> None:
+    args = _parse("--options", json.dumps({"map": "m.xml", "seed": 3, "period_ms": 50}), "--seed", "9")
+    opts = options_from_args(args, WorldOptions)
+    assert (opts.map, opts.seed, opts.period_ms) == ("m.xml", 9, 50.0)
+
+
+@pytest.mark.parametrize(
+    ("options", "where"),
+    [('{"period_ms": 0}', "$.period_ms"), ('{"mode": "fast"}', "$.mode"), ('{"speed": 1}', "speed"), ("{bad", "JSON")],
+)
+def test_malformed_options_are_refused_saying_where(options: str, where: str) -> None:
+    with pytest.raises(IwError, match=r"refused options") as e:
+        options_from_args(_parse("--options", options), WorldOptions)
+    assert where in str(e.value)
+
+
+def test_a_flag_out_of_range_is_refused() -> None:
+    with pytest.raises(IwError, match=r"period_ms"):
+        options_from_args(_parse("m.xml", "--period-ms", "-1"), WorldOptions)
+
+
+def test_duration_becomes_ticks() -> None:
+    cfg = world_config(WorldOptions(map="m.xml", period_ms=50, duration_s=2.0, mode="lockstep"), "s")
+    assert (cfg.duration_ticks, cfg.mode, cfg.sim) == (40, "lockstep", "s")
+
+
+def test_the_launcher_hands_the_world_the_scenario_as_options() -> None:
+    sc = load_scenario(MAPS / "demo.toml")
+    opts, rest = world_options(sc)
+    assert rest == []
+    assert opts.map == str(sc.world.map)
+    assert opts.expect == sc.robots == 3
+    assert [o.name for o in opts.obstacles] == ["A", "B"]
+    assert opts.duration_s == sc.world.duration_s
+
+
+def test_world_args_are_read_into_the_options() -> None:
+    sc = load_scenario(MAPS / "ciberrato-c1.toml")
+    opts, rest = world_options(sc)
+    assert opts.motors_noise_pct == 1.5
+    assert opts.profile == "ciberrato"
+    assert rest == []
+
+
+def test_a_bad_world_arg_refuses_the_scenario(tmp_path: Path) -> None:
+    (tmp_path / "s.toml").write_text(f'[world]\nmap = "{MAPS / "liacc.xml"}"\nargs = ["--motors-noise", "x"]\n')
+    with pytest.raises(ConfigError) as e:
+        world_options(load_scenario(tmp_path / "s.toml"))
+    assert "world.args" in e.value.field
+
+
+def test_the_world_child_gets_one_options_argument(tmp_path: Path) -> None:
+    launcher = Launcher(load_scenario(MAPS / "demo.toml"), port=7999, log_dir=tmp_path, status=False)
+    launcher.plan()
+    world = next(c for c in launcher.children if c.role == "world")
+    at = world.argv.index("--options")
+    sent = json.loads(world.argv[at + 1])
+    assert sent["obstacles"][0]["name"] == "A"
+    assert "--obstacle" not in world.argv
+
+
+def test_options_argument_names_the_struct() -> None:
+    p = argparse.ArgumentParser()
+    add_options_argument(p, WorldOptions)
+    assert "WorldOptions" in p.format_help()
