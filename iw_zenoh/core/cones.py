@@ -1,5 +1,6 @@
-"""The proximity cones' narrow phase, compiled: walls and bodies binned into a uniform grid of
-square cells, and one loop per cone over the cells its sector's box covers.
+"""The proximity cones' narrow phase, compiled: walls and bodies binned into the uniform grid of
+square cells of :mod:`iw_zenoh.core.cellgrid`, and one loop per cone over the cells its
+sector's box covers.
 
 Why compiled (numba): the same computation in vectorized numpy spent most of its time building
 index arrays of (cone, candidate) pairs and R-tree query boxes, not in the arithmetic; with
@@ -15,92 +16,18 @@ in a fresh checkout takes a few seconds, later processes load the cache.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 from numba import njit
 
+from iw_zenoh.core.cellgrid import bin_boxes, cell_range, in_convex, in_wall, scene_walls
 from iw_zenoh.core.lab import Lab, Scene, Wall
 
-__all__ = ["CellGrid", "bin_boxes", "cell_range", "cone_distances", "in_convex", "in_wall", "scene_grid", "warm_up"]
+__all__ = ["cone_distances", "warm_up"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
-
-CELL_M = 2.0  # cell side: a 4 m cone's box covers 9-16 cells
-MAX_CELLS = 1 << 20  # a very large lab gets larger cells instead
-
-
-@dataclass(frozen=True)
-class CellGrid:
-    """Square cells over a lab (items outside it are binned into its edge cells).
-
-    Attributes:
-        x0: Left edge, metres.
-        y0: Bottom edge, metres.
-        cell: Cell side, metres.
-        nx: Columns.
-        ny: Rows.
-    """
-
-    x0: float
-    y0: float
-    cell: float
-    nx: int
-    ny: int
-
-
-@dataclass(frozen=True)
-class _Walls:
-    grid: CellGrid
-    segs: FloatArray  # (S, 4) ax, ay, bx, by
-    seg_box: FloatArray  # (S, 4) x0, y0, x1, y1
-    seg_start: IntArray  # CSR over cells
-    seg_items: IntArray
-    wall_first: IntArray  # (W,) first segment of each wall (the border's segments come last)
-    wall_count: IntArray  # (W,)
-    wall_box: FloatArray  # (W, 4)
-    wall_start: IntArray  # CSR over cells
-    wall_items: IntArray
-
-
-def _grid_for(width_m: float, height_m: float) -> CellGrid:
-    cell = max(CELL_M, math.sqrt(max(width_m, 1.0) * max(height_m, 1.0) / MAX_CELLS))
-    return CellGrid(0.0, 0.0, cell, max(1, math.ceil(width_m / cell)), max(1, math.ceil(height_m / cell)))
-
-
-def scene_grid(scene: Scene) -> _Walls:
-    """The scene's walls binned into cells (built once per scene)."""
-    got = scene._cache.get("cone_walls")
-    if isinstance(got, _Walls):
-        return got
-    lab = scene.lab
-    grid = _grid_for(lab.width_m, lab.height_m)
-    segs = np.ascontiguousarray(scene.segments.reshape(-1, 4), dtype=np.float64)
-    seg_box = np.column_stack(
-        [
-            np.minimum(segs[:, 0], segs[:, 2]),
-            np.minimum(segs[:, 1], segs[:, 3]),
-            np.maximum(segs[:, 0], segs[:, 2]),
-            np.maximum(segs[:, 1], segs[:, 3]),
-        ]
-    )
-    seg_start, seg_items = bin_boxes(seg_box, grid.x0, grid.y0, grid.cell, grid.nx, grid.ny)
-    counts = np.asarray([len(w.corners) for w in lab.walls], dtype=np.int64)
-    first = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64) if len(counts) else counts
-    wall_box = (
-        np.asarray(
-            [(*np.min(w.corners, axis=0), *np.max(w.corners, axis=0)) for w in lab.walls],
-            dtype=np.float64,
-        )
-        if lab.walls
-        else np.zeros((0, 4))
-    )
-    wall_start, wall_items = bin_boxes(wall_box, grid.x0, grid.y0, grid.cell, grid.nx, grid.ny)
-    walls = _Walls(grid, segs, seg_box, seg_start, seg_items, first, counts, wall_box, wall_start, wall_items)
-    scene._cache["cone_walls"] = walls
-    return walls
 
 
 def cone_distances(
@@ -127,7 +54,7 @@ def cone_distances(
         owner: (M,) the body each cone is mounted on (it does not see itself).
         body_xy: (N, K, 2) every body's outline in the world, counter-clockwise.
     """
-    w = scene_grid(scene)
+    w = scene_walls(scene)
     g = w.grid
     body_xy = np.ascontiguousarray(body_xy, dtype=np.float64)
     bbox = np.concatenate([body_xy.min(axis=1), body_xy.max(axis=1)], axis=1) if len(body_xy) else np.zeros((0, 4))
@@ -162,62 +89,6 @@ def cone_distances(
         ),
         dtype=np.float64,
     )
-
-
-@njit(cache=True, nogil=True)
-def cell_range(lo: float, hi: float, origin: float, cell: float, n: int) -> tuple[int, int]:  # pragma: no cover
-    a = int(math.floor((lo - origin) / cell))
-    b = int(math.floor((hi - origin) / cell))
-    return min(max(a, 0), n - 1), min(max(b, 0), n - 1)
-
-
-@njit(cache=True, nogil=True)
-def bin_boxes(
-    box: FloatArray, x0: float, y0: float, cell: float, nx: int, ny: int
-) -> tuple[IntArray, IntArray]:  # pragma: no cover
-    """CSR of the items whose box (x0, y0, x1, y1) touches each cell."""
-    counts = np.zeros(nx * ny + 1, dtype=np.int64)
-    for i in range(box.shape[0]):
-        ca, cb = cell_range(box[i, 0], box[i, 2], x0, cell, nx)
-        ra, rb = cell_range(box[i, 1], box[i, 3], y0, cell, ny)
-        for r in range(ra, rb + 1):
-            for c in range(ca, cb + 1):
-                counts[r * nx + c + 1] += 1
-    start = np.cumsum(counts)
-    fill = start[:-1].copy()
-    items = np.empty(start[-1], dtype=np.int64)
-    for i in range(box.shape[0]):
-        ca, cb = cell_range(box[i, 0], box[i, 2], x0, cell, nx)
-        ra, rb = cell_range(box[i, 1], box[i, 3], y0, cell, ny)
-        for r in range(ra, rb + 1):
-            for c in range(ca, cb + 1):
-                items[fill[r * nx + c]] = i
-                fill[r * nx + c] += 1
-    return start, items
-
-
-@njit(cache=True, nogil=True)
-def in_convex(px: float, py: float, poly: FloatArray, k: int) -> bool:  # pragma: no cover
-    """Whether p is inside (or on) the counter-clockwise convex polygon ``poly[:k]`` (a repeated
-    vertex makes an edge of length zero, which never excludes)."""
-    for e in range(k):
-        f = (e + 1) % k
-        ex = poly[f, 0] - poly[e, 0]
-        ey = poly[f, 1] - poly[e, 1]
-        if ex * (py - poly[e, 1]) - ey * (px - poly[e, 0]) < 0.0:
-            return False
-    return True
-
-
-@njit(cache=True, nogil=True)
-def in_wall(px: float, py: float, segs: FloatArray, first: int, count: int) -> bool:  # pragma: no cover
-    """Whether p is inside the wall whose edges are ``segs[first:first + count]`` (even-odd rule)."""
-    odd = False
-    for s in range(first, first + count):
-        ax, ay, bx, by = segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3]
-        if (ay > py) != (by > py) and px < ax + (py - ay) * (bx - ax) / (by - ay):
-            odd = not odd
-    return odd
 
 
 @njit(cache=True, nogil=True)

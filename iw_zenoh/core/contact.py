@@ -1,5 +1,6 @@
 """The collision check's narrow phase, compiled: which robots' outlines touch a wall or each
-other, found with the proximity cones' cell grid instead of R-trees and GEOS polygons.
+other, found in the cell grid the proximity cones use too (:mod:`iw_zenoh.core.cellgrid`)
+instead of R-trees and GEOS polygons.
 
 Why compiled (numba): with shapely, each tick built R-trees, query boxes and a GEOS polygon per
 candidate, about a hundred library calls whose fixed costs made 100 chairs take 2.5 ms and
@@ -19,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from iw_zenoh.core.cones import bin_boxes, cell_range, in_convex, in_wall, scene_grid
+from iw_zenoh.core.cellgrid import bin_boxes, cell_range, in_convex, in_wall, scene_walls
 from iw_zenoh.core.lab import Lab, Scene, Wall
 
 __all__ = ["TOUCH_M", "touching", "warm_up"]
@@ -58,7 +59,7 @@ def touching(
         ``(wall_pairs, robot_pairs)``: (P, 2) ``[robot, wall]`` sorted, and (Q, 2) ``[i, j]``
         with i < j, sorted.
     """
-    w = scene_grid(scene)
+    w = scene_walls(scene)
     g = w.grid
     return _touching(
         np.ascontiguousarray(c_now, dtype=np.float64),
