@@ -7,7 +7,8 @@ Every error the project raises on purpose is one of these::
      |    +-- MapError      a map, grid or parameters file that is refused
      |    +-- SpecError     a robot registration field that is refused
      +-- ProtocolError      bytes from the outside that are refused
-          +-- DecodeError   a wire message that does not decode
+     |    +-- DecodeError   a wire message that does not decode
+     +-- RecordingError     a recording that cannot be read (names the file and the reason)
 
 Each carries enough to say *what*, *where* and *how to fix*: the field, file, line or key
 involved, and the reason.
@@ -15,7 +16,7 @@ involved, and the reason.
 
 from __future__ import annotations
 
-__all__ = ["ConfigError", "DecodeError", "IwError", "MapError", "ProtocolError", "SpecError"]
+__all__ = ["ConfigError", "DecodeError", "IwError", "MapError", "ProtocolError", "RecordingError", "SpecError"]
 
 
 class IwError(Exception):
@@ -68,3 +69,17 @@ class ProtocolError(IwError):
 
 class DecodeError(ProtocolError):
     """A wire message does not decode into its declared type."""
+
+
+class RecordingError(IwError):
+    """A recording cannot be read: not MCAP, cut off, or damaged.
+
+    Args:
+        source: The file name (or what the stream is called).
+        reason: What is wrong with it.
+    """
+
+    def __init__(self, source: str, reason: str) -> None:
+        self.source = source
+        self.reason = reason
+        super().__init__(f"{source}: {reason}")

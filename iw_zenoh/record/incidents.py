@@ -10,21 +10,20 @@ from __future__ import annotations
 
 import argparse
 import json
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import IO
 
 import numpy as np
 import shapely
-from mcap.reader import make_reader
 
-from iw_zenoh import keys
 from iw_zenoh.convert import lab_from_msg, spec_from_msg
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.lab import Scene
-from iw_zenoh.errors import DecodeError, IwError
-from iw_zenoh.messages import CollisionData, Event, EventKind, WorldInfo, WorldState, decode, event_payload
+from iw_zenoh.errors import DecodeError
+from iw_zenoh.messages import CollisionData, Event, EventKind, WorldInfo, WorldState, event_payload
+from iw_zenoh.record.reader import RecordingReader
 
 __all__ = ["Incident", "find_incidents", "main"]
 
@@ -52,11 +51,6 @@ class Incident:
     where: list[tuple[float, float]] = field(default_factory=list)
 
 
-def _messages(f: IO[bytes]) -> Iterator[tuple[str, bytes]]:
-    for _, ch, msg in make_reader(f).iter_messages():
-        yield ch.topic, msg.data
-
-
 HYSTERESIS = 1.5  # a near miss ends only when the gap grows past 1.5 x the threshold
 
 
@@ -74,84 +68,94 @@ def _close_pairs(scene: Scene, polys: np.ndarray, ids: list[int], dist: float) -
     return pairs
 
 
-def find_incidents(f: IO[bytes], *, near_m: float = 0.2) -> list[Incident]:
+class _Finder:
+    """Follows a recording message by message and notes its incidents."""
+
+    def __init__(self, near_m: float) -> None:
+        self.near_m = near_m
+        self.out: list[Incident] = []
+        self.view: tuple[Scene, dict[int, object]] | None = None
+        self.near_now: set[tuple[int, int]] = set()
+        self.last_pos: dict[int, tuple[float, float]] = {}
+        self.cache: dict[tuple[int, ...], Bodies] = {}
+
+    def on_info(self, info: WorldInfo) -> None:
+        self.view = (Scene(lab_from_msg(info.lab)), {s.id: spec_from_msg(s) for s in info.robots})
+        self.cache = {}
+
+    def on_event(self, ev: Event) -> None:
+        label = EVENT_KINDS.get(ev.kind)
+        if label is None:
+            return
+        who = [ev.robot_id] if ev.robot_id >= 0 else []
+        at = [self.last_pos[ev.robot_id]] if ev.robot_id in self.last_pos else []
+        if ev.kind == EventKind.COLLISION:
+            try:
+                hit = event_payload(ev, CollisionData)
+                at = [(hit.x, hit.y)]
+            except DecodeError:
+                pass  # where the robot last was, then
+        self.out.append(Incident(ev.sim_time_ns / 1e9, str(ev.kind), f"{label}: {ev.reason}", who, at))
+
+    def on_state(self, st: WorldState) -> None:
+        if self.view is None:
+            return
+        for rid, x, y in zip(st.ids, st.x, st.y, strict=True):
+            self.last_pos[rid] = (x, y)
+        scene, specs = self.view
+        ids = [i for i in st.ids if i in specs]
+        if not ids:
+            return
+        idx = [st.ids.index(i) for i in ids]
+        pose = np.column_stack([np.asarray(st.x)[idx], np.asarray(st.y)[idx], np.asarray(st.heading)[idx]])
+        key = tuple(ids)
+        bodies = self.cache.get(key)
+        if bodies is None:
+            bodies = self.cache[key] = Bodies.from_specs([specs[i] for i in ids])  # type: ignore[misc]
+        polys = shapely.polygons(bodies.world_outline(pose))
+        collided = {ids[k] for k in range(len(ids)) if st.collided[idx[k]]}
+        pairs = _close_pairs(scene, polys, ids, self.near_m)
+        still = _close_pairs(scene, polys, ids, self.near_m * HYSTERESIS)  # an episode ends past this
+        for a_id, b_id in sorted(pairs - self.near_now):
+            if a_id in collided or (b_id >= 0 and b_id in collided):
+                continue
+            i = ids.index(a_id)
+            if b_id >= 0:
+                j = ids.index(b_id)
+                gap = float(shapely.distance(polys[i], polys[j]))
+                what = f"near miss: robots {a_id} and {b_id} {gap:.2f} m apart"
+                members, spots = [a_id, b_id], [pose[i, :2], pose[j, :2]]
+            else:
+                gap = float(shapely.distance(polys[i], scene.wall_polygons[-1 - b_id]))
+                what = f"near miss: robot {a_id} {gap:.2f} m from wall {-1 - b_id}"
+                members, spots = [a_id], [pose[i, :2]]
+            places = [(float(q[0]), float(q[1])) for q in spots]
+            self.out.append(Incident(st.sim_time_ns / 1e9, "near-miss", what, members, places))
+        self.near_now = (self.near_now & still) | pairs
+
+
+def find_incidents(f: IO[bytes] | RecordingReader, *, near_m: float = 0.2) -> list[Incident]:
     """Every incident in a recording, in time order.
 
     Args:
-        f: The recording.
+        f: The recording (a stream, or a reader over one).
         near_m: Clearance under which two bodies (or a body and a wall) count as a near miss.
+
+    Raises:
+        RecordingError: When the recording cannot be read.
     """
-    out: list[Incident] = []
-    view: tuple[Scene, dict[int, object]] | None = None
-    info: WorldInfo | None = None
-    near_now: set[tuple[int, int]] = set()
-    last_pos: dict[int, tuple[float, float]] = {}
-    cache: dict[tuple[int, ...], Bodies] = {}
-    for topic, data in _messages(f):
-        kind = keys.topic_kind(topic)
-        if kind == "info":
-            try:
-                info = decode(data, WorldInfo)
-            except IwError:
-                continue
-            view = (Scene(lab_from_msg(info.lab)), {s.id: spec_from_msg(s) for s in info.robots})
-            cache = {}
-        elif kind == "event":
-            try:
-                ev = decode(data, Event)
-            except IwError:
-                continue
-            label = EVENT_KINDS.get(ev.kind)
-            if label is None:
-                continue
-            who = [ev.robot_id] if ev.robot_id >= 0 else []
-            at = [last_pos[ev.robot_id]] if ev.robot_id in last_pos else []
-            if ev.kind == EventKind.COLLISION:
-                try:
-                    hit = event_payload(ev, CollisionData)
-                    at = [(hit.x, hit.y)]
-                except DecodeError:
-                    pass  # where the robot last was, then
-            out.append(Incident(ev.sim_time_ns / 1e9, str(ev.kind), f"{label}: {ev.reason}", who, at))
-        elif kind == "state" and view is not None:
-            try:
-                st = decode(data, WorldState)
-            except IwError:
-                continue
-            for rid, x, y in zip(st.ids, st.x, st.y, strict=True):
-                last_pos[rid] = (x, y)
-            scene, specs = view
-            ids = [i for i in st.ids if i in specs]
-            if not ids:
-                continue
-            idx = [st.ids.index(i) for i in ids]
-            pose = np.column_stack([np.asarray(st.x)[idx], np.asarray(st.y)[idx], np.asarray(st.heading)[idx]])
-            key = tuple(ids)
-            bodies = cache.get(key)
-            if bodies is None:
-                bodies = cache[key] = Bodies.from_specs([specs[i] for i in ids])  # type: ignore[misc]
-            polys = shapely.polygons(bodies.world_outline(pose))
-            collided = {ids[k] for k in range(len(ids)) if st.collided[idx[k]]}
-            pairs = _close_pairs(scene, polys, ids, near_m)
-            still = _close_pairs(scene, polys, ids, near_m * HYSTERESIS)  # an episode ends past this
-            for a_id, b_id in sorted(pairs - near_now):
-                if a_id in collided or (b_id >= 0 and b_id in collided):
-                    continue
-                i = ids.index(a_id)
-                if b_id >= 0:
-                    j = ids.index(b_id)
-                    gap = float(shapely.distance(polys[i], polys[j]))
-                    what = f"near miss: robots {a_id} and {b_id} {gap:.2f} m apart"
-                    members, spots = [a_id, b_id], [pose[i, :2], pose[j, :2]]
-                else:
-                    gap = float(shapely.distance(polys[i], scene.wall_polygons[-1 - b_id]))
-                    what = f"near miss: robot {a_id} {gap:.2f} m from wall {-1 - b_id}"
-                    members, spots = [a_id], [pose[i, :2]]
-                places = [(float(q[0]), float(q[1])) for q in spots]
-                out.append(Incident(st.sim_time_ns / 1e9, "near-miss", what, members, places))
-            near_now = (near_now & still) | pairs
-    out.sort(key=lambda i: i.t)
-    return out
+    rec = f if isinstance(f, RecordingReader) else RecordingReader(f)
+    finder = _Finder(near_m)
+    for r in rec.records(("info", "event", "state")):
+        match r.message:
+            case WorldInfo() as info:
+                finder.on_info(info)
+            case Event() as ev:
+                finder.on_event(ev)
+            case WorldState() as st:
+                finder.on_state(st)
+    finder.out.sort(key=lambda i: i.t)
+    return finder.out
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -16,13 +16,11 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import IO
 
-import zenoh
-from mcap.reader import make_reader
-
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus, Inbox
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import Control, decode, stamp_of
+from iw_zenoh.record.reader import KeyFilter, RawRecord, RecordingReader, Window
 from iw_zenoh.record.recording import SIM_INDEX
 
 __all__ = ["Player", "ReplayOptions", "sim_index"]
@@ -57,34 +55,31 @@ class ReplayOptions:
     paused: bool = False
 
 
-def sim_index(f: IO[bytes]) -> tuple[list[int], list[int], str | None]:
+def sim_index(f: IO[bytes] | RecordingReader) -> tuple[list[int], list[int], str | None]:
     """Sorted (sim times, log times) of the recording's states, and its simulation name.
 
     Uses the recorder's index when there is one, else scans the state channels.
+
+    Raises:
+        RecordingError: When the recording cannot be read.
     """
-    reader = make_reader(f)
-    sims: list[int] = []
-    logs: list[int] = []
+    rec = f if isinstance(f, RecordingReader) else RecordingReader(f)
+    pairs = sorted((int(k), int(v)) for k, v in rec.metadata().get(SIM_INDEX, {}).items())
+    sims = [p[0] for p in pairs]
+    logs = [p[1] for p in pairs]
     sim_name: str | None = None
-    for m in reader.iter_metadata():
-        if m.name == SIM_INDEX:
-            pairs = sorted((int(k), int(v)) for k, v in m.metadata.items())
-            sims = [p[0] for p in pairs]
-            logs = [p[1] for p in pairs]
-    summary = reader.get_summary()
+    summary = rec.summary()
     if summary is not None:
         for ch in summary.channels.values():
             if keys.topic_kind(ch.topic) == "state":
                 sim_name = keys.sim_of(ch.topic)
     if not sims:
-        f.seek(0)
-        for _, ch, msg in make_reader(f).iter_messages():
-            if keys.topic_kind(ch.topic) == "state":
-                sim_name = keys.sim_of(ch.topic)
-                _, s = stamp_of(msg.data)
-                if not sims or s > sims[-1]:
-                    sims.append(s)
-                    logs.append(msg.log_time)
+        for r in rec.raw(("state",)):
+            sim_name = keys.sim_of(r.topic)
+            _, s = stamp_of(r.data)
+            if not sims or s > sims[-1]:
+                sims.append(s)
+                logs.append(r.log_time)
     return sims, logs, sim_name
 
 
@@ -101,11 +96,11 @@ class Player:
     def __init__(
         self, stream: IO[bytes], bus: Bus, opts: ReplayOptions, now_ns: Callable[[], int] = time.monotonic_ns
     ) -> None:
-        self.f = stream
+        self.recording = RecordingReader(stream)
         self.bus = bus
         self.opts = opts
         self.now_ns = now_ns
-        self.sims, self.logs, self.sim = sim_index(stream)
+        self.sims, self.logs, self.sim = sim_index(self.recording)
         if self.sim is None:
             raise IwError("the recording holds no world state: nothing to replay against")
         self.target = keys.chunk(opts.as_sim or self.sim)
@@ -118,8 +113,8 @@ class Player:
         self.sent = 0
         self.position_ns = 0  # sim time of the last state played
         self._seek: int | None = None
-        self._include = [zenoh.KeyExpr(k) for k in opts.include]
-        self._exclude = [zenoh.KeyExpr(k) for k in opts.exclude]
+        self._keys = KeyFilter(tuple(opts.include), tuple(opts.exclude))
+        self._wanted_by_topic: dict[str, bool] = {}
         self._last_info: bytes | None = None
         self._base: tuple[int, int] | None = None  # (log ns, wall ns) that timing counts from
         self._info_q = bus.serve(keys.info(self.target))
@@ -132,12 +127,10 @@ class Player:
         return self.logs[max(0, i)]
 
     def _wanted(self, key: str) -> bool:
-        if keys.topic_kind(key) in NEVER_REPLAYED:
-            return False
-        k = zenoh.KeyExpr(key)
-        if self._include and not any(p.intersects(k) for p in self._include):
-            return False
-        return not any(p.intersects(k) for p in self._exclude)
+        got = self._wanted_by_topic.get(key)
+        if got is None:
+            got = self._wanted_by_topic[key] = keys.topic_kind(key) not in NEVER_REPLAYED and self._keys(key)
+        return got
 
     def _commands(self) -> None:
         for _, data, _ in self.control.drain():
@@ -160,12 +153,9 @@ class Player:
             if self._last_info is not None:
                 q.reply(self._last_info)
 
-    def _messages(self, from_sim: int | None) -> Iterator[tuple[str, bytes, int, int]]:
-        self.f.seek(0)
-        reader = make_reader(self.f)
+    def _messages(self, from_sim: int | None) -> Iterator[RawRecord]:
         start_log = self.log_time_at(from_sim) if from_sim is not None else None
-        for _, ch, msg in reader.iter_messages(starting_at=start_log):
-            yield ch.topic, msg.data, msg.log_time, msg.publish_time
+        return self.recording.raw(window=Window(log_start=start_log))
 
     def run(self) -> int:
         """Plays until the end (or forever with ``loop``), ``stop``, or a stop control."""
@@ -210,7 +200,8 @@ class Player:
         self._base = None
         skipping = from_sim is not None
         played = False
-        for topic, data, log_ns, pub_ns in self._messages(from_sim):
+        for r in self._messages(from_sim):
+            topic, data, log_ns, pub_ns = r.topic, r.data, r.log_time, r.publish_time
             self._commands()
             if self.stop.is_set() or self._seek is not None:
                 return played

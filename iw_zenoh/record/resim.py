@@ -17,8 +17,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
-from mcap.reader import make_reader
-
 from iw_zenoh import keys
 from iw_zenoh.convert import grid_from_msg, lab_from_msg, spec_from_msg
 from iw_zenoh.core.lab import Scene
@@ -35,9 +33,9 @@ from iw_zenoh.messages import (
     SensorReading,
     WorldInfo,
     WorldState,
-    decode,
     encode,
 )
+from iw_zenoh.record.reader import RecordingReader
 from iw_zenoh.record.recording import Recorder
 from iw_zenoh.sim.collision import CollisionNode
 from iw_zenoh.sim.config import WorldConfig
@@ -46,6 +44,8 @@ from iw_zenoh.sim.view import WorldView
 from iw_zenoh.sim.world import WorldCore
 
 __all__ = ["Resim", "load_run", "main", "resimulate"]
+
+RUN_KINDS = ("info", "spec", "actions", "action_batch", "state", "event")  # what a re-simulation reads
 
 
 @dataclass
@@ -59,6 +59,11 @@ class RecordedRun:
     collisions: list[Event] = field(default_factory=list)
 
 
+def _wanted(topic: str) -> bool:
+    """Of the events, only collisions matter to a re-simulation."""
+    return keys.topic_kind(topic) != "event" or topic.endswith("/collision")
+
+
 def load_run(f: IO[bytes]) -> RecordedRun:
     """Reads the world description, registrations, actions and states of a recording.
 
@@ -70,30 +75,22 @@ def load_run(f: IO[bytes]) -> RecordedRun:
     actions: dict[int, dict[int, Actions]] = {}
     states: dict[int, WorldState] = {}
     collisions: list[Event] = []
-    for _, ch, msg in make_reader(f).iter_messages():
-        kind = keys.topic_kind(ch.topic)
-        try:
-            if kind == "info" and info is None:
-                info = decode(msg.data, WorldInfo)
-            elif kind == "spec":
-                r = decode(msg.data, RegisterReply)
-                if r.ok and r.robot_id not in specs:
-                    specs[r.robot_id] = r
-            elif kind == "actions":
-                a = decode(msg.data, Actions)
+    # a malformed message was recorded as received (the reader skips it): it never reached the world
+    for r in RecordingReader(f).records(RUN_KINDS, topics=_wanted):
+        match r.message:
+            case WorldInfo() as wi if info is None:
+                info = wi
+            case RegisterReply() as reply if reply.ok and reply.robot_id not in specs:
+                specs[reply.robot_id] = reply
+            case Actions() as a:
                 actions.setdefault(a.tick, {})[a.robot_id] = a
-            elif kind == "action_batch":  # an agent host of many robots answered in one message
-                b = decode(msg.data, ActionBatch)
-                if keys.agent_of(ch.topic) == b.agent:
-                    for a in b.actions:
-                        actions.setdefault(a.tick, {})[a.robot_id] = a
-            elif kind == "state":
-                s = decode(msg.data, WorldState)
+            case ActionBatch() as b if keys.agent_of(r.topic) == b.agent:  # one agent host, many robots
+                for a in b.actions:
+                    actions.setdefault(a.tick, {})[a.robot_id] = a
+            case WorldState() as s:
                 states[s.tick] = s
-            elif kind == "event" and ch.topic.endswith("/collision"):
-                collisions.append(decode(msg.data, Event))
-        except IwError:
-            continue  # a malformed message was recorded as received; it never reached the world
+            case Event() as e:
+                collisions.append(e)
     if info is None:
         raise IwError("the recording holds no world description (iw/SIM/world/info); record with a current iwz")
     if info.mode != Mode.LOCKSTEP:

@@ -14,13 +14,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO
 
-from mcap.exceptions import McapError
-from mcap.reader import make_reader
 from mcap.records import Channel, DataEnd, Footer, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
 from iw_zenoh import __version__
+from iw_zenoh.errors import RecordingError
+from iw_zenoh.record.reader import RecordingReader
 from iw_zenoh.record.recording import PROFILE
 
 __all__ = ["Health", "check", "doctor_main", "recover", "recover_main"]
@@ -78,14 +78,15 @@ def check(path: str | Path) -> Health:
                 return Health(
                     str(p), False, "it does not end with the MCAP magic: cut off (crash or still being written)"
                 )
-            f.seek(0)
-            reader = make_reader(f)
-            summary = reader.get_summary()
+            reader = RecordingReader(f, name=str(p))
+            summary = reader.summary()
             if summary is None or summary.statistics is None:
                 return Health(str(p), False, "it has no summary section: cut off before the recorder finished")
-            meta = {m.name: m.metadata for m in reader.iter_metadata()}
-    except (OSError, McapError, ValueError) as e:
-        return Health(str(p), False, f"unreadable: {e}")
+            meta = reader.metadata()
+    except OSError as e:
+        return Health(str(p), False, f"unreadable: {e.strerror or e}")
+    except RecordingError as e:
+        return Health(str(p), False, f"unreadable: {e.reason}")
     st = summary.statistics
     h = Health(
         str(p),
