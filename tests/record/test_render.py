@@ -1,5 +1,8 @@
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import matplotlib.image
@@ -25,3 +28,10 @@ def test_a_moment_of_the_sample_recording_is_drawn(tmp_path: Path) -> None:
 def test_a_time_without_state_is_refused(tmp_path: Path) -> None:
     with SAMPLE.open("rb") as f, pytest.raises(IwError, match="no world state"):
         render(f, tmp_path / "x.png", at_s=500.0, window_s=1.0)
+
+
+def test_importing_render_leaves_the_matplotlib_backend_alone() -> None:
+    code = "import iw_zenoh.record.render, matplotlib; print(matplotlib.get_backend())"
+    env = {**os.environ, "MPLBACKEND": "svg"}
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, env=env, check=True)
+    assert r.stdout.strip() == "svg"
