@@ -77,7 +77,8 @@ def _run(proc: Process, opts: ReplayOptions) -> int:
             proc.bus.token(keys.alive(player.target, "replay", "replay"))
             proc.on_stop(player.stop.set)
             proc.on_stop(player.wake.set)
-            print(f"iwz replay: {path} into iw/{player.target}/ at {opts.rate:g}x", flush=True)
+            skipped = f" ({len(player.skipped)} channels not simulation keys skipped)" if player.skipped else ""
+            print(f"iwz replay: {path} into iw/{player.target}/ at {opts.rate:g}x{skipped}", flush=True)
             sent = player.run()
         print(f"iwz replay: {sent} messages played", flush=True)
     except (OSError, IwError) as e:

@@ -118,6 +118,11 @@ class Player:
         self._last_info: bytes | None = None
         self._base: tuple[int, int] | None = None  # (log ns, wall ns) that timing counts from
         self._info_q = bus.serve(keys.info(self.target))
+        summary = self.recording.summary()
+        channels = summary.channels.values() if summary is not None else ()
+        self.skipped = sorted({c.topic for c in channels if keys.sim_of(c.topic) is None})
+        if self.skipped:
+            logger.info("not simulation keys, not played: %s", ", ".join(self.skipped))
 
     def log_time_at(self, sim_ns: int) -> int:
         """The log time to start reading at to play from simulation time ``sim_ns``."""
@@ -129,7 +134,9 @@ class Player:
     def _wanted(self, key: str) -> bool:
         got = self._wanted_by_topic.get(key)
         if got is None:
-            got = self._wanted_by_topic[key] = keys.topic_kind(key) not in NEVER_REPLAYED and self._keys(key)
+            # only simulation keys, and never a derived channel (/foxglove/scene): none is a Zenoh key
+            sim_key = keys.sim_of(key) is not None and keys.topic_kind(key) not in NEVER_REPLAYED
+            got = self._wanted_by_topic[key] = sim_key and self._keys(key)
         return got
 
     def _commands(self) -> None:
