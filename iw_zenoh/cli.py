@@ -7,10 +7,13 @@ iwz router | world MAP | collision | sensors | radio | agent NAME
 from __future__ import annotations
 
 import importlib
+import os
 import sys
 from collections.abc import Sequence
 
 __all__ = ["COMMANDS", "main"]
+
+EXIT_PIPE_CLOSED = 141  # 128 + SIGPIPE: how a shell tool ends when its reader goes away
 
 COMMANDS: dict[str, tuple[str, str] | tuple[str, str, str]] = {
     "run": (
@@ -70,7 +73,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     module = importlib.import_module(entry[0])
     func = getattr(module, entry[2] if len(entry) > 2 else "main")
-    code: int = func(args[1:])
+    try:
+        code: int = func(args[1:])
+        sys.stdout.flush()
+    except BrokenPipeError:  # `iwz incidents x.mcap | head -1`: the reader has all it wants
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # nothing more to flush at exit
+        return EXIT_PIPE_CLOSED
     return code
 
 

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from iw_zenoh import keys
 from iw_zenoh.errors import IwError
+from iw_zenoh.record.reader import file_error
 from iw_zenoh.record.replay import Player, ReplayOptions
 from iw_zenoh.runtime import Process, start_role
 
@@ -81,10 +82,10 @@ def _run(proc: Process, opts: ReplayOptions) -> int:
             print(f"iwz replay: {path} into iw/{player.target}/ at {opts.rate:g}x{skipped}", flush=True)
             sent = player.run()
         print(f"iwz replay: {sent} messages played", flush=True)
-    except (OSError, IwError) as e:
-        print(f"iwz replay: {e}")
+    except (OSError, IwError) as e:  # not MCAP, cut off, damaged, or nothing to replay
+        print(f"iwz replay: {file_error(path, e)}; check it with iwz doctor")
         return 2
-    except Exception as e:  # a file that is not MCAP, or cut off
-        print(f"iwz replay: cannot read {path}: {e}; check it with iwz doctor")
+    except Exception as e:  # whatever else a file's bytes may provoke
+        print(f"iwz replay: {path}: {type(e).__name__}: {e}; check it with iwz doctor")
         return 2
     return 0

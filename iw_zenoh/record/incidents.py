@@ -12,7 +12,6 @@ import argparse
 import json
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
-from pathlib import Path
 from typing import IO
 
 import numpy as np
@@ -21,9 +20,9 @@ import shapely
 from iw_zenoh.convert import lab_from_msg, spec_from_msg
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.lab import Scene
-from iw_zenoh.errors import DecodeError
+from iw_zenoh.errors import DecodeError, IwError
 from iw_zenoh.messages import CollisionData, Event, EventKind, WorldInfo, WorldState, event_payload
-from iw_zenoh.record.reader import RecordingReader
+from iw_zenoh.record.reader import RecordingReader, file_error, open_recording
 
 __all__ = ["Incident", "find_incidents", "main"]
 
@@ -169,13 +168,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--json", action="store_true", help="one JSON array")
     args = p.parse_args(argv)
     try:
-        with Path(args.file).open("rb") as f:
-            found = find_incidents(f, near_m=args.near)
-    except OSError as e:
-        print(f"iwz incidents: {e}")
-        return 2
-    except Exception as e:  # not MCAP, or cut off
-        print(f"iwz incidents: cannot read {args.file}: {e}; check it with iwz doctor (and iwz recover)")
+        with open_recording(args.file) as rec:
+            found = find_incidents(rec, near_m=args.near)
+    except IwError as e:  # not MCAP, cut off, damaged
+        print(f"iwz incidents: {file_error(args.file, e)}; check it with iwz doctor (and iwz recover)")
         return 2
     if args.json:
         print(json.dumps([asdict(i) for i in found]))

@@ -40,6 +40,8 @@ __all__ = [
     "Record",
     "RecordingReader",
     "Window",
+    "decode_record",
+    "file_error",
     "open_recording",
 ]
 
@@ -153,6 +155,20 @@ def _key_expr(text: str, *, pattern: bool = False) -> zenoh.KeyExpr:
     except zenoh.ZError as e:
         what = "key expression" if pattern else "key"
         raise IwError(f"{text!r} is not a Zenoh {what}: {str(e).split(' at ')[0]}") from e
+
+
+def file_error(source: str | Path, e: Exception) -> str:
+    """An error about a file as ``FILE: reason`` (whatever raised it, named once, never an errno).
+
+    Args:
+        source: The file the command was working on.
+        e: What went wrong (an ``OSError`` names its own file when it has one).
+    """
+    if isinstance(e, RecordingError):
+        return str(e)
+    if isinstance(e, OSError) and e.filename is not None:
+        return f"{e.filename}: {_reason(e)}"
+    return f"{source}: {_reason(e) if isinstance(e, OSError) else e}"
 
 
 def _reason(e: BaseException) -> str:
@@ -285,13 +301,13 @@ class RecordingReader:
         """
         known = TOPIC_TYPES.keys() if kinds is None else [k for k in kinds if k in TOPIC_TYPES]
         for r in self.raw(known, topics=topics, window=window):
-            assert r.kind is not None
             try:
-                msg = decode(r.data, TOPIC_TYPES[r.kind])
+                rec = decode_record(r)
             except IwError as e:
                 self._bad(BadMessage(r.topic, r.log_time, str(e)))
                 continue
-            yield Record(r.topic, r.kind, r.log_time, r.publish_time, msg)
+            if rec is not None:
+                yield rec
 
     def _bad(self, bad: BadMessage) -> None:
         self.bad[bad.topic] = self.bad.get(bad.topic, 0) + 1
@@ -299,6 +315,21 @@ class RecordingReader:
             self._on_bad(bad)
         else:
             logger.debug("%s: a message on %s does not decode: %s", self.name, bad.topic, bad.reason)
+
+
+def decode_record(r: RawRecord) -> Record | None:
+    """A recorded message decoded into the type its kind of key carries.
+
+    Returns:
+        The record, or ``None`` for a channel whose kind has no message type (a derived one).
+
+    Raises:
+        DecodeError: When the payload does not decode into that type.
+    """
+    cls = TOPIC_TYPES.get(r.kind) if r.kind is not None else None
+    if cls is None:
+        return None
+    return Record(r.topic, r.kind, r.log_time, r.publish_time, decode(r.data, cls))
 
 
 @contextmanager

@@ -46,7 +46,8 @@ class Recorder:
         chunk_size: int = 4 * 1024 * 1024,
         scene: bool = True,
     ) -> None:
-        self._w = Writer(stream, chunk_size=chunk_size, compression=CompressionType.ZSTD)
+        # the data section CRC lets doctor find damage anywhere, metadata included
+        self._w = Writer(stream, chunk_size=chunk_size, compression=CompressionType.ZSTD, enable_data_crcs=True)
         self._w.start(profile=PROFILE, library=f"iw-zenoh {__version__}")
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}

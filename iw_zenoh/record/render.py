@@ -37,7 +37,7 @@ from iw_zenoh.messages import (
     WorldState,
     event_payload,
 )
-from iw_zenoh.record.reader import RecordingReader
+from iw_zenoh.record.reader import RecordingReader, file_error, open_recording
 
 __all__ = ["main", "render"]
 
@@ -99,11 +99,13 @@ def _collect(rec: RecordingReader, at: int, lo: int, robot: int | None) -> _Mome
     return m
 
 
-def render(f: IO[bytes], out: Path, *, at_s: float, window_s: float = 10.0, robot: int | None = None) -> int:
+def render(
+    f: IO[bytes] | RecordingReader, out: Path, *, at_s: float, window_s: float = 10.0, robot: int | None = None
+) -> int:
     """Draws the moment ``at_s`` (simulation seconds) of a recording to a PNG.
 
     Args:
-        f: The recording.
+        f: The recording (a stream, or a reader over one).
         out: The PNG to write.
         at_s: The moment, simulation seconds.
         window_s: Trajectories and plots over this many seconds before it.
@@ -118,7 +120,7 @@ def render(f: IO[bytes], out: Path, *, at_s: float, window_s: float = 10.0, robo
     """
     at = int(at_s * 1e9)
     lo = at - int(window_s * 1e9)
-    m = _collect(RecordingReader(f), at, lo, robot)
+    m = _collect(f if isinstance(f, RecordingReader) else RecordingReader(f), at, lo, robot)
     info, state = m.info, m.state
     if info is None:
         raise IwError("the recording holds no world description (iw/SIM/world/info)")
@@ -240,10 +242,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("-o", "--output", required=True, help="PNG file to write")
     args = p.parse_args(argv)
     try:
-        with Path(args.file).open("rb") as f:
-            tick = render(f, Path(args.output), at_s=args.at, window_s=args.window, robot=args.robot)
+        with open_recording(args.file) as rec:
+            tick = render(rec, Path(args.output), at_s=args.at, window_s=args.window, robot=args.robot)
     except (OSError, IwError) as e:
-        print(f"iwz render: {e}")
+        print(f"iwz render: {file_error(args.file, e)}")
         return 2
     print(f"iwz render: tick {tick} drawn to {args.output}")
     return 0

@@ -35,7 +35,7 @@ from iw_zenoh.messages import (
     WorldState,
     encode,
 )
-from iw_zenoh.record.reader import RecordingReader
+from iw_zenoh.record.reader import RecordingReader, file_error, open_recording
 from iw_zenoh.record.recording import Recorder
 from iw_zenoh.sim.collision import CollisionNode
 from iw_zenoh.sim.config import WorldConfig
@@ -64,7 +64,7 @@ def _wanted(topic: str) -> bool:
     return keys.topic_kind(topic) != "event" or topic.endswith("/collision")
 
 
-def load_run(f: IO[bytes]) -> RecordedRun:
+def load_run(f: IO[bytes] | RecordingReader) -> RecordedRun:
     """Reads the world description, registrations, actions and states of a recording.
 
     Raises:
@@ -76,7 +76,8 @@ def load_run(f: IO[bytes]) -> RecordedRun:
     states: dict[int, WorldState] = {}
     collisions: list[Event] = []
     # a malformed message was recorded as received (the reader skips it): it never reached the world
-    for r in RecordingReader(f).records(RUN_KINDS, topics=_wanted):
+    rec = f if isinstance(f, RecordingReader) else RecordingReader(f)
+    for r in rec.records(RUN_KINDS, topics=_wanted):
         match r.message:
             case WorldInfo() as wi if info is None:
                 info = wi
@@ -200,8 +201,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("-o", "--output", help="write the re-simulated world (states, events) to this MCAP file")
     args = p.parse_args(argv)
     try:
-        with Path(args.file).open("rb") as f:
-            run = load_run(f)
+        with open_recording(args.file) as recording:
+            run = load_run(recording)
         swap = _make_agent(args.agent) if args.agent else None
         if args.output:
             with Path(args.output).open("wb") as out_file:
@@ -211,7 +212,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                 rec.finish()
         else:
             res = resimulate(run, swap=swap, from_ns=int(args.from_s * 1e9))
-    except (OSError, IwError, ImportError) as e:
+    except (OSError, IwError) as e:
+        print(f"iwz resim: {file_error(args.file, e)}")
+        return 2
+    except ImportError as e:
         print(f"iwz resim: {e}")
         return 2
     if res.diverged_at is None:

@@ -20,7 +20,8 @@ from mcap.writer import CompressionType, Writer
 
 from iw_zenoh import __version__
 from iw_zenoh.errors import RecordingError
-from iw_zenoh.record.reader import RecordingReader
+from iw_zenoh.record.integrity import scan, statistics_disagree, undecodable
+from iw_zenoh.record.reader import RecordingReader, file_error
 from iw_zenoh.record.recording import PROFILE
 
 __all__ = ["Health", "check", "doctor_main", "recover", "recover_main"]
@@ -42,6 +43,7 @@ class Health:
     end_ns: int = 0
     metadata: list[str] = field(default_factory=list)
     counts_match: bool | None = None
+    undecodable: int = 0  # payloads recorded as received that do not decode (malformed at their source)
 
     def lines(self) -> list[str]:
         """Human-readable report."""
@@ -54,6 +56,11 @@ class Health:
                 f"{dur:.1f} s of log time"
             )
             out.append(f"  metadata: {', '.join(self.metadata) or 'none'}")
+            out.append(
+                "  every message decodes into its key's type"
+                if not self.undecodable
+                else f"  {self.undecodable} messages do not decode into their key's type (recorded as received)"
+            )
             if self.counts_match is not None:
                 out.append(
                     f"  messages per key {'match' if self.counts_match else 'DO NOT match'} the recorder's own counts"
@@ -63,26 +70,37 @@ class Health:
         return out
 
 
+def _ends(f: IO[bytes], size: int) -> str:
+    """What is wrong with the file's two ends ("" when both carry the MCAP magic)."""
+    head = f.read(len(MAGIC))
+    f.seek(max(0, size - len(MAGIC)))
+    tail = f.read(len(MAGIC))
+    if head != MAGIC:
+        return "it does not start with the MCAP magic: not an MCAP file"
+    if tail != MAGIC:
+        return "it does not end with the MCAP magic: cut off (crash or still being written)"
+    return ""
+
+
 def check(path: str | Path) -> Health:
-    """Checks a recording: magic at both ends, a readable summary, counts as the recorder saw them."""
+    """Checks a recording: magic at both ends, a readable summary, every record intact (chunk,
+    message index and summary CRCs, statistics as the data section holds), every message
+    decoded, and counts as the recorder saw them.
+    """
     p = Path(path)
     try:
-        data_len = p.stat().st_size
         with p.open("rb") as f:
-            head = f.read(8)
-            f.seek(max(0, data_len - 8))
-            tail = f.read(8)
-            if head != MAGIC:
-                return Health(str(p), False, "it does not start with the MCAP magic: not an MCAP file")
-            if tail != MAGIC:
-                return Health(
-                    str(p), False, "it does not end with the MCAP magic: cut off (crash or still being written)"
-                )
+            if reason := _ends(f, p.stat().st_size):
+                return Health(str(p), False, reason)
             reader = RecordingReader(f, name=str(p))
             summary = reader.summary()
             if summary is None or summary.statistics is None:
                 return Health(str(p), False, "it has no summary section: cut off before the recorder finished")
+            found = scan(f)
+            if reason := found.problem or statistics_disagree(summary, found):
+                return Health(str(p), False, reason)
             meta = reader.metadata()
+            bad = undecodable(reader)
     except OSError as e:
         return Health(str(p), False, f"unreadable: {e.strerror or e}")
     except RecordingError as e:
@@ -97,6 +115,7 @@ def check(path: str | Path) -> Health:
         start_ns=st.message_start_time,
         end_ns=st.message_end_time,
         metadata=sorted(meta),
+        undecodable=sum(bad.values()),
     )
     counts = meta.get("iw.counts")
     if counts is not None:
@@ -134,7 +153,7 @@ def recover(src: IO[bytes], dst: IO[bytes], total_bytes: int = 0) -> Recovery:
         What was saved.
     """
     out = Recovery(total_bytes=total_bytes)
-    w = Writer(dst, compression=CompressionType.ZSTD)
+    w = Writer(dst, compression=CompressionType.ZSTD, enable_data_crcs=True)
     w.start(profile=PROFILE, library=f"iw-zenoh {__version__} (recovered)")
     schemas: dict[int, int] = {}
     channels: dict[int, int] = {}
@@ -205,11 +224,20 @@ def recover_main(argv: Sequence[str] | None = None) -> int:
         return 2
     try:
         size = src.stat().st_size
-        with src.open("rb") as fi, dst.open("wb") as fo:
-            r = recover(fi, fo, size)
+        with src.open("rb") as fi:
+            if fi.read(len(MAGIC)) != MAGIC:
+                print(f"iwz recover: {src}: not an MCAP file (it does not start with the MCAP magic); nothing written")
+                return 1
+            fi.seek(0)
+            with dst.open("wb") as fo:
+                r = recover(fi, fo, size)
     except OSError as e:
-        print(f"iwz recover: {e}")
+        print(f"iwz recover: {file_error(src, e)}")
         return 2
+    if r.messages == 0 and r.stopped_by:
+        dst.unlink(missing_ok=True)
+        print(f"iwz recover: {src}: nothing could be saved, no complete message in it ({r.stopped_by})")
+        return 1
     lost = size - r.good_bytes if r.good_bytes else 0
     print(f"iwz recover: {r.messages} messages on {r.channels} channels saved to {dst}")
     print(f"  last message logged at {r.last_log_ns} ns; {lost} bytes after the last complete record were lost")
