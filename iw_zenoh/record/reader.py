@@ -207,6 +207,8 @@ class RecordingReader:
         self._on_bad = on_bad
         self.bad: dict[str, int] = {}  # undecodable payloads per topic
         if stream.seekable():
+            if (size := stream.seek(0, io.SEEK_END)) < len(MAGIC):
+                raise RecordingError(self.name, f"only {size} bytes: empty, or not an MCAP file")
             stream.seek(0)
         self._reader: McapReader = self._guard(lambda: make_reader(stream, validate_crcs=validate_crcs))
         self._guard(self._check_end)

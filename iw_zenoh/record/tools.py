@@ -65,7 +65,7 @@ class Health:
                 out.append(
                     f"  messages per key {'match' if self.counts_match else 'DO NOT match'} the recorder's own counts"
                 )
-        else:
+        elif "not an MCAP file" not in self.reason:
             out.append(f"  try: iwz recover {self.path}")
         return out
 
