@@ -10,26 +10,9 @@ from iw_zenoh.errors import IwError, RecordingError
 from iw_zenoh.messages import Actions, Event, WorldState, encode
 from iw_zenoh.record.reader import BadMessage, KeyFilter, RecordingReader, Window, open_recording
 from iw_zenoh.record.recording import Recorder
+from tests.record.test_recording import _state
 
 SAMPLE = Path(__file__).resolve().parents[2] / "recordings" / "demo-sample.mcap"
-
-
-def _state(tick: int) -> bytes:
-    return encode(
-        WorldState(
-            tick=tick,
-            sim_time_ns=tick * 100_000_000,
-            revision=1,
-            ids=[1],
-            x=[1.0 * tick],
-            y=[2.0],
-            heading=[0.0],
-            collided=[False],
-            rolled_left=[0.0],
-            rolled_right=[0.0],
-            speed=[0.0],
-        )
-    )
 
 
 def _recording(ticks: int = 20) -> io.BytesIO:
