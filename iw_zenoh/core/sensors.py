@@ -5,9 +5,9 @@ and within range, and the Ciber-Rato reading (1/distance rounded to 0.1, 100 whe
 Compass, beacons (aperture and wall-height occlusion), GPS, ground (target areas), collision,
 wheel encoders (with slip, so odometry drifts) and contact bumpers follow.
 
-Noise: each robot has one generator for its sensors; every tick it gives a fixed layout of
-standard normals (:func:`noise_layout`), one slot per sensor (proximity sensors in order, compass, each beacon, GPS x,
-y and heading, left and right encoder), so switching one sensor's noise off leaves every other
+Noise: every tick each robot's sensors draw a fixed layout of standard normals from its own
+stream, one slot per sensor (:mod:`iw_zenoh.core.sensor_noise`, whose ``noise_layout`` and
+``noise_bank`` are re-exported here), so switching one sensor's noise off leaves every other
 sensor's noise unchanged, and a robot's readings do not depend on the other robots.
 """
 
@@ -25,7 +25,7 @@ from iw_zenoh.core.cones import cone_distances
 from iw_zenoh.core.geometry import to_world, wrap_deg
 from iw_zenoh.core.lab import Scene
 from iw_zenoh.core.legacy_ir import ciberrato_ir_distances
-from iw_zenoh.core.noise import NoiseBank, Stream, rng_for
+from iw_zenoh.core.sensor_noise import noise_bank, noise_layout, tick_normals
 
 __all__ = [
     "LEGACY_NOTHING",
@@ -90,38 +90,6 @@ class Readings:
     def encoder_ticks(self) -> IntArray:
         """(N, 2) whole encoder ticks, as a real encoder counts them."""
         return np.floor(self.encoder_acc).astype(np.int64)
-
-
-def noise_layout(bodies: Bodies, n_beacons: int) -> tuple[IntArray, IntArray]:
-    """Per robot, how many standard normals a tick draws and where its slots start.
-
-    Args:
-        bodies: The robots.
-        n_beacons: Beacons in the lab.
-
-    Returns:
-        ``(counts, starts)``, both (N,): robot i's draws are ``z[starts[i]:starts[i]+counts[i]]``.
-    """
-    m = np.bincount(bodies.ir_owner, minlength=bodies.n).astype(np.int64)
-    counts = m + 1 + n_beacons + 3 + 2
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
-    return counts, starts
-
-
-def noise_bank(bodies: Bodies, n_beacons: int, seed: int, *, block: int = 32) -> NoiseBank:
-    """The sensor noise source of these robots: each robot's own stream, seeded from ``seed``.
-
-    Args:
-        bodies: The robots.
-        n_beacons: Beacons in the lab.
-        seed: The run's seed.
-        block: Ticks drawn at once (the values do not depend on it).
-
-    Returns:
-        A bank whose :meth:`~iw_zenoh.core.noise.NoiseBank.next` feeds :func:`read_sensors`.
-    """
-    counts, _ = noise_layout(bodies, n_beacons)
-    return NoiseBank([rng_for(seed, int(i), Stream.SENSORS) for i in bodies.ids], counts, block=block)
 
 
 def legacy_ir_value(distance: FloatArray, z: FloatArray, std: FloatArray) -> FloatArray:
@@ -291,6 +259,66 @@ def _bumpers(scene: Scene, bodies: Bodies, pose: FloatArray) -> BoolArray:
     return out
 
 
+def _seen_distances(
+    scene: Scene, bodies: Bodies, pose: FloatArray, *, only: BoolArray | None, legacy_ir: bool
+) -> tuple[FloatArray, FloatArray]:
+    """The true distance of every proximity sensor and the one its legacy reading comes from.
+
+    Returns:
+        ``(true_d, legacy_d)``, both (M,); the same array unless ``legacy_ir`` (Ciber-Rato's own
+        model, three rays and corners, gives the legacy distance, and the whole reading of discs).
+    """
+    own = bodies.ir_owner
+    if not (legacy_ir and len(own)):
+        true_d = proximity_distances(scene, bodies, pose, only=only)
+        return true_d, true_d
+    slots = bodies.ir_slots
+    angles = np.where(slots >= 0, bodies.ir_angle_rad[np.maximum(slots, 0)], 0.0)
+    grid = ciberrato_ir_distances(scene, pose, angles)
+    legacy_d = np.full(len(own), np.inf)
+    legacy_d[slots[slots >= 0]] = grid[slots >= 0]
+    # Ciber-Rato's disc robots see by its own model only (their rim sensors have no range, so
+    # the cone model would test every body against every sensor for the same answer)
+    cones = ~bodies.is_circle if only is None else np.asarray(only, dtype=bool) & ~bodies.is_circle
+    true_d = proximity_distances(scene, bodies, pose, only=cones)
+    discs = bodies.is_circle[own]
+    true_d[discs] = legacy_d[discs]
+    if only is not None:
+        true_d[~np.asarray(only, dtype=bool)[own]] = np.inf
+    return true_d, legacy_d
+
+
+def _proximity_readings(
+    bodies: Bodies, true_d: FloatArray, legacy_d: FloatArray, z: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Noisy proximity readings: metres (never negative, ``inf`` for nothing) and the legacy value.
+
+    Both draw on the same normal ``z`` (M,) of each sensor.
+    """
+    own = bodies.ir_owner
+    nm, ns = bodies.noise_mean, bodies.noise_std
+    prox = true_d + nm["proximity_m"][own] + ns["proximity_m"][own] * z
+    prox = np.where(np.isfinite(true_d), np.maximum(prox, 0.0), np.inf)
+    return prox, legacy_ir_value(legacy_d, z, ns["proximity_legacy"][own])
+
+
+def _gps(
+    bodies: Bodies, pose: FloatArray, heading_deg: FloatArray, z: FloatArray, offset_m: tuple[float, float]
+) -> FloatArray:
+    """(N, 3) noisy GPS: x and y (m, shifted by ``offset_m``) and heading (deg)."""
+    if not bodies.n:
+        return np.zeros((0, 3))
+    nm, ns = bodies.noise_mean, bodies.noise_std
+    return np.stack(
+        [
+            pose[:, 0] + offset_m[0] + nm["gps_m"] + ns["gps_m"] * z[:, 0],
+            pose[:, 1] + offset_m[1] + nm["gps_m"] + ns["gps_m"] * z[:, 1],
+            wrap_deg(heading_deg + nm["gps_heading_deg"] + ns["gps_heading_deg"] * z[:, 2]),
+        ],
+        axis=1,
+    )
+
+
 def read_sensors(
     scene: Scene,
     bodies: Bodies,
@@ -327,65 +355,24 @@ def read_sensors(
         The readings.
     """
     p = params or SensorParams()
-    n = bodies.n
-    nbeac = len(scene.lab.beacons) + len(moving_beacons)
-    counts, starts = noise_layout(bodies, nbeac)
-    own = bodies.ir_owner
-    first = np.searchsorted(own, np.arange(n))
-    m_slot = starts[own] + (np.arange(len(own)) - first[own])
-    after = starts + counts - (1 + nbeac + 3 + 2)  # first slot after the proximity ones
-    z_comp = z[after]
-    z_beac = z[after[:, None] + 1 + np.arange(nbeac)[None, :]] if nbeac else np.zeros((n, 0))
-    z_gps = z[after[:, None] + 1 + nbeac + np.arange(3)[None, :]]
-    z_enc = z[after[:, None] + 4 + nbeac + np.arange(2)[None, :]]
-
     nm, ns = bodies.noise_mean, bodies.noise_std
-    if legacy_ir and len(own):
-        slots = bodies.ir_slots
-        angles = np.where(slots >= 0, bodies.ir_angle_rad[np.maximum(slots, 0)], 0.0)
-        grid = ciberrato_ir_distances(scene, pose, angles)
-        legacy_d = np.full(len(own), np.inf)
-        legacy_d[slots[slots >= 0]] = grid[slots >= 0]
-        # Ciber-Rato's disc robots see by its own model only (their rim sensors have no range, so
-        # the cone model would test every body against every sensor for the same answer)
-        cones = ~bodies.is_circle if only is None else np.asarray(only, dtype=bool) & ~bodies.is_circle
-        true_d = proximity_distances(scene, bodies, pose, only=cones)
-        discs = bodies.is_circle[own]
-        true_d[discs] = legacy_d[discs]
-        if only is not None:
-            true_d[~np.asarray(only, dtype=bool)[own]] = np.inf
-    else:
-        true_d = proximity_distances(scene, bodies, pose, only=only)
-        legacy_d = true_d
-    zm = z[m_slot]
-    prox = true_d + nm["proximity_m"][own] + ns["proximity_m"][own] * zm
-    prox = np.where(np.isfinite(true_d), np.maximum(prox, 0.0), np.inf)
-    legacy = legacy_ir_value(legacy_d, zm, ns["proximity_legacy"][own])
+    z_of = tick_normals(bodies, z, len(scene.lab.beacons) + len(moving_beacons))
+    true_d, legacy_d = _seen_distances(scene, bodies, pose, only=only, legacy_ir=legacy_ir)
+    prox, legacy = _proximity_readings(bodies, true_d, legacy_d, z_of.proximity)
     heading_deg = np.degrees(pose[:, 2])
-    compass = wrap_deg(heading_deg + nm["compass_deg"] + ns["compass_deg"] * z_comp)
-    beacon = _beacons(scene, pose, z_beac, nm["beacon_deg"], ns["beacon_deg"], p.beacon_aperture_rad, moving_beacons)
-    gps = (
-        np.stack(
-            [
-                pose[:, 0] + p.gps_offset_m[0] + nm["gps_m"] + ns["gps_m"] * z_gps[:, 0],
-                pose[:, 1] + p.gps_offset_m[1] + nm["gps_m"] + ns["gps_m"] * z_gps[:, 1],
-                wrap_deg(heading_deg + nm["gps_heading_deg"] + ns["gps_heading_deg"] * z_gps[:, 2]),
-            ],
-            axis=1,
-        )
-        if n
-        else np.zeros((0, 3))
+    compass = wrap_deg(heading_deg + nm["compass_deg"] + ns["compass_deg"] * z_of.compass)
+    beacon = _beacons(
+        scene, pose, z_of.beacon, nm["beacon_deg"], ns["beacon_deg"], p.beacon_aperture_rad, moving_beacons
     )
-    slip = nm["encoder_slip"][:, None] + ns["encoder_slip"][:, None] * z_enc
-    enc = step_encoders(encoder_acc, rolled_m, bodies.ticks_per_m, slip)
+    slip = nm["encoder_slip"][:, None] + ns["encoder_slip"][:, None] * z_of.encoder
     return Readings(
         proximity_m=prox,
         proximity_legacy=legacy,
         compass_deg=compass,
         beacon_deg=beacon,
-        gps=gps,
+        gps=_gps(bodies, pose, heading_deg, z_of.gps, p.gps_offset_m),
         ground=_ground(scene, bodies, pose),
         collision=np.asarray(collided, dtype=bool).copy(),
-        encoder_acc=enc,
+        encoder_acc=step_encoders(encoder_acc, rolled_m, bodies.ticks_per_m, slip),
         bumpers=_bumpers(scene, bodies, pose),
     )
