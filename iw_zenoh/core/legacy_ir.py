@@ -49,9 +49,14 @@ def ciberrato_ir_distances(
     phi = pose[:, 2:3] + angles_rad  # (N, K)
     px = pose[:, 0:1] + RADIUS * np.cos(phi)
     py = pose[:, 1:2] + RADIUS * np.sin(phi)
-    best = np.full((n, k), np.inf)
+    best = _nearer_wall_edges(scene, px, py, phi, np.full((n, k), np.inf))
+    best = _nearer_wall_corners(scene, px, py, phi, best)
+    return _nearer_robots(pose, px, py, phi, np.flatnonzero(act), best)
 
-    # three rays against every wall edge (border included)
+
+def _nearer_wall_edges(scene: Scene, px: FloatArray, py: FloatArray, phi: FloatArray, best: FloatArray) -> FloatArray:
+    """``best`` lowered to where each sensor's three rays (phi, phi +- 30 deg) first meet a wall
+    edge (the border included); ``px``, ``py``, ``phi`` and ``best`` are (N, K)."""
     seg = scene.segments  # (S, 2, 2)
     ax, ay = seg[:, 0, 0], seg[:, 0, 1]
     ex, ey = seg[:, 1, 0] - ax, seg[:, 1, 1] - ay
@@ -67,20 +72,30 @@ def ciberrato_ir_distances(
         u = (wx * dy - wy * dx) / safe  # along the segment
         hit = ok & (t >= 0.0) & (u >= 0.0) & (u <= 1.0)
         best = np.minimum(best, np.where(hit, t, np.inf).min(axis=-1))
+    return best
 
-    # wall corners within the cone
+
+def _nearer_wall_corners(scene: Scene, px: FloatArray, py: FloatArray, phi: FloatArray, best: FloatArray) -> FloatArray:
+    """``best`` lowered to the distance of every wall corner within 30 deg of each sensor's axis."""
     cx, cy = scene.corners[:, 0], scene.corners[:, 1]
     vx = cx - px[..., None]
     vy = cy - py[..., None]
     within = np.abs(_wrap(np.arctan2(vy, vx) - phi[..., None])) <= HALF_CONE
-    best = np.minimum(best, np.where(within, np.hypot(vx, vy), np.inf).min(axis=-1))
+    return np.asarray(np.minimum(best, np.where(within, np.hypot(vx, vy), np.inf).min(axis=-1)), dtype=np.float64)
 
-    # other robots, a block of them at a time (N x K x block arrays). The angle tests are done
-    # on cosines and sines (dot and cross products) rather than with atan2 / asin: the same
-    # conditions without a transcendental function per pair
+
+def _nearer_robots(
+    pose: FloatArray, px: FloatArray, py: FloatArray, phi: FloatArray, others: npt.NDArray[np.intp], best: FloatArray
+) -> FloatArray:
+    """``best`` lowered to what each sensor sees of the robots ``others`` (indices into ``pose``),
+    by the legacy formula for a disc in or at the rim of the cone; a robot never sees itself.
+
+    A block of robots at a time (N x K x block arrays). The angle tests are done on cosines and
+    sines (dot and cross products) rather than with atan2 / asin: the same conditions without a
+    transcendental function per pair.
+    """
     ux, uy = np.cos(phi)[..., None], np.sin(phi)[..., None]
     ch, sh = np.cos(HALF_CONE), np.sin(HALF_CONE)
-    others = np.flatnonzero(act)
     for b0 in range(0, len(others), ROBOT_BLOCK):
         j = others[b0 : b0 + ROBOT_BLOCK]
         vx = pose[j, 0][None, None, :] - px[..., None]  # (N, K, B)
