@@ -16,7 +16,7 @@ import shapely
 
 from iw_zenoh.core.geometry import body_outline, to_world
 from iw_zenoh.core.motor import DriveParams
-from iw_zenoh.core.spec import BodyShape, NoiseSpec, RobotSpec, RobotType
+from iw_zenoh.core.spec import BodyShape, BumperSpec, NoiseSpec, RobotSpec, RobotType
 
 __all__ = ["Bodies", "polygons_at"]
 
@@ -29,6 +29,36 @@ def _noise_arrays(specs: Sequence[NoiseSpec]) -> tuple[FloatArray, FloatArray]:
     mean = np.asarray([s.mean if s.enabled else 0.0 for s in specs], dtype=np.float64)
     std = np.asarray([s.std if s.enabled else 0.0 for s in specs], dtype=np.float64)
     return mean, std
+
+
+def _noise_by_kind(specs: Sequence[RobotSpec]) -> tuple[dict[str, FloatArray], dict[str, FloatArray]]:
+    """Each sensor kind's noise bias and deviation, (N,) arrays keyed by kind (0 where off)."""
+    kinds = {
+        "proximity_m": [s.noise.proximity_m for s in specs],
+        "proximity_legacy": [s.noise.proximity_legacy for s in specs],
+        "compass_deg": [s.noise.compass_deg for s in specs],
+        "beacon_deg": [s.noise.beacon_deg for s in specs],
+        "gps_m": [s.noise.gps_m for s in specs],
+        "gps_heading_deg": [s.noise.gps_heading_deg for s in specs],
+        "encoder_slip": [s.noise.encoder_slip for s in specs],
+        "motion": [s.noise.motion for s in specs],
+    }
+    means: dict[str, FloatArray] = {}
+    stds: dict[str, FloatArray] = {}
+    for k, v in kinds.items():
+        means[k], stds[k] = _noise_arrays(v)
+    return means, stds
+
+
+def _bumper_outlines(bumpers: Sequence[BumperSpec]) -> FloatArray:
+    """(B, Kb, 2) bumper polygons, the shorter ones padded by repeating their last corner."""
+    kb = max((len(b.corners) for b in bumpers), default=3)
+    out = np.zeros((len(bumpers), kb, 2), dtype=np.float64)
+    for j, b in enumerate(bumpers):
+        c = np.asarray(b.corners, dtype=np.float64)
+        out[j, : len(c)] = c
+        out[j, len(c) :] = c[-1]
+    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -103,26 +133,7 @@ class Bodies:
         outline = body_outline(width, height, com, circle) if n else np.zeros((0, 4, 2))
         ir = [(i, s) for i, spec in enumerate(specs) for s in spec.sensors]
         bumpers = [(i, b) for i, spec in enumerate(specs) for b in spec.bumpers]
-        kb = max((len(b.corners) for _, b in bumpers), default=3)
-        b_out = np.zeros((len(bumpers), kb, 2), dtype=np.float64)
-        for j, (_, b) in enumerate(bumpers):
-            c = np.asarray(b.corners, dtype=np.float64)
-            b_out[j, : len(c)] = c
-            b_out[j, len(c) :] = c[-1]
-        kinds = {
-            "proximity_m": [s.noise.proximity_m for s in specs],
-            "proximity_legacy": [s.noise.proximity_legacy for s in specs],
-            "compass_deg": [s.noise.compass_deg for s in specs],
-            "beacon_deg": [s.noise.beacon_deg for s in specs],
-            "gps_m": [s.noise.gps_m for s in specs],
-            "gps_heading_deg": [s.noise.gps_heading_deg for s in specs],
-            "encoder_slip": [s.noise.encoder_slip for s in specs],
-            "motion": [s.noise.motion for s in specs],
-        }
-        means: dict[str, FloatArray] = {}
-        stds: dict[str, FloatArray] = {}
-        for k, v in kinds.items():
-            means[k], stds[k] = _noise_arrays(v)
+        means, stds = _noise_by_kind(specs)
         return Bodies(
             ids=np.asarray([s.id for s in specs], dtype=np.int64),
             types=tuple(RobotType(s.type) for s in specs),
@@ -144,7 +155,7 @@ class Bodies:
             ir_range_m=np.asarray([s.range_m for _, s in ir], dtype=np.float64),
             bumper_owner=np.asarray([i for i, _ in bumpers], dtype=np.int64),
             bumper_id=np.asarray([b.id for _, b in bumpers], dtype=np.int64),
-            bumper_outline=b_out,
+            bumper_outline=_bumper_outlines([b for _, b in bumpers]),
             ticks_per_m=np.asarray([s.encoder.ticks_per_m for s in specs], dtype=np.float64),
             noise_mean=means,
             noise_std=stds,
