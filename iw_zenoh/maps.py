@@ -1,5 +1,7 @@
 """Reading and writing map files: Ciber-Rato / Intellwheels Lab XML, Grid XML and parameters.
 
+The writers live in :mod:`iw_zenoh.map_writer` and are re-exported here.
+
 One hardened lxml parser reads everything (no entities, no DTD, no network, no huge trees). A
 broken file is refused with :class:`~iw_zenoh.errors.MapError` naming the file, the line, the
 element and the reason; nothing is guessed.
@@ -17,6 +19,7 @@ from lxml import etree
 from iw_zenoh.core.lab import Beacon, Grid, GridPosition, Lab, Target, Wall, check_wall
 from iw_zenoh.core.params import SimParameters
 from iw_zenoh.errors import MapError
+from iw_zenoh.map_writer import grid_to_xml, lab_to_xml
 
 __all__ = [
     "MAX_MAP_BYTES",
@@ -128,6 +131,66 @@ def row_walls(pos: int, pattern: str, height_m: float = 4.0) -> list[Wall]:
     return walls  # a wall still open here is lost, as in the legacy parser
 
 
+def _inside(el: etree._Element, x: float, y: float, source: str, width: float, height: float) -> None:
+    """Refuses a point of ``el`` outside the ``width`` x ``height`` lab."""
+    if not (0.0 <= x <= width and 0.0 <= y <= height):
+        raise MapError(
+            source, el.sourceline, str(el.tag), f"({x:g}, {y:g}) is outside the lab (0..{width:g} x 0..{height:g})"
+        )
+
+
+def _beacon(el: etree._Element, source: str, width: float, height: float) -> Beacon:
+    """A ``<Beacon>`` (X, Y, Height 0 by default), inside the lab."""
+    b = Beacon(_num(el, "X", source), _num(el, "Y", source), _num(el, "Height", source, 0.0))
+    _inside(el, b.x, b.y, source, width, height)
+    return b
+
+
+def _target(el: etree._Element, source: str, width: float, height: float) -> Target:
+    """A ``<Target>`` (X, Y, Radius > 0, 2 by default), its centre inside the lab."""
+    r = _num(el, "Radius", source, 2.0)
+    if r <= 0:
+        raise MapError(source, el.sourceline, str(el.tag), f"Radius must be > 0, got {r:g}")
+    t = Target(_num(el, "X", source), _num(el, "Y", source), r)
+    _inside(el, t.x, t.y, source, width, height)
+    return t
+
+
+def _wall(el: etree._Element, source: str, width: float, height: float) -> Wall:
+    """A ``<Wall>`` of ``<Corner>`` elements (Height 4 by default), a valid polygon in the lab."""
+    h = _num(el, "Height", source, 4.0)
+    corners: list[tuple[float, float]] = []
+    for c in el:
+        ctag = _element_name(c)
+        if ctag is None:
+            continue
+        if ctag != "Corner":
+            raise MapError(source, c.sourceline, ctag, "a <Wall> holds only <Corner> elements")
+        corners.append((_num(c, "X", source), _num(c, "Y", source)))
+    reason = check_wall(tuple(corners), width, height)
+    if reason:
+        raise MapError(source, el.sourceline, str(el.tag), reason)
+    return Wall(tuple(corners), h)
+
+
+def _row(el: etree._Element, source: str, width: float, height: float) -> list[Wall]:
+    """The walls of a Ciber-Rato ``<Row>`` (Pos, Pattern; see :func:`row_walls`), all in the lab."""
+    pos_raw = el.get("Pos")
+    pattern = el.get("Pattern")
+    if pos_raw is None or pattern is None:
+        raise MapError(source, el.sourceline, str(el.tag), "a <Row> needs Pos and Pattern attributes")
+    try:
+        pos = int(pos_raw)
+    except ValueError:
+        raise MapError(source, el.sourceline, str(el.tag), f"Pos={pos_raw!r} is not an integer") from None
+    walls = row_walls(pos, pattern)
+    for w in walls:
+        reason = check_wall(w.corners, width, height)
+        if reason:
+            raise MapError(source, el.sourceline, str(el.tag), reason)
+    return walls
+
+
 def parse_lab(data: bytes, source: str = "<bytes>") -> Lab:
     """Reads a Lab document.
 
@@ -153,56 +216,18 @@ def parse_lab(data: bytes, source: str = "<bytes>") -> Lab:
     walls: list[Wall] = []
     beacons: list[Beacon] = []
     targets: list[Target] = []
-
-    def inside(el: etree._Element, x: float, y: float) -> None:
-        if not (0.0 <= x <= width and 0.0 <= y <= height):
-            raise MapError(
-                source, el.sourceline, str(el.tag), f"({x:g}, {y:g}) is outside the lab (0..{width:g} x 0..{height:g})"
-            )
-
     for el in root:
         tag = _element_name(el)
         if tag is None:
             continue
         if tag == "Beacon":
-            b = Beacon(_num(el, "X", source), _num(el, "Y", source), _num(el, "Height", source, 0.0))
-            inside(el, b.x, b.y)
-            beacons.append(b)
+            beacons.append(_beacon(el, source, width, height))
         elif tag == "Target":
-            r = _num(el, "Radius", source, 2.0)
-            if r <= 0:
-                raise MapError(source, el.sourceline, tag, f"Radius must be > 0, got {r:g}")
-            t = Target(_num(el, "X", source), _num(el, "Y", source), r)
-            inside(el, t.x, t.y)
-            targets.append(t)
+            targets.append(_target(el, source, width, height))
         elif tag == "Wall":
-            h = _num(el, "Height", source, 4.0)
-            corners: list[tuple[float, float]] = []
-            for c in el:
-                ctag = _element_name(c)
-                if ctag is None:
-                    continue
-                if ctag != "Corner":
-                    raise MapError(source, c.sourceline, ctag, "a <Wall> holds only <Corner> elements")
-                corners.append((_num(c, "X", source), _num(c, "Y", source)))
-            reason = check_wall(tuple(corners), width, height)
-            if reason:
-                raise MapError(source, el.sourceline, tag, reason)
-            walls.append(Wall(tuple(corners), h))
+            walls.append(_wall(el, source, width, height))
         elif tag == "Row":
-            pos_raw = el.get("Pos")
-            pattern = el.get("Pattern")
-            if pos_raw is None or pattern is None:
-                raise MapError(source, el.sourceline, tag, "a <Row> needs Pos and Pattern attributes")
-            try:
-                pos = int(pos_raw)
-            except ValueError:
-                raise MapError(source, el.sourceline, tag, f"Pos={pos_raw!r} is not an integer") from None
-            for w in row_walls(pos, pattern):
-                reason = check_wall(w.corners, width, height)
-                if reason:
-                    raise MapError(source, el.sourceline, tag, reason)
-                walls.append(w)
+            walls.extend(_row(el, source, width, height))
         else:
             raise MapError(source, el.sourceline, tag, "unknown element in a lab; expected Beacon, Target, Wall or Row")
     return Lab(root.get("Name", "NO NAMED LAB"), width, height, tuple(walls), tuple(beacons), tuple(targets))
@@ -357,43 +382,3 @@ def load_grid(path: str | Path, lab: Lab | None = None) -> Grid:
 def load_parameters(path: str | Path) -> SimParameters:
     """Reads a parameters file. See :func:`parse_parameters`."""
     return parse_parameters(*_read(path))
-
-
-def _fmt(v: float, legacy: bool) -> str:
-    return f"{v:g}" if legacy else repr(float(v))
-
-
-def lab_to_xml(lab: Lab, *, legacy: bool = False) -> bytes:
-    """Writes a lab as Lab XML.
-
-    Args:
-        lab: The lab.
-        legacy: Ciber-Rato's re-serialised form (``%g`` numbers, Height before Width, tabs);
-            otherwise numbers are written exactly, so the lab reads back equal.
-
-    Returns:
-        The document (UTF-8, no declaration).
-    """
-    root = etree.Element("Lab")
-    root.set("Name", lab.name)
-    root.set("Height", _fmt(lab.height_m, legacy))
-    root.set("Width", _fmt(lab.width_m, legacy))
-    for b in lab.beacons:
-        etree.SubElement(root, "Beacon", X=_fmt(b.x, legacy), Y=_fmt(b.y, legacy), Height=_fmt(b.height_m, legacy))
-    for t in lab.targets:
-        etree.SubElement(root, "Target", X=_fmt(t.x, legacy), Y=_fmt(t.y, legacy), Radius=_fmt(t.radius_m, legacy))
-    for w in lab.walls:
-        we = etree.SubElement(root, "Wall", Height=_fmt(w.height_m, legacy))
-        for x, y in w.corners:
-            etree.SubElement(we, "Corner", X=_fmt(x, legacy), Y=_fmt(y, legacy))
-    etree.indent(root, space="\t")
-    return bytes(etree.tostring(root, encoding="utf-8")) + b"\n"
-
-
-def grid_to_xml(grid: Grid, *, legacy: bool = False) -> bytes:
-    """Writes a grid as Grid XML (see :func:`lab_to_xml` for ``legacy``)."""
-    root = etree.Element("Grid")
-    for p in grid.positions:
-        etree.SubElement(root, "Position", X=_fmt(p.x, legacy), Y=_fmt(p.y, legacy), Dir=_fmt(p.dir_deg, legacy))
-    etree.indent(root, space="\t")
-    return bytes(etree.tostring(root, encoding="utf-8")) + b"\n"
