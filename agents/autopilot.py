@@ -33,9 +33,9 @@ from iw_zenoh.core.lab import Lab, Scene
 from iw_zenoh.core.poseplan import Footprint, PoseSpace, occupancy, pose_plan
 from iw_zenoh.core.sensors import proximity_distances
 from iw_zenoh.core.sonarmap import Cone, SonarMap
-from iw_zenoh.core.spec import IrSensorSpec, RobotSpec, prototype_chair
+from iw_zenoh.core.spec import RobotSpec
 
-from .waypoint import FINE_GPS
+from .mapping_chair import MAPPING_SENSORS, cones_of, mapping_chair
 
 __all__ = ["MAPPING_SENSORS", "Autopilot", "Drive", "cones_of", "mapping_chair"]
 
@@ -59,27 +59,6 @@ NO_PATH_RETRY_TICKS = 20  # no path: stand still and look this long, then try ag
 FORGET_AFTER_FAILS = 3  # this many failed plans in a row: forget what the sonars marked
 
 
-MAPPING_SENSORS = tuple(
-    IrSensorSpec(i, x, y, a, 5.0, 3.0)
-    for i, (x, y, a) in enumerate(
-        [(0.8, 0.1 * k, 0.0) for k in range(-3, 4)]
-        + [(0.8, math.copysign(0.33, a), a) for a in (-15.0, 15.0, -30.0, 30.0, -45.0, 45.0, -60.0, 60.0, -75.0, 75.0)]
-        + [(x, math.copysign(0.33, a), a) for x in (0.5, 0.2, -0.1) for a in (-90.0, 90.0)]
-        + [(-0.2, 0.0, 180.0)]
-    )
-)  # twenty-four narrow (5-degree) infrared rangefinders, 3 m: seven ahead, ten round the front
-# corners, six along the sides, one behind
-
-
-def mapping_chair(name: str, **overrides: object) -> RobotSpec:
-    """The LIACC prototype's body with the narrow cones an autonomous chair maps with (its
-    eight 60-degree sonars cannot tell where along a corridor-wide arc a thing is) and a fine
-    GPS (a localised chair)."""
-    args: dict[str, object] = {"ir_sensors": MAPPING_SENSORS, "noise": FINE_GPS}
-    args.update(overrides)
-    return prototype_chair(name, **args)  # type: ignore[arg-type]
-
-
 @dataclass(frozen=True)
 class Drive:
     """Wheel speeds asked for, m/s, and why."""
@@ -87,32 +66,6 @@ class Drive:
     left_mps: float
     right_mps: float
     status: str
-
-
-def cones_of(
-    spec: RobotSpec, pose: tuple[float, float, float], ids: list[int], dists: list[float | None]
-) -> list[Cone]:
-    """The cones of a reading in world coordinates (pose: x, y, heading deg)."""
-    x, y, hdg = pose
-    th = math.radians(hdg)
-    c, s = math.cos(th), math.sin(th)
-    by_id = {m.id: m for m in spec.sensors}
-    out = []
-    for i, d in zip(ids, dists, strict=True):
-        m = by_id.get(i)
-        if m is None:
-            continue
-        out.append(
-            Cone(
-                x + c * m.x_m - s * m.y_m,
-                y + s * m.x_m + c * m.y_m,
-                th + math.radians(m.angle_deg),
-                math.radians(m.cone_deg) / 2,
-                m.range_m,
-                d,
-            )
-        )
-    return out
 
 
 @dataclass
@@ -251,6 +204,36 @@ class Autopilot:
         self, pose: tuple[float, float, float], ids: list[int], dists: list[float | None], *, collided: bool = False
     ) -> Drive:
         """One tick: map, check the plan, follow it. Pose is (x, y, heading deg)."""
+        news, cones, new = self._map(pose, ids, dists)
+        held = self._ready(pose)
+        if held is not None:
+            return held
+        if len(new) and self._plan_meets(new):
+            self.replans += 1
+            self._replan = True  # stop now, plan next tick (a plan may take a while)
+            return Drive(0.0, 0.0, "replanning")
+        drive = self._follow(pose)
+        if self._blocked(ids, news, cones, drive, collided=collided):
+            return Drive(0.0, 0.0, "blocked")
+        if drive.status == "driving" and self.careful:
+            drive = _slowed(drive, dists)
+        if self.touches(pose, drive):
+            # the follower strays from what the plan checked (a corrective turn on the spot swings
+            # the front 0.84 m out): never into what is mapped; stop and plan from here
+            self.replans += 1
+            self._replan = True
+            return Drive(0.0, 0.0, "guarded")
+        return drive
+
+    def _map(
+        self, pose: tuple[float, float, float], ids: list[int], dists: list[float | None]
+    ) -> tuple[list[float | None], list[Cone], FloatArray]:
+        """Maps one tick's readings: every reading carves, only the unexplained ones mark, and
+        nothing is marked where a known mover is.
+
+        Returns:
+            The unexplained readings, the cones and the centres (K, 2) of newly marked cells.
+        """
         news = self.unexplained(pose, ids, dists)
         cones = cones_of(self.spec, pose, ids, dists)
         # carve with every reading, mark only with the unexplained ones
@@ -267,6 +250,12 @@ class Autopilot:
                 cells = (new[inside] / CELL_M).astype(np.int64)
                 self.sonar.occupied[cells[:, 1], cells[:, 0]] = False
             new = new[keep]
+        return news, cones, new
+
+    def _ready(self, pose: tuple[float, float, float]) -> Drive | None:
+        """None when there is a plan to follow this tick (planning first if one is due), else
+        the standstill: idle, arrived, waiting after a failed plan, or no path (after too many,
+        the sonar marks are forgotten)."""
         if self.goal is None or self.arrived(pose):
             self.status = "arrived" if self.goal is not None else "idle"
             return Drive(0.0, 0.0, self.status)
@@ -284,16 +273,24 @@ class Autopilot:
                 self.sonar.occupied[:] = False  # the marks may be wrong: look again
             return Drive(0.0, 0.0, self.status)
         self._fails = 0
-        if len(new):
-            self._space.add_points(new)
-            ahead = self.path[self.index :]
-            if not np.all(self._space.path_free(ahead[:: max(1, len(ahead) // 200)])):
-                self.replans += 1
-                self._replan = True  # stop now, plan next tick (a plan may take a while)
-                return Drive(0.0, 0.0, "replanning")
-        drive = self._follow(pose)
-        # reactive: something close ahead that neither map explains (it moved in, or was missed)
-        # stops forward motion; what is mapped the plan already keeps clear of
+        return None
+
+    def _plan_meets(self, new: FloatArray) -> bool:
+        """Grows newly marked cells (K, 2) into the plan's space; whether the rest of the plan
+        now collides with them."""
+        assert self._space is not None
+        assert self.path is not None
+        self._space.add_points(new)
+        ahead = self.path[self.index :]
+        return not np.all(self._space.path_free(ahead[:: max(1, len(ahead) // 200)]))
+
+    def _blocked(
+        self, ids: list[int], news: list[float | None], cones: list[Cone], drive: Drive, *, collided: bool
+    ) -> bool:
+        """Reactive safety: whether something unexplained is too near where the drive goes (or the
+        chair collided); held this long, a new plan is asked for."""
+        # something close ahead that neither map explains (it moved in, or was missed) stops
+        # forward motion; what is mapped the plan already keeps clear of
         front = min(
             (
                 d
@@ -314,20 +311,9 @@ class Autopilot:
                 self.blocked_ticks = 0
                 self.replans += 1
                 self._replan = True
-            return Drive(0.0, 0.0, "blocked")
+            return True
         self.blocked_ticks = 0
-        if drive.status == "driving" and self.careful:
-            # slow down where it is tight (a doorway, a chair beside): the follower keeps closer
-            near = min((d for d in dists if d is not None), default=math.inf)
-            k = min(1.0, max(SLOW_SHARE, (near - 0.1) / 0.4))
-            drive = Drive(drive.left_mps * k, drive.right_mps * k, drive.status)
-        if self.touches(pose, drive):
-            # the follower strays from what the plan checked (a corrective turn on the spot swings
-            # the front 0.84 m out): never into what is mapped; stop and plan from here
-            self.replans += 1
-            self._replan = True
-            return Drive(0.0, 0.0, "guarded")
-        return drive
+        return False
 
     def touches(self, pose: tuple[float, float, float], drive: Drive) -> bool:
         """Whether the next ``GUARD_S`` of this drive would bring the chair's bare outline onto a
@@ -407,6 +393,14 @@ class Autopilot:
         v = CRUISE_MPS * min(1.0, 0.3 + dist / LOOKAHEAD_M)
         w = v * 2.0 * math.sin(err) / max(dist, 0.05)
         return Drive(v - w * base / 2, v + w * base / 2, "driving")
+
+
+def _slowed(drive: Drive, dists: list[float | None]) -> Drive:
+    """A careful chair slows down where it is tight (a doorway, a chair beside): the follower keeps
+    closer."""
+    near = min((d for d in dists if d is not None), default=math.inf)
+    k = min(1.0, max(SLOW_SHARE, (near - 0.1) / 0.4))
+    return Drive(drive.left_mps * k, drive.right_mps * k, drive.status)
 
 
 def _backing(poses: FloatArray) -> npt.NDArray[np.bool_]:
