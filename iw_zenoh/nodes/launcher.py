@@ -16,6 +16,7 @@ import sys
 import tempfile
 import threading
 import time
+import uuid
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -94,7 +95,8 @@ class Launcher:
         self._child("router", "router", client=False)
         if self.record is not None:
             meta = ["--meta", f"scenario={sc.name}", "--meta", f"seed={sc.world.seed}", "--meta", f"map={sc.world.map}"]
-            self._child("record", "recorder", "-o", str(self.record), "--quiet", *meta)
+            # restarted with these same arguments, it continues this run's recording in its next part
+            self._child("record", "recorder", "-o", str(self.record), "--quiet", "--continue", uuid.uuid4().hex, *meta)
         options, rest = self.world_options
         self._child("world", "world", "--options", msgspec.json.encode(options).decode(), *rest)
         self._child("collision", "collision")

@@ -14,9 +14,11 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import IO
 
 from iw_zenoh import __version__, keys
-from iw_zenoh.bus import ZenohBus
+from iw_zenoh.bus import Queue, ZenohBus
+from iw_zenoh.record.parts import PART_META, next_part
 from iw_zenoh.record.recording import Recorder
 from iw_zenoh.runtime import NodeIO, Process, start_role
 
@@ -43,53 +45,78 @@ def record(
     io: NodeIO,
     metadata: dict[str, dict[str, str]] | None = None,
     status: bool = False,
-) -> Recorder:
-    """Records until ``io.stop`` is set; returns the finished recorder (its counts)."""
+    continue_run: str | None = None,
+) -> tuple[Path, Recorder]:
+    """Records until ``io.stop`` is set.
+
+    Args:
+        bus: Where to listen.
+        sim: The simulation to record (``iw/SIM/**``).
+        out: The recording (its first part).
+        io: The process's stop event and liveliness.
+        metadata: Named string maps to store.
+        status: Print a progress line every 5 s.
+        continue_run: ``None`` to write ``out`` afresh; else continue the recording there, when
+            it is this one (see :func:`iw_zenoh.record.parts.next_part`), in its next part.
+
+    Returns:
+        The file written (``out``, or the part it continued into) and the finished recorder.
+    """
     inbox = bus.queue(keys.everything(sim))  # lossless: Zenoh holds senders back when it is full
     out.parent.mkdir(parents=True, exist_ok=True)
-    with out.open("wb") as f:
-        meta = {
-            "iw.run": {
-                "sim": sim,
-                "host": platform.node(),
-                "python": sys.version.split()[0],
-                "started_ns": str(time.time_ns()),
-            }
-        }
-        meta.update(metadata or {})
+    path, part, user = next_part(out, continue_run)  # what arrives meanwhile waits in the queue
+    meta = {
+        "iw.run": {
+            "sim": sim,
+            "host": platform.node(),
+            "python": sys.version.split()[0],
+            "started_ns": str(time.time_ns()),
+        },
+        PART_META: part,
+    }
+    meta.update(metadata or {})
+    if user and not meta.get("iw.user"):
+        meta["iw.user"] = user  # a continuation carries the recording's scenario, seed and map
+    which = f" (part {part['part']}, after {part['previous']})" if part["previous"] else ""
+    print(f"iwz record: recording iw/{sim}/** to {path}{which}", flush=True)
+    with path.open("wb") as f:
         rec = Recorder(f, meta)
         io.alive()
-        last_flush = time.monotonic()
-        last_status = last_flush
-        stop_at: float | None = None
-        last_msg = time.monotonic()
-        while True:
-            if io.stop.is_set() and stop_at is None:
-                stop_at = time.monotonic()
-            got = inbox.drain()
-            for key, data, t in got:
-                rec.add(key, data, t)
-            if got:
-                last_msg = time.monotonic()
-            now = time.monotonic()
-            if now - last_flush >= FLUSH_S:
-                rec.flush()
-                f.flush()
-                last_flush = now
-            if status and now - last_status >= 5.0:
-                last_status = now
-                print(
-                    f"iwz record: {sum(rec.counts.values())} messages on {len(rec.counts)} keys, "
-                    f"{rec.bytes / 1e6:.1f} MB",
-                    flush=True,
-                )
-            # after a stop, what is still in flight towards us is part of the run: write it too
-            if stop_at is not None and (now - last_msg >= QUIET_S or now - stop_at >= DRAIN_MAX_S):
-                break
-            if not got:
-                io.stop.wait(POLL_S)
+        _write(rec, inbox, f, io, status)
         rec.finish({"iw.received": {k: str(v) for k, v in sorted(rec.counts.items())}})
-    return rec
+    return path, rec
+
+
+def _write(rec: Recorder, inbox: Queue, f: IO[bytes], io: NodeIO, status: bool) -> None:
+    """Writes what arrives until a stop, and what is still in flight after it."""
+    last_flush = time.monotonic()
+    last_status = last_flush
+    stop_at: float | None = None
+    last_msg = time.monotonic()
+    while True:
+        if io.stop.is_set() and stop_at is None:
+            stop_at = time.monotonic()
+        got = inbox.drain()
+        for key, data, t in got:
+            rec.add(key, data, t)
+        if got:
+            last_msg = time.monotonic()
+        now = time.monotonic()
+        if now - last_flush >= FLUSH_S:
+            rec.flush()
+            f.flush()
+            last_flush = now
+        if status and now - last_status >= 5.0:
+            last_status = now
+            print(
+                f"iwz record: {sum(rec.counts.values())} messages on {len(rec.counts)} keys, {rec.bytes / 1e6:.1f} MB",
+                flush=True,
+            )
+        # after a stop, what is still in flight towards us is part of the run: write it too
+        if stop_at is not None and (now - last_msg >= QUIET_S or now - stop_at >= DRAIN_MAX_S):
+            break
+        if not got:
+            io.stop.wait(POLL_S)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -119,6 +146,17 @@ def _arguments(p: argparse.ArgumentParser) -> None:
         help="metadata to store (repeatable), e.g. scenario=demo",
     )
     p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.add_argument(
+        "--continue",
+        dest="continue_run",
+        nargs="?",
+        const="",
+        metavar="RUN",
+        help=(
+            "when FILE already holds a recording (of run id RUN, if given), write its next part "
+            "(FILE.part2.mcap...) instead of overwriting it: how a restarted recorder goes on"
+        ),
+    )
 
 
 def _prepare(args: argparse.Namespace) -> tuple[Path, dict[str, str]]:
@@ -134,13 +172,13 @@ def _prepare(args: argparse.Namespace) -> tuple[Path, dict[str, str]]:
 
 def _run(proc: Process, target: tuple[Path, dict[str, str]]) -> None:
     out, extra = target
-    print(f"iwz record: recording iw/{proc.sim}/** to {out}", flush=True)
-    rec = record(
+    path, rec = record(
         proc.bus,
         proc.sim,
         out,
         io=proc.io,
         metadata={"iw.user": extra, "iw.versions.recorder": {"iw-zenoh": __version__}},
         status=not proc.args.quiet,
+        continue_run=proc.args.continue_run,
     )
-    print(f"iwz record: {sum(rec.counts.values())} messages on {len(rec.counts)} keys written to {out}", flush=True)
+    print(f"iwz record: {sum(rec.counts.values())} messages on {len(rec.counts)} keys written to {path}", flush=True)

@@ -13,24 +13,20 @@ Whatever makes the file unreadable (not MCAP, cut off, a corrupt chunk) raises
 
 from __future__ import annotations
 
-import io
 import logging
-from collections.abc import Callable, Collection, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable, Collection, Iterator, Sequence
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, TypeVar
+from typing import IO
 
 import zenoh
-from mcap.exceptions import InvalidMagic
-from mcap.reader import McapReader, make_reader
-from mcap.records import Channel
 from mcap.summary import Summary
-from mcap.writer import MCAP0_MAGIC as MAGIC
 
 from iw_zenoh import keys
 from iw_zenoh.errors import IwError, RecordingError
 from iw_zenoh.messages import TOPIC_TYPES, Message, decode
+from iw_zenoh.record.parts import PART_META, Part, head_metadata, reason, recording_parts, recovered_copy
 
 __all__ = [
     "EVERYTHING",
@@ -46,8 +42,6 @@ __all__ = [
 ]
 
 logger = logging.getLogger(__name__)
-
-T = TypeVar("T")
 
 
 @dataclass(frozen=True, slots=True)
@@ -167,85 +161,87 @@ def file_error(source: str | Path, e: Exception) -> str:
     if isinstance(e, RecordingError):
         return str(e)
     if isinstance(e, OSError) and e.filename is not None:
-        return f"{e.filename}: {_reason(e)}"
-    return f"{source}: {_reason(e) if isinstance(e, OSError) else e}"
-
-
-def _reason(e: BaseException) -> str:
-    """An exception as a reason a user can read (some of mcap's say nothing on their own)."""
-    if isinstance(e, InvalidMagic):
-        return "not an MCAP file (it does not start with the MCAP magic)"
-    if isinstance(e, OSError) and e.strerror:
-        return e.strerror
-    text = str(e).strip()
-    return f"{type(e).__name__}: {text}" if text else f"{type(e).__name__} (the file is damaged or not MCAP)"
+        return f"{e.filename}: {reason(e)}"
+    return f"{source}: {reason(e) if isinstance(e, OSError) else e}"
 
 
 class RecordingReader:
-    """Reads one recording.
+    """Reads one recording: one stream, or every part of a recording as one.
 
     Args:
-        stream: The recording, a seekable binary stream from its start.
+        stream: The recording, a seekable binary stream from its start (``None`` with ``parts``).
         name: What to call it in errors (a file name).
         validate_crcs: Check each chunk's CRC as it is read (doctor does).
         on_bad: Called with each payload that does not decode (default: logged at debug level).
+        parts: The recording's parts, in order, instead of ``stream`` (see :func:`open_recording`).
+
+    Attributes:
+        notes: What a reader of the whole should know: a part cut off (and what of it was read),
+            a part read from its recovered copy, the log time between two parts not recorded.
 
     Raises:
-        RecordingError: When it is not an MCAP stream.
+        RecordingError: When it is not an MCAP stream (or, a single stream, is cut off).
     """
 
     def __init__(
         self,
-        stream: IO[bytes],
+        stream: IO[bytes] | None = None,
         *,
         name: str | None = None,
         validate_crcs: bool = False,
         on_bad: Callable[[BadMessage], None] | None = None,
+        parts: Sequence[Part] = (),
     ) -> None:
-        self.name = name or str(getattr(stream, "name", "<stream>"))
-        self._stream = stream
+        if stream is not None:
+            parts = [Part(stream, name or str(getattr(stream, "name", "<stream>")), validate_crcs=validate_crcs)]
+        if not parts:
+            raise ValueError("a recording needs a stream or its parts")
+        self.parts = list(parts)
+        self.name = name or self.parts[0].name
         self._on_bad = on_bad
         self.bad: dict[str, int] = {}  # undecodable payloads per topic
-        if stream.seekable():
-            if (size := stream.seek(0, io.SEEK_END)) < len(MAGIC):
-                raise RecordingError(self.name, f"only {size} bytes: empty, or not an MCAP file")
-            stream.seek(0)
-        self._reader: McapReader = self._guard(lambda: make_reader(stream, validate_crcs=validate_crcs))
-        self._guard(self._check_end)
-
-    def _check_end(self) -> None:
-        """A file that does not end as MCAP does is cut off: say so before mcap trips on it."""
-        if not self._stream.seekable():
-            return
-        size = self._stream.seek(0, io.SEEK_END)
-        if size >= len(MAGIC):
-            self._stream.seek(size - len(MAGIC))
-        if size < len(MAGIC) or self._stream.read(len(MAGIC)) != MAGIC:
-            raise RecordingError(
-                self.name, f"cut off after {size} bytes (a crash, or still being written): iwz recover rebuilds it"
-            )
-        self._stream.seek(0)
-
-    def _guard(self, call: Callable[[], T]) -> T:
-        try:
-            return call()
-        except RecordingError:
-            raise
-        except Exception as e:  # mcap raises many kinds (struct, zstd, ValueError...) on a bad file
-            raise RecordingError(self.name, _reason(e)) from e
+        self.notes: list[str] = [
+            f"{p.name} is cut off (a crash): read as far as it goes; iwz recover {p.name} rebuilds it"
+            for p in self.parts
+            if p.cut_off
+        ]
+        self._total = sum(p.size for p in self.parts)
+        self._done = 0  # bytes of the parts read through
 
     def summary(self) -> Summary | None:
-        """The file's summary section (``None`` for a file written without one).
+        """The first part's summary section (``None`` for a part cut off or written without one).
 
         Raises:
-            RecordingError: When the file is cut off or its summary is damaged.
+            RecordingError: When its summary is damaged.
         """
-        return self._guard(self._reader.get_summary)
+        return self.parts[0].summary()
 
     def metadata(self) -> dict[str, dict[str, str]]:
-        """Every metadata record, by name (the last of a name wins)."""
-        self._stream.seek(0)
-        return self._guard(lambda: {m.name: dict(m.metadata) for m in self._reader.iter_metadata()})
+        """Every metadata record, by name; a name in several parts merges their maps (later parts win)."""
+        out: dict[str, dict[str, str]] = {}
+        for p in self.parts:
+            for k, v in p.metadata().items():
+                out.setdefault(k, {}).update(v)
+        return out
+
+    def topics(self) -> set[str]:
+        """Every channel's topic, over all parts."""
+        return set().union(*(p.topics() for p in self.parts))
+
+    def progress(self) -> float:
+        """How far reading has gone through the recording's bytes, 0 to 1 (roughly: chunks are read in time order)."""
+        if not self._total:
+            return 0.0
+        return min(1.0, sum(p.size for p in self.parts[: self._done]) / self._total + self._at() / self._total)
+
+    def _at(self) -> int:
+        if self._done >= len(self.parts):
+            return 0
+        s = self.parts[self._done].stream
+        try:
+            return s.tell() if s.seekable() else 0
+        except (OSError, ValueError):
+            return 0
 
     def raw(
         self,
@@ -254,7 +250,7 @@ class RecordingReader:
         topics: Callable[[str], bool] | None = None,
         window: Window = EVERYTHING,
     ) -> Iterator[RawRecord]:
-        """Every message as recorded, in log-time order.
+        """Every message as recorded, in log-time order (part after part).
 
         Args:
             kinds: Only keys of these kinds (``None``: every channel, derived ones included).
@@ -262,28 +258,44 @@ class RecordingReader:
             window: Only messages inside this time window.
 
         Raises:
-            RecordingError: When the file is unreadable from some point on.
+            RecordingError: When a whole part is unreadable from some point on.
         """
-        wanted: dict[int, tuple[bool, str | None]] = {}  # channel id -> (read it, its kind)
+        wanted: dict[str, tuple[bool, str | None]] = {}  # topic -> (read it, its kind)
 
-        def accept(ch: Channel) -> tuple[bool, str | None]:
-            kind = keys.topic_kind(ch.topic)
-            return (kinds is None or kind in kinds) and (topics is None or topics(ch.topic)), kind
+        def accept(topic: str) -> tuple[bool, str | None]:
+            kind = keys.topic_kind(topic)
+            return (kinds is None or kind in kinds) and (topics is None or topics(topic)), kind
 
-        self._stream.seek(0)
-        try:
-            for _, ch, msg in self._reader.iter_messages(starting_at=window.log_start):
-                got = wanted.get(ch.id)
-                if got is None:
-                    got = wanted[ch.id] = accept(ch)
-                read, kind = got
-                if not read:
-                    continue
-                if not window.holds(msg.publish_time):
-                    continue
-                yield RawRecord(ch.topic, kind, msg.log_time, msg.publish_time, msg.data)
-        except Exception as e:  # mcap raises many kinds (struct, zstd, CRC, ValueError...) on a bad file
-            raise RecordingError(self.name, _reason(e)) from e
+        last: tuple[str, int] | None = None  # the previous part, and its last log time
+        for i, part in enumerate(self.parts):
+            self._done = i
+            first_log: int | None = None
+            end = 0
+            try:
+                for ch, msg in part.messages(window.log_start):
+                    first_log = msg.log_time if first_log is None else first_log
+                    end = max(end, msg.log_time)
+                    read, kind = wanted.get(ch.topic) or wanted.setdefault(ch.topic, accept(ch.topic))
+                    if read and window.holds(msg.publish_time):
+                        yield RawRecord(ch.topic, kind, msg.log_time, msg.publish_time, msg.data)
+            except RecordingError:
+                raise
+            except Exception as e:  # mcap raises many kinds (struct, zstd, CRC, ValueError...) on a bad file
+                raise RecordingError(part.name, reason(e)) from e
+            self._note_part(part, last, first_log)
+            if first_log is not None:
+                last = (part.name, end)
+        self._done = len(self.parts)
+
+    def _note_part(self, part: Part, last: tuple[str, int] | None, first_log: int | None) -> None:
+        """Notes what a part lost at its end, and the log time between it and the one before."""
+        notes = []
+        if part.lost:
+            notes.append(f"{part.name}: {part.read_messages} messages read, {part.lost}")
+        if last is not None and first_log is not None and first_log > last[1]:
+            gap_s = (first_log - last[1]) / 1e9
+            notes.append(f"{gap_s:.3f} s of log time not recorded between {last[0]} and {part.name}")
+        self.notes.extend(n for n in notes if n not in self.notes)
 
     def records(
         self,
@@ -341,10 +353,15 @@ def open_recording(
     validate_crcs: bool = False,
     on_bad: Callable[[BadMessage], None] | None = None,
 ) -> Iterator[RecordingReader]:
-    """Opens a recording for reading.
+    """Opens a recording for reading: every part of it, as one, from any of its parts.
+
+    A recording of several parts (``run.mcap``, ``run.part2.mcap``...) is read part after part;
+    a part cut off by a crash is read as far as it goes, or from its recovered copy
+    (``run.part2.recovered.mcap``) when ``iwz recover`` made one, and the reader's ``notes`` say
+    so. A recording of one part that is cut off is refused (``iwz recover`` rebuilds it).
 
     Args:
-        source: A file name, or a seekable binary stream (left open).
+        source: A file name, or a seekable binary stream (left open; one part).
         validate_crcs: Check each chunk's CRC as it is read.
         on_bad: Called with each payload that does not decode.
 
@@ -352,15 +369,36 @@ def open_recording(
         Its reader.
 
     Raises:
-        RecordingError: When the file cannot be opened or is not MCAP, naming it and the reason.
+        RecordingError: When a file cannot be opened or is not MCAP, naming it and the reason.
     """
-    if isinstance(source, str | Path):
-        path = Path(source)
-        try:
-            f = path.open("rb")
-        except OSError as e:
-            raise RecordingError(str(path), _reason(e)) from e
-        with f:
-            yield RecordingReader(f, name=str(path), validate_crcs=validate_crcs, on_bad=on_bad)
-    else:
+    if not isinstance(source, str | Path):
         yield RecordingReader(source, validate_crcs=validate_crcs, on_bad=on_bad)
+        return
+    paths = recording_parts(source)
+    with ExitStack() as files:
+        parts = []
+        swapped = []
+        for path in paths:
+            part = Part(_open(path, files), str(path), validate_crcs=validate_crcs, cut_off_ok=len(paths) > 1)
+            copy = recovered_copy(path)
+            if part.cut_off and copy.exists() and _same_recording(part, copy, files):
+                part = Part(_open(copy, files), str(copy), validate_crcs=validate_crcs)
+                swapped.append(f"{path} is cut off (a crash): read from its recovered copy {copy}")
+            parts.append(part)
+        reader = RecordingReader(name=str(paths[0]), on_bad=on_bad, parts=parts)
+        reader.notes[:0] = swapped
+        yield reader
+
+
+def _open(path: Path, files: ExitStack) -> IO[bytes]:
+    try:
+        return files.enter_context(path.open("rb"))
+    except OSError as e:
+        raise RecordingError(str(path), reason(e)) from e
+
+
+def _same_recording(part: Part, copy: Path, files: ExitStack) -> bool:
+    """Whether ``copy`` was recovered from this part (and not from an older recording of that name)."""
+    ours = head_metadata(part.stream).get(PART_META, {})
+    theirs = head_metadata(_open(copy, files)).get(PART_META, {})
+    return ours.get("recording") == theirs.get("recording") and ours.get("part") == theirs.get("part")

@@ -68,11 +68,9 @@ def sim_index(f: IO[bytes] | RecordingReader) -> tuple[list[int], list[int], str
     sims = [p[0] for p in pairs]
     logs = [p[1] for p in pairs]
     sim_name: str | None = None
-    summary = rec.summary()
-    if summary is not None:
-        for ch in summary.channels.values():
-            if keys.topic_kind(ch.topic) == "state":
-                sim_name = keys.sim_of(ch.topic)
+    for topic in sorted(rec.topics()):
+        if keys.topic_kind(topic) == "state":
+            sim_name = keys.sim_of(topic)
     if not sims:
         for r in rec.raw(("state",)):
             sim_name = keys.sim_of(r.topic)
@@ -87,16 +85,20 @@ class Player:
     """Plays one recording.
 
     Args:
-        stream: The recording (seekable).
+        stream: The recording (seekable), or a reader over it (every part of it).
         bus: Where to publish.
         opts: How.
         now_ns: Monotonic clock (injected for tests).
     """
 
     def __init__(
-        self, stream: IO[bytes], bus: Bus, opts: ReplayOptions, now_ns: Callable[[], int] = time.monotonic_ns
+        self,
+        stream: IO[bytes] | RecordingReader,
+        bus: Bus,
+        opts: ReplayOptions,
+        now_ns: Callable[[], int] = time.monotonic_ns,
     ) -> None:
-        self.recording = RecordingReader(stream)
+        self.recording = stream if isinstance(stream, RecordingReader) else RecordingReader(stream)
         self.bus = bus
         self.opts = opts
         self.now_ns = now_ns
@@ -118,9 +120,7 @@ class Player:
         self._last_info: bytes | None = None
         self._base: tuple[int, int] | None = None  # (log ns, wall ns) that timing counts from
         self._info_q = bus.serve(keys.info(self.target))
-        summary = self.recording.summary()
-        channels = summary.channels.values() if summary is not None else ()
-        self.skipped = sorted({c.topic for c in channels if keys.sim_of(c.topic) is None})
+        self.skipped = sorted(t for t in self.recording.topics() if keys.sim_of(t) is None)
         if self.skipped:
             logger.info("not simulation keys, not played: %s", ", ".join(self.skipped))
 
