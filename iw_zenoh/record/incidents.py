@@ -22,7 +22,7 @@ from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.lab import Scene
 from iw_zenoh.errors import DecodeError, IwError
 from iw_zenoh.messages import CollisionData, Event, EventKind, WorldInfo, WorldState, event_payload
-from iw_zenoh.record.reader import RecordingReader, file_error, open_recording
+from iw_zenoh.record.reader import RecordingReader, file_error, open_recording, print_notes
 
 __all__ = ["Incident", "find_incidents", "main"]
 
@@ -170,6 +170,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         with open_recording(args.file) as rec:
             found = find_incidents(rec, near_m=args.near)
+            print_notes("iwz incidents", rec)
     except IwError as e:  # not MCAP, cut off, damaged
         print(f"iwz incidents: {file_error(args.file, e)}; check it with iwz doctor (and iwz recover)")
         return 2

@@ -14,6 +14,7 @@ Whatever makes the file unreadable (not MCAP, cut off, a corrupt chunk) raises
 from __future__ import annotations
 
 import logging
+import sys
 from collections.abc import Callable, Collection, Iterator, Sequence
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
@@ -39,6 +40,7 @@ __all__ = [
     "decode_record",
     "file_error",
     "open_recording",
+    "print_notes",
 ]
 
 logger = logging.getLogger(__name__)
@@ -388,6 +390,15 @@ def open_recording(
         reader = RecordingReader(name=str(paths[0]), on_bad=on_bad, parts=parts)
         reader.notes[:0] = swapped
         yield reader
+
+
+def print_notes(prog: str, reader: RecordingReader) -> None:
+    """Prints a reader's notes (parts cut off, time not recorded) to stderr, as ``PROG: note: ...``."""
+    for note in reader.notes:
+        try:
+            print(f"{prog}: note: {note}", file=sys.stderr, flush=True)
+        except (OSError, ValueError):  # stderr closed: nobody to tell
+            return
 
 
 def _open(path: Path, files: ExitStack) -> IO[bytes]:

@@ -37,7 +37,7 @@ from iw_zenoh.messages import (
     WorldState,
     event_payload,
 )
-from iw_zenoh.record.reader import RecordingReader, file_error, open_recording
+from iw_zenoh.record.reader import RecordingReader, file_error, open_recording, print_notes
 
 __all__ = ["main", "render"]
 
@@ -244,6 +244,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         with open_recording(args.file) as rec:
             tick = render(rec, Path(args.output), at_s=args.at, window_s=args.window, robot=args.robot)
+            print_notes("iwz render", rec)
     except (OSError, IwError) as e:
         print(f"iwz render: {file_error(args.file, e)}")
         return 2

@@ -35,7 +35,7 @@ from iw_zenoh.messages import (
     WorldState,
     encode,
 )
-from iw_zenoh.record.reader import RecordingReader, file_error, open_recording
+from iw_zenoh.record.reader import RecordingReader, file_error, open_recording, print_notes
 from iw_zenoh.record.recording import Recorder
 from iw_zenoh.sim.collision import CollisionNode
 from iw_zenoh.sim.config import WorldConfig
@@ -203,6 +203,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         with open_recording(args.file) as recording:
             run = load_run(recording)
+            print_notes("iwz resim", recording)
         swap = _make_agent(args.agent) if args.agent else None
         if args.output:
             with Path(args.output).open("wb") as out_file:

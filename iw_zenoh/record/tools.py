@@ -21,10 +21,11 @@ from mcap.writer import CompressionType, Writer
 from iw_zenoh import __version__
 from iw_zenoh.errors import RecordingError
 from iw_zenoh.record.integrity import scan, statistics_disagree, undecodable
+from iw_zenoh.record.parts import first_part, recording_parts, recovered_copy
 from iw_zenoh.record.reader import RecordingReader, file_error
 from iw_zenoh.record.recording import PROFILE
 
-__all__ = ["Health", "check", "doctor_main", "recover", "recover_main"]
+__all__ = ["Health", "check", "check_recording", "doctor_main", "recover", "recover_main"]
 
 MAGIC = b"\x89MCAP0\r\n"
 
@@ -44,11 +45,17 @@ class Health:
     metadata: list[str] = field(default_factory=list)
     counts_match: bool | None = None
     undecodable: int = 0  # payloads recorded as received that do not decode (malformed at their source)
+    part: int = 0  # its number in a recording of several parts (0: a recording of one file)
+    parts: int = 0  # how many parts that recording has
+    recovered: str = ""  # a cut-off part's recovered copy, when it is whole (readers read it instead)
 
     def lines(self) -> list[str]:
         """Human-readable report."""
         state = "whole" if self.whole else f"NOT whole: {self.reason}"
-        out = [f"{self.path}: {state}"]
+        which = f" (part {self.part} of {self.parts})" if self.part else ""
+        out = [f"{self.path}{which}: {state}"]
+        if self.recovered:
+            return [*out, f"  its recovered copy {self.recovered} is whole: readers of the recording read that"]
         if self.whole:
             dur = (self.end_ns - self.start_ns) / 1e9
             out.append(
@@ -192,8 +199,48 @@ def recover(src: IO[bytes], dst: IO[bytes], total_bytes: int = 0) -> Recovery:
     return out
 
 
+def check_recording(path: str | Path) -> list[Health]:
+    """Checks every part of the recording whose first part is ``path`` (just ``path`` when it is
+    not a first part, or the recording has one); a cut-off part's recovered copy is checked too.
+    """
+    p = Path(path)
+    paths = recording_parts(p) if first_part(p) == p else [p]
+    if len(paths) == 1:
+        return [check(p)]
+    out = []
+    for n, part in enumerate(paths, start=1):
+        h = check(part)
+        h.part, h.parts = n, len(paths)
+        copy = recovered_copy(part)
+        if not h.whole and copy.exists() and check(copy).whole:
+            h.recovered = str(copy)
+        out.append(h)
+    return out
+
+
+def _recording_lines(found: list[Health]) -> list[str]:
+    """A recording of several parts: how many are whole, which to recover, time not recorded between them."""
+    if len(found) < 2:
+        return []
+    cut = [h for h in found if not h.whole and not h.recovered]
+    out = [
+        f"{found[0].path}: a recording of {len(found)} parts, "
+        + ("every part readable" if not cut else f"{len(found) - len(cut)} readable, {len(cut)} not whole")
+    ]
+    out += [f"  part {h.part} ({h.path}) is not whole: iwz recover {h.path}" for h in cut]
+    for a, b in zip(found, found[1:], strict=False):
+        if a.whole and b.whole and b.start_ns > a.end_ns > 0:
+            out.append(
+                f"  {(b.start_ns - a.end_ns) / 1e9:.3f} s of log time not recorded between parts {a.part} and {b.part}"
+            )
+    return out
+
+
 def doctor_main(argv: Sequence[str] | None = None) -> int:
-    """``iwz doctor FILE...``: exit 0 when every file is whole, 1 otherwise."""
+    """``iwz doctor FILE...``: exit 0 when every file (every part of a recording) is whole, 1 otherwise.
+
+    A cut-off part whose recovered copy is whole counts as whole (readers read the copy).
+    """
     p = argparse.ArgumentParser(
         prog="iwz doctor", description="Say whether recordings are whole (magic, summary, indexes, counts)."
     )
@@ -202,9 +249,12 @@ def doctor_main(argv: Sequence[str] | None = None) -> int:
     args = p.parse_args(argv)
     ok = True
     for f in args.files:
-        h = check(f)
-        ok &= h.whole
-        print(json.dumps(h.__dict__) if args.json else "\n".join(h.lines()))
+        found = check_recording(f)
+        for h in found:
+            ok &= h.whole or bool(h.recovered)
+            print(json.dumps(h.__dict__) if args.json else "\n".join(h.lines()))
+        if not args.json and (more := _recording_lines(found)):
+            print("\n".join(more))
     return 0 if ok else 1
 
 
@@ -218,7 +268,7 @@ def recover_main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("-o", "--output", help="where to write (default FILE with .recovered.mcap)")
     args = p.parse_args(argv)
     src = Path(args.file)
-    dst = Path(args.output) if args.output else src.with_suffix(".recovered.mcap")
+    dst = Path(args.output) if args.output else recovered_copy(src)
     if dst.resolve() == src.resolve():
         print("iwz recover: the output must differ from the input")
         return 2
