@@ -26,7 +26,7 @@ __all__ = ["default_path", "main", "record"]
 
 logger = logging.getLogger(__name__)
 
-FLUSH_S = 1.0  # a kill -9 loses at most this much
+FLUSH_S = 0.25  # a kill -9 loses at most this much (with a restart, the budget is 1 s in all)
 POLL_S = 0.005  # an empty queue is looked at again this soon
 QUIET_S = 0.5  # on stop, keep writing until the bus has been quiet this long...
 DRAIN_MAX_S = 30.0  # ...but no longer than this
