@@ -1,8 +1,11 @@
 """``iwz record [-o FILE]``: every key of a simulation, every message, to MCAP.
 
 Receives into an unbounded queue (Zenoh's callback only appends) and writes from its own loop;
-closes a chunk at least once a second; on Ctrl-C or SIGTERM writes what is queued, the indexes
-and the counts, and exits 0.
+closes a chunk at least four times a second; on Ctrl-C or SIGTERM writes what is queued, the
+indexes and the counts, and exits 0. With ``--continue`` (the launcher passes it, with its run's
+id), a recorder restarted after a crash writes the next part of the same recording
+(``run.part2.mcap``...: :mod:`iw_zenoh.record.parts`) instead of overwriting it; it listens
+before it opens its file, so what arrives while it starts is kept.
 """
 
 from __future__ import annotations
