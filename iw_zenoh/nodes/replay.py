@@ -13,6 +13,7 @@ from pathlib import Path
 
 from iw_zenoh import keys
 from iw_zenoh.errors import IwError
+from iw_zenoh.record.progress import Progress
 from iw_zenoh.record.reader import file_error, open_recording, print_notes
 from iw_zenoh.record.replay import Player, ReplayOptions
 from iw_zenoh.runtime import Process, start_role
@@ -75,12 +76,15 @@ def _run(proc: Process, opts: ReplayOptions) -> int:
     try:
         with open_recording(path) as recording:
             player = Player(recording, proc.bus, opts)
+            said = Progress("iwz replay")
+            player.progress = said.update
             proc.bus.token(keys.alive(player.target, "replay", "replay"))
             proc.on_stop(player.stop.set)
             proc.on_stop(player.wake.set)
             skipped = f" ({len(player.skipped)} channels not simulation keys skipped)" if player.skipped else ""
             print(f"iwz replay: {path} into iw/{player.target}/ at {opts.rate:g}x{skipped}", flush=True)
             sent = player.run()
+            said.done()
             print_notes("iwz replay", recording)
         print(f"iwz replay: {sent} messages played", flush=True)
     except (OSError, IwError) as e:  # not MCAP, cut off, damaged, or nothing to replay

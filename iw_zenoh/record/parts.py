@@ -18,6 +18,7 @@ import io
 import re
 import uuid
 from collections.abc import Callable, Iterator
+from contextlib import ExitStack
 from pathlib import Path
 from typing import IO, TypeVar
 
@@ -36,6 +37,7 @@ __all__ = [
     "first_part",
     "head_metadata",
     "next_part",
+    "open_parts",
     "part_number",
     "part_path",
     "reason",
@@ -141,6 +143,45 @@ def next_part(first: Path, run: str | None) -> tuple[Path, dict[str, str], dict[
     for stale in parts[1:]:
         stale.unlink(missing_ok=True)
     return first, {"part": "1", "recording": run or uuid.uuid4().hex, "previous": ""}, {}
+
+
+def open_parts(path: Path, files: ExitStack, *, validate_crcs: bool = False) -> tuple[list[Part], list[str]]:
+    """Opens every part of the recording ``path`` belongs to (see :func:`iw_zenoh.record.reader.open_recording`).
+
+    A cut-off part is read from its recovered copy when there is one of it (same recording, same
+    part); else, in a recording of several parts, as far as it goes.
+
+    Returns:
+        The parts, and a note for each part read from its recovered copy.
+
+    Raises:
+        RecordingError: When a file cannot be opened or is not MCAP (or, alone, is cut off).
+    """
+    paths = recording_parts(path)
+    parts = []
+    notes = []
+    for p in paths:
+        part = Part(_open(p, files), str(p), validate_crcs=validate_crcs, cut_off_ok=len(paths) > 1)
+        copy = recovered_copy(p)
+        if part.cut_off and copy.exists() and _same_part(part.stream, _open(copy, files)):
+            part = Part(_open(copy, files), str(copy), validate_crcs=validate_crcs)
+            notes.append(f"{p} is cut off (a crash): read from its recovered copy {copy}")
+        parts.append(part)
+    return parts, notes
+
+
+def _open(path: Path, files: ExitStack) -> IO[bytes]:
+    try:
+        return files.enter_context(path.open("rb"))
+    except OSError as e:
+        raise RecordingError(str(path), reason(e)) from e
+
+
+def _same_part(part: IO[bytes], copy: IO[bytes]) -> bool:
+    """Whether ``copy`` was recovered from this part (and not from an older recording of that name)."""
+    ours = head_metadata(part).get(PART_META, {})
+    theirs = head_metadata(copy).get(PART_META, {})
+    return ours.get("recording") == theirs.get("recording") and ours.get("part") == theirs.get("part")
 
 
 class Part:

@@ -27,7 +27,7 @@ from mcap.summary import Summary
 from iw_zenoh import keys
 from iw_zenoh.errors import IwError, RecordingError
 from iw_zenoh.messages import TOPIC_TYPES, Message, decode
-from iw_zenoh.record.parts import PART_META, Part, head_metadata, reason, recording_parts, recovered_copy
+from iw_zenoh.record.parts import Part, open_parts, reason
 
 __all__ = [
     "EVERYTHING",
@@ -376,19 +376,10 @@ def open_recording(
     if not isinstance(source, str | Path):
         yield RecordingReader(source, validate_crcs=validate_crcs, on_bad=on_bad)
         return
-    paths = recording_parts(source)
     with ExitStack() as files:
-        parts = []
-        swapped = []
-        for path in paths:
-            part = Part(_open(path, files), str(path), validate_crcs=validate_crcs, cut_off_ok=len(paths) > 1)
-            copy = recovered_copy(path)
-            if part.cut_off and copy.exists() and _same_recording(part, copy, files):
-                part = Part(_open(copy, files), str(copy), validate_crcs=validate_crcs)
-                swapped.append(f"{path} is cut off (a crash): read from its recovered copy {copy}")
-            parts.append(part)
-        reader = RecordingReader(name=str(paths[0]), on_bad=on_bad, parts=parts)
-        reader.notes[:0] = swapped
+        parts, notes = open_parts(Path(source), files, validate_crcs=validate_crcs)
+        reader = RecordingReader(name=str(parts[0].name), on_bad=on_bad, parts=parts)
+        reader.notes[:0] = notes
         yield reader
 
 
@@ -399,17 +390,3 @@ def print_notes(prog: str, reader: RecordingReader) -> None:
             print(f"{prog}: note: {note}", file=sys.stderr, flush=True)
         except (OSError, ValueError):  # stderr closed: nobody to tell
             return
-
-
-def _open(path: Path, files: ExitStack) -> IO[bytes]:
-    try:
-        return files.enter_context(path.open("rb"))
-    except OSError as e:
-        raise RecordingError(str(path), reason(e)) from e
-
-
-def _same_recording(part: Part, copy: Path, files: ExitStack) -> bool:
-    """Whether ``copy`` was recovered from this part (and not from an older recording of that name)."""
-    ours = head_metadata(part.stream).get(PART_META, {})
-    theirs = head_metadata(_open(copy, files)).get(PART_META, {})
-    return ours.get("recording") == theirs.get("recording") and ours.get("part") == theirs.get("part")

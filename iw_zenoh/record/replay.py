@@ -114,6 +114,7 @@ class Player:
         self.steps = 0
         self.sent = 0
         self.position_ns = 0  # sim time of the last state played
+        self.progress: Callable[[float, str], None] | None = None  # told how far, at each state played
         self._seek: int | None = None
         self._keys = KeyFilter(tuple(opts.include), tuple(opts.exclude))
         self._wanted_by_topic: dict[str, bool] = {}
@@ -234,6 +235,8 @@ class Player:
                 played = True
             if kind == "state":
                 self.position_ns = pub_ns
+                if self.progress is not None:
+                    self.progress(self.recording.progress(), f"t={pub_ns / 1e9:.1f} s")
                 if self.steps > 0:
                     self.steps -= 1
         return played

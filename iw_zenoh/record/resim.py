@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import shlex
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
@@ -35,6 +35,7 @@ from iw_zenoh.messages import (
     WorldState,
     encode,
 )
+from iw_zenoh.record.progress import Progress
 from iw_zenoh.record.reader import RecordingReader, file_error, open_recording, print_notes
 from iw_zenoh.record.recording import Recorder
 from iw_zenoh.sim.collision import CollisionNode
@@ -64,8 +65,10 @@ def _wanted(topic: str) -> bool:
     return keys.topic_kind(topic) != "event" or topic.endswith("/collision")
 
 
-def load_run(f: IO[bytes] | RecordingReader) -> RecordedRun:
+def load_run(f: IO[bytes] | RecordingReader, progress: Callable[[float, str], None] | None = None) -> RecordedRun:
     """Reads the world description, registrations, actions and states of a recording.
+
+    ``progress`` is told now and then how far through the recording reading has gone.
 
     Raises:
         IwError: When it holds no world description or is not lock-step.
@@ -77,7 +80,9 @@ def load_run(f: IO[bytes] | RecordingReader) -> RecordedRun:
     collisions: list[Event] = []
     # a malformed message was recorded as received (the reader skips it): it never reached the world
     rec = f if isinstance(f, RecordingReader) else RecordingReader(f)
-    for r in rec.records(RUN_KINDS, topics=_wanted):
+    for i, r in enumerate(rec.records(RUN_KINDS, topics=_wanted)):
+        if progress is not None and i % 1000 == 0:
+            progress(rec.progress(), f"{i} messages read")
         match r.message:
             case WorldInfo() as wi if info is None:
                 info = wi
@@ -122,10 +127,8 @@ def _make_agent(spec: str) -> tuple[int, Any]:
     return int(rid_text), agents[0]
 
 
-def resimulate(
-    run: RecordedRun, *, swap: tuple[int, Any] | None = None, from_ns: int = 0, out: Recorder | None = None
-) -> Resim:
-    """Re-runs a recorded lock-step run; see the module doc."""
+def _world(run: RecordedRun) -> tuple[WorldConfig, WorldCore]:
+    """The recorded world at its start: its description and seed, its robots registered."""
     info = run.info
     cfg = WorldConfig(
         sim=info.sim,
@@ -139,6 +142,20 @@ def resimulate(
     for r in run.specs:
         assert r.spec is not None
         world.register(RegisterRequest(spec=r.spec), 0)
+    return cfg, world
+
+
+def resimulate(
+    run: RecordedRun,
+    *,
+    swap: tuple[int, Any] | None = None,
+    from_ns: int = 0,
+    out: Recorder | None = None,
+    progress: Callable[[float, str], None] | None = None,
+) -> Resim:
+    """Re-runs a recorded lock-step run; see the module doc (``progress`` is told each tick done)."""
+    info = run.info
+    cfg, world = _world(run)
     collide = CollisionNode()
     sensors = SensorsNode(info.sim, info.seed)
     view: WorldView | None = None
@@ -162,6 +179,8 @@ def resimulate(
         done = world.finish_tick(verdict)
         state = next(m for _, m in done if isinstance(m, WorldState))
         result.ticks = n
+        if progress is not None:
+            progress(n / last, f"tick {n} of {last}")
         for k, m in done:
             if isinstance(m, Event) and m.kind == EventKind.COLLISION:
                 result.collisions.append((m.sim_time_ns / 1e9, m.robot_id, m.reason))
@@ -202,17 +221,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = p.parse_args(argv)
     try:
         with open_recording(args.file) as recording:
-            run = load_run(recording)
+            reading = Progress("iwz resim: reading")
+            run = load_run(recording, reading.update)
+            reading.done()
             print_notes("iwz resim", recording)
         swap = _make_agent(args.agent) if args.agent else None
+        said = Progress("iwz resim")
         if args.output:
             with Path(args.output).open("wb") as out_file:
                 meta = {"iw.resim": {"source": args.file, "from_s": str(args.from_s), "agent": args.agent or ""}}
                 rec = Recorder(out_file, meta)
-                res = resimulate(run, swap=swap, from_ns=int(args.from_s * 1e9), out=rec)
+                res = resimulate(run, swap=swap, from_ns=int(args.from_s * 1e9), out=rec, progress=said.update)
                 rec.finish()
         else:
-            res = resimulate(run, swap=swap, from_ns=int(args.from_s * 1e9))
+            res = resimulate(run, swap=swap, from_ns=int(args.from_s * 1e9), progress=said.update)
+        said.done()
     except (OSError, IwError) as e:
         print(f"iwz resim: {file_error(args.file, e)}")
         return 2

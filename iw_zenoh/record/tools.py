@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import argparse
 import json
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO
@@ -22,6 +22,7 @@ from iw_zenoh import __version__
 from iw_zenoh.errors import RecordingError
 from iw_zenoh.record.integrity import scan, statistics_disagree, undecodable
 from iw_zenoh.record.parts import first_part, recording_parts, recovered_copy
+from iw_zenoh.record.progress import Progress
 from iw_zenoh.record.reader import RecordingReader, file_error
 from iw_zenoh.record.recording import PROFILE
 
@@ -148,13 +149,16 @@ class Recovery:
     per_topic: dict[str, int] = field(default_factory=dict)
 
 
-def recover(src: IO[bytes], dst: IO[bytes], total_bytes: int = 0) -> Recovery:
+def recover(
+    src: IO[bytes], dst: IO[bytes], total_bytes: int = 0, *, progress: Callable[[float], None] | None = None
+) -> Recovery:
     """Copies every complete record of a (possibly cut-off) recording into a new indexed file.
 
     Args:
         src: The damaged recording, from its start.
         dst: Where the rebuilt file goes.
-        total_bytes: The damaged file's size, for the report.
+        total_bytes: The damaged file's size, for the report (and ``progress``).
+        progress: Told now and then the fraction of ``total_bytes`` read.
 
     Returns:
         What was saved.
@@ -191,6 +195,8 @@ def recover(src: IO[bytes], dst: IO[bytes], total_bytes: int = 0) -> Recovery:
             elif isinstance(rec, DataEnd | Footer):
                 break
             out.good_bytes = src.tell() if src.seekable() else out.good_bytes
+            if progress is not None and total_bytes and out.messages % 1000 == 0:
+                progress(out.good_bytes / total_bytes)
     except Exception as e:  # any truncation or corruption ends the readable part
         out.stopped_by = f"{type(e).__name__}: {e}"
     w.add_metadata("iw.recovered", {"messages": str(out.messages), "stopped_by": out.stopped_by or "end of file"})
@@ -279,8 +285,10 @@ def recover_main(argv: Sequence[str] | None = None) -> int:
                 print(f"iwz recover: {src}: not an MCAP file (it does not start with the MCAP magic); nothing written")
                 return 1
             fi.seek(0)
+            said = Progress("iwz recover")
             with dst.open("wb") as fo:
-                r = recover(fi, fo, size)
+                r = recover(fi, fo, size, progress=lambda f: said.update(f, f"{f * size / 1e6:.0f} MB"))
+            said.done()
     except OSError as e:
         print(f"iwz recover: {file_error(src, e)}")
         return 2
