@@ -58,13 +58,15 @@ class ReplayOptions:
 def sim_index(f: IO[bytes] | RecordingReader) -> tuple[list[int], list[int], str | None]:
     """Sorted (sim times, log times) of the recording's states, and its simulation name.
 
-    Uses the recorder's index when there is one, else scans the state channels.
+    Uses the recorder's indexes when every part has one, else scans the state channels (a part
+    cut off, or recovered, has none: its recorder never finished it).
 
     Raises:
         RecordingError: When the recording cannot be read.
     """
     rec = f if isinstance(f, RecordingReader) else RecordingReader(f)
-    pairs = sorted((int(k), int(v)) for k, v in rec.metadata().get(SIM_INDEX, {}).items())
+    indexed = not any(p.cut_off or SIM_INDEX not in p.metadata() for p in rec.parts)
+    pairs = sorted((int(k), int(v)) for k, v in rec.metadata().get(SIM_INDEX, {}).items()) if indexed else []
     sims = [p[0] for p in pairs]
     logs = [p[1] for p in pairs]
     sim_name: str | None = None

@@ -116,7 +116,9 @@ def test_every_part_reads_as_one_recording_a_cut_off_part_as_far_as_it_goes(tmp_
         assert len(rec.metadata()[SIM_INDEX]) >= 5  # the parts' indexes merged
         assert rec.progress() == 1.0
     with open_recording(first) as rec:
-        sims, _, sim = sim_index(rec)
+        sims, logs, sim = sim_index(rec)
+        assert 45 * 100_000_000 in sims  # the cut-off part's states are found (by a scan: it has no index)
+        assert logs == sorted(logs)
         assert sim == "s"
         assert sims == sorted(sims)
         assert sims[-1] >= 80 * 100_000_000
