@@ -10,7 +10,7 @@ import pytest
 
 from iw_zenoh import keys
 from iw_zenoh.errors import RecordingError
-from iw_zenoh.messages import Event, EventKind, WorldState, encode
+from iw_zenoh.messages import Event, EventKind, WorldState, decode, encode
 from iw_zenoh.record.incidents import find_incidents
 from iw_zenoh.record.parts import (
     PART_META,
@@ -23,7 +23,7 @@ from iw_zenoh.record.parts import (
 )
 from iw_zenoh.record.reader import open_recording
 from iw_zenoh.record.recording import SIM_INDEX, Recorder
-from iw_zenoh.record.replay import sim_index
+from iw_zenoh.record.replay import Player, ReplayOptions, sim_index
 from iw_zenoh.record.tools import check_recording, doctor_main, recover_main
 from tests.record.test_recording import _state
 
@@ -164,3 +164,40 @@ def test_a_stream_is_one_part(tmp_path: Path) -> None:
         assert len(rec.parts) == 1
         assert not rec.notes
         assert sum(1 for _ in rec.raw()) == 4
+
+
+class _Served:
+    def poll(self) -> list[object]:
+        return []
+
+
+class _Bus:
+    """Just what a player uses: it publishes, hears controls, answers info queries."""
+
+    def __init__(self) -> None:
+        self.sent: list[tuple[str, bytes]] = []
+
+    def publish(self, key: str, data: bytes) -> None:
+        self.sent.append((key, data))
+
+    def subscribe(self, key_expr: str, inbox: object) -> None:
+        pass
+
+    def serve(self, key: str) -> _Served:
+        return _Served()
+
+
+def test_a_player_plays_every_part_and_says_how_far_it_is(tmp_path: Path) -> None:
+    first = _three_parts(tmp_path)
+    bus = _Bus()
+    seen: list[float] = []
+    with open_recording(first) as rec:
+        player = Player(rec, bus, ReplayOptions(rate=0))  # type: ignore[arg-type]
+        player.progress = lambda fraction, _detail: seen.append(fraction)
+        player.run()
+    ticks = [decode(d, WorldState).tick for k, d in bus.sent if keys.topic_kind(k) == "state"]
+    assert ticks[:30] == list(range(1, 31))
+    assert ticks[-1] == 100
+    assert len(seen) == len(ticks)
+    assert seen == sorted(seen)
+    assert seen[-1] > 0.5
