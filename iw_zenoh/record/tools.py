@@ -21,7 +21,7 @@ from mcap.writer import CompressionType, Writer
 from iw_zenoh import __version__
 from iw_zenoh.errors import RecordingError
 from iw_zenoh.record.integrity import scan, statistics_disagree, undecodable
-from iw_zenoh.record.parts import first_part, recording_parts, recovered_copy
+from iw_zenoh.record.parts import first_part, part_number, recording_parts, recovered_copy
 from iw_zenoh.record.progress import Progress
 from iw_zenoh.record.reader import RecordingReader, file_error
 from iw_zenoh.record.recording import PROFILE
@@ -214,9 +214,9 @@ def check_recording(path: str | Path) -> list[Health]:
     if len(paths) == 1:
         return [check(p)]
     out = []
-    for n, part in enumerate(paths, start=1):
+    for part in paths:
         h = check(part)
-        h.part, h.parts = n, len(paths)
+        h.part, h.parts = part_number(part), len(paths)
         copy = recovered_copy(part)
         if not h.whole and copy.exists() and check(copy).whole:
             h.recovered = str(copy)

@@ -3,14 +3,18 @@ reading the parts as one, a cut-off part included (as far as it goes, or from it
 
 from __future__ import annotations
 
+import argparse
 import io
 from pathlib import Path
 
 import pytest
 
 from iw_zenoh import keys
+from iw_zenoh.config import load_scenario
 from iw_zenoh.errors import RecordingError
 from iw_zenoh.messages import Event, EventKind, WorldState, decode, encode
+from iw_zenoh.nodes.launcher import Launcher
+from iw_zenoh.nodes.recorder import _arguments as recorder_arguments
 from iw_zenoh.record.incidents import find_incidents
 from iw_zenoh.record.parts import (
     PART_META,
@@ -28,6 +32,7 @@ from iw_zenoh.record.tools import check_recording, doctor_main, recover_main
 from tests.record.test_recording import _state
 
 T0 = 1_000_000_000
+MAPS = Path(__file__).resolve().parents[2] / "maps"
 
 
 def _part(first: Path, ticks: range, *, run: str | None, cut: bool = False) -> Path:
@@ -201,3 +206,18 @@ def test_a_player_plays_every_part_and_says_how_far_it_is(tmp_path: Path) -> Non
     assert len(seen) == len(ticks)
     assert seen == sorted(seen)
     assert seen[-1] > 0.5
+
+
+def test_the_launcher_starts_its_recorder_to_continue_this_run_when_restarted(tmp_path: Path) -> None:
+    launcher = Launcher(
+        load_scenario(MAPS / "demo.toml"), port=7999, log_dir=tmp_path, status=False, record=tmp_path / "r.mcap"
+    )
+    launcher.plan()
+    argv = next(c for c in launcher.children if c.role == "record").argv
+    run = argv[argv.index("--continue") + 1]
+    assert len(run) == 32
+    p = argparse.ArgumentParser()
+    recorder_arguments(p)
+    assert p.parse_args(["--continue", run]).continue_run == run
+    assert p.parse_args(["--continue"]).continue_run == ""
+    assert p.parse_args([]).continue_run is None
