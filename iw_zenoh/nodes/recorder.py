@@ -17,13 +17,15 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import IO
+from typing import IO, TYPE_CHECKING
 
 from iw_zenoh import __version__, keys
 from iw_zenoh.bus import Queue, ZenohBus
 from iw_zenoh.record.parts import PART_META, next_part
-from iw_zenoh.record.recording import Recorder
 from iw_zenoh.runtime import NodeIO, Process, start_role
+
+if TYPE_CHECKING:
+    from iw_zenoh.record.recording import Recorder
 
 __all__ = ["default_path", "main", "record"]
 
@@ -66,6 +68,10 @@ def record(
         The file written (``out``, or the part it continued into) and the finished recorder.
     """
     inbox = bus.queue(keys.everything(sim))  # lossless: Zenoh holds senders back when it is full
+    # only now: the writer's scene drawing loads numpy and shapely (slow to import), and a restarted
+    # recorder must be listening as soon as it can; what arrives meanwhile waits in the queue
+    from iw_zenoh.record.recording import Recorder  # noqa: PLC0415
+
     out.parent.mkdir(parents=True, exist_ok=True)
     path, part, user = next_part(out, continue_run)  # what arrives meanwhile waits in the queue
     meta = {
