@@ -27,7 +27,7 @@ COMMANDS: dict[str, tuple[str, str] | tuple[str, str, str]] = {
     "radio": ("iw_zenoh.nodes.radio", "robot-to-robot messages within range"),
     "agent": ("iw_zenoh.nodes.agents", "run agent programs (wanderer, waypoint, ...)"),
     "bridge": (
-        "iw_zenoh.bridges.ciberrato.node",
+        "iw_zenoh.bridges.ciberrato.app",
         "bridges: `iwz bridge ciberrato` lets legacy XML/UDP agents and viewers join",
     ),
     "record": ("iw_zenoh.nodes.recorder", "record every key of a simulation to MCAP"),

@@ -520,9 +520,13 @@ class RadioDroppedData(EventData, frozen=True, kw_only=True, omit_defaults=True)
 
 
 class LegacyRefusedData(EventData, frozen=True, kw_only=True):
-    """The legacy client refused, as ``host:port``."""
+    """The legacy client refused, as ``host:port`` (the port of a sample when its address had
+    several refused since the last event), with how many of its datagrams were refused since the
+    last event (``count``) and how many of those were over the flood limit, dropped unread."""
 
     peer: str
+    count: int = 1
+    dropped: int = 0
 
 
 EVENT_PAYLOADS: dict[EventKind, type[EventData]] = {

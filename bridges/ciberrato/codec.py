@@ -75,6 +75,19 @@ def frame(datagram: bytes, limit: int) -> bytes:
     return text
 
 
+_REGISTRATION_ROOTS = (b"<Robot", b"<RobotBeacon", b"<View", b"<Panel")
+_AFTER_NAME = (b"", b" ", b"\t", b"\r", b"\n", b"/", b">")
+
+
+def _root_is(text: bytes, roots: tuple[bytes, ...]) -> bool:
+    """Whether the text can start with one of ``roots`` (a few byte comparisons, no parsing: most
+    of a flood is refused here); a declaration or a DOCTYPE is left to the parser."""
+    t = text.lstrip()
+    if t.startswith((b"<?", b"<!")):
+        return True
+    return any(t.startswith(r) and t[len(r) : len(r) + 1] in _AFTER_NAME for r in roots)
+
+
 def _xml(text: bytes) -> etree._Element:
     try:
         root = etree.fromstring(text, _parser())
@@ -161,7 +174,10 @@ def parse_registration(datagram: bytes) -> Registration:
     Raises:
         ProtocolError: Over the size limit, not XML, an unknown root or child element.
     """
-    root = _xml(frame(datagram, REGISTRATION_LIMIT))
+    text = frame(datagram, REGISTRATION_LIMIT)
+    if not _root_is(text, _REGISTRATION_ROOTS):
+        raise ProtocolError(f"unknown registration {text[:16]!r}...; expected Robot, RobotBeacon, View or Panel")
+    root = _xml(text)
     tag = root.tag
     if tag in ("View", "Panel"):
         if len(root):

@@ -17,18 +17,14 @@ when Measures go is the :class:`~.delivery.Delivery`'s; its sockets are given to
 from __future__ import annotations
 
 import logging
-import selectors
 import time
-from collections.abc import Sequence
 
 from iw_zenoh import keys
-from iw_zenoh.bus import ZenohBus
-from iw_zenoh.cliargs import net_from_args
 from iw_zenoh.convert import grid_from_msg, lab_from_msg
 from iw_zenoh.core.params import SimParameters
 from iw_zenoh.errors import IwError, ProtocolError
 from iw_zenoh.hosting import Outbox
-from iw_zenoh.maps import grid_to_xml, lab_to_xml, load_parameters
+from iw_zenoh.maps import grid_to_xml, lab_to_xml
 from iw_zenoh.messages import (
     Control,
     EventKind,
@@ -43,23 +39,32 @@ from iw_zenoh.messages import (
     WorldState,
     decode,
 )
-from iw_zenoh.runtime import NodeIO, install_stop_signals, setup_logging
+from iw_zenoh.runtime import NodeIO
 
+from .clients import ClientTable
 from .codec import build_refusal, build_reply, parse_actions, parse_registration, parse_viewer_command
 from .delivery import Delivery
-from .options import parser
+from .guard import Gate, Report
 from .referee import Referee
-from .registrar import FLOOD_PER_S, FloodGuard, Pending, RefusalThrottle, Registrar
+from .registrar import Pending, Registrar
 from .robot import LegacyRobot
 from .scoring import Mode
-from .transport import DatagramTransport, QueueBus, RobotLink, TransportFactory, UdpTransport, Viewer, udp_factory
+from .transport import (
+    DatagramTransport,
+    QueueBus,
+    RobotLink,
+    TransportFactory,
+    Viewer,
+)
 
-__all__ = ["Bridge", "FloodGuard", "main"]
+__all__ = ["Bridge"]
 
 logger = logging.getLogger(__name__)
 
 RECV_BYTES = 4096
 POLL_S = 0.001  # the loop looks at the bus queues at least this often
+PER_PASS = 64  # datagrams read from one socket in a pass of the loop (then the bus, Measures)
+SWEEP_S = 1.0  # how often gone clients are looked for
 
 Peer = tuple[str, int]
 
@@ -96,10 +101,7 @@ class Bridge:
         self.io = NodeIO(bus, sim, "agent", name)  # its robots stop if this process goes
         self.reception = reception
         self.new_transport = new_transport
-        self.sel = selectors.DefaultSelector()
-        self.sel.register(reception, selectors.EVENT_READ, (reception, None))
-        self.clients: dict[Peer, Viewer | RobotLink] = {}
-        self.by_robot: dict[int, RobotLink] = {}
+        self.clients = ClientTable(reception)
         self.robots: dict[int, LegacyRobot] = {}
         self.info: WorldInfo | None = None
         self.running = True
@@ -116,19 +118,23 @@ class Bridge:
         self.registrar = Registrar(bus, sim, name, self.params)
         self.referee = Referee(self.params, scoring, self._world_info)
         self.delivery = Delivery(pace=pace)
-        self._flood = FloodGuard(FLOOD_PER_S)
-        self._throttle = RefusalThrottle()
+        self.gate = Gate(self._tell)  # the flood limits; refusals told once per address a second
+        self._swept = 0.0
         self.io.alive()
         bus.token(keys.alive(sim, "bridge", name))
 
     # --- legacy side ---------------------------------------------------------------------
 
-    def _refuse(self, peer: Peer, reason: str) -> None:
-        """Logs and reports a refused datagram, at most once per peer and reason a second."""
-        if self._throttle.report(peer, reason, time.monotonic()):
-            logger.warning("refused a datagram from %s:%d: %s", peer[0], peer[1], reason)
-            peer_s = f"{peer[0]}:{peer[1]}"
-            self.io.event(EventKind.LEGACY_REFUSED, f"{peer_s}: {reason}", LegacyRefusedData(peer=peer_s))
+    def _refuse(self, peer: Peer, reason: str, *, dropped: bool = False) -> None:
+        """Counts a refused datagram: told (log line and event) at most once per address a second."""
+        self.gate.refuse(peer, reason, time.monotonic(), dropped=dropped)
+
+    def _tell(self, rep: Report) -> None:
+        """One log line and one event for an address's refusals."""
+        line = rep.line(self.gate.every_s)
+        logger.warning("%s", line)
+        data = LegacyRefusedData(peer=f"{rep.host}:{rep.port}", count=rep.count, dropped=rep.dropped)
+        self.io.event(EventKind.LEGACY_REFUSED, line, data)
 
     def _answer_alone(self, data: bytes, peer: Peer) -> None:
         """Answers from a socket of its own that closes at once (a refusal)."""
@@ -149,7 +155,8 @@ class Bridge:
 
     def on_registration(self, data: bytes, peer: Peer) -> None:
         """A datagram on the registration port."""
-        if isinstance(self.clients.get(peer), RobotLink):
+        known = self.clients.get(peer)
+        if isinstance(known, RobotLink):
             self._refuse(peer, "a second registration from a registered address")
             self.reception.sendto(build_refusal(), peer)
             return
@@ -159,17 +166,27 @@ class Bridge:
             self._refuse(peer, str(e))  # the legacy server answers nothing to what does not parse
             return
         info = self._world_info()
-        adm = self.registrar.admit(reg, peer, info, self.by_robot, time.monotonic())
+        adm = self.registrar.admit(reg, peer, info, self.clients.by_robot, time.monotonic())
         if adm.refused:
             self._refuse(peer, adm.refused)
             if adm.answer:
                 self._answer_alone(build_refusal(), peer)
         elif adm.viewer and adm.params is not None:
-            t = self.new_transport()
-            v = Viewer("viewer" if adm.viewer == "view" else "panel", peer, t)
-            self.clients[peer] = v
-            self.sel.register(t, selectors.EVENT_READ, (t, v))
-            t.sendto(build_reply(adm.params, n_beacons=adm.nb), peer)
+            self._viewer(adm.viewer, peer, build_reply(adm.params, n_beacons=adm.nb), known)
+
+    def _viewer(self, kind: str, peer: Peer, reply: bytes, known: Viewer | None) -> None:
+        """Serves a viewer or panel from a socket of its own (its own again, if it is served)."""
+        if known is not None:  # asked again: answered from the socket it has, no new one
+            known.transport.sendto(reply, peer)
+            return
+        if self.clients.full():
+            self._refuse(peer, f"{self.clients.max_viewers} viewers and panels are served already")
+            self.reception.sendto(build_refusal(), peer)
+            return
+        t = self.new_transport()
+        v = Viewer("viewer" if kind == "view" else "panel", peer, t, since=time.monotonic())
+        self.clients.add(v)
+        t.sendto(reply, peer)
 
     def _registered(self, peer: Peer, p: Pending, reply: RegisterReply | None) -> None:
         """Tells a legacy robot the world's answer, from a socket of its own."""
@@ -183,11 +200,9 @@ class Bridge:
         placed = reply.spec
         if placed is not None and placed.x is not None and placed.y is not None:
             robot.start = (placed.x, placed.y)
-        link = RobotLink(peer, t, robot)
-        self.clients[peer] = link
-        self.by_robot[robot.robot_id] = link
+        link = RobotLink(peer, t, robot, seen=time.monotonic())
+        self.clients.add(link)
         self.robots[robot.robot_id] = robot
-        self.sel.register(t, selectors.EVENT_READ, (t, link))
         self.referee.game(robot)  # its state machine and score, from its first step
         t.sendto(build_reply(p.params, n_beacons=p.nb), peer)
         logger.info("legacy robot %s from %s:%d is robot %d", p.spec.name, peer[0], peer[1], robot.robot_id)
@@ -199,6 +214,7 @@ class Bridge:
         elif isinstance(c, RobotLink):
             self._on_actions(c.robot, data, peer)
         elif c.kind == "viewer":
+            c.heard = True
             self._on_viewer(c, data, peer)
 
     def _on_actions(self, robot: LegacyRobot, data: bytes, peer: Peer) -> None:
@@ -264,11 +280,14 @@ class Bridge:
         for st in states:  # every step counts for the scores
             self.referee.step(st, self.robots, self.info)
             self._check_finished(st.tick)
-        viewers = [c for c in self.clients.values() if isinstance(c, Viewer) and c.kind == "viewer"]
+        if states:
+            for link in self.clients.gone_robots(set(states[-1].ids), time.monotonic()):
+                self._let_go(link, "the world no longer holds it")
+        viewers = self.clients.viewers("viewer")
         if states and viewers:
             for data in self.referee.robot_states(states[-1], self.robots, self.info, running=self.running):
                 for v in viewers:
-                    v.transport.sendto(data, v.addr)
+                    self._send(v, data)
 
     def _take_readings(self) -> None:
         batches: list[SensorBatch] = []
@@ -316,13 +335,47 @@ class Bridge:
         )
 
     def _send_to(self, robot: LegacyRobot, data: bytes) -> None:
-        link = self.by_robot.get(robot.robot_id)
-        if link is None:
-            return
+        link = self.clients.by_robot.get(robot.robot_id)
+        if link is not None:
+            self._send(link, data)
+
+    def _send(self, c: Viewer | RobotLink, data: bytes) -> None:
+        """Sends to a client; one that is gone is let go (a viewer) or told once (a robot)."""
+        if self.clients.get(c.addr) is not c:
+            return  # let go a moment ago
         try:
-            link.transport.sendto(data, link.addr)
+            c.transport.sendto(data, c.addr)
+        except ConnectionRefusedError:
+            self._unreachable(c)
         except OSError as e:
-            logger.warning("cannot send to %s:%d: %s", link.addr[0], link.addr[1], e)
+            self._refuse(c.addr, f"cannot send: {e}")
+
+    def _unreachable(self, c: Viewer | RobotLink) -> None:
+        """Nothing listens at a client's address any more: a viewer is let go; a robot stays in the
+        world (as in the legacy simulator) and is told so once."""
+        if isinstance(c, Viewer):
+            self._let_go(c, "nothing listens at its address any more")
+        elif not c.unreachable:
+            c.unreachable = True
+            logger.warning("legacy robot %d at %s:%d: nothing listens there any more", c.robot.robot_id, *c.addr)
+
+    def _let_go(self, c: Viewer | RobotLink, why: str) -> None:
+        """Closes a client's socket and forgets it."""
+        self.clients.drop(c)
+        if isinstance(c, RobotLink):
+            self.robots.pop(c.robot.robot_id, None)
+            logger.info("legacy robot %d at %s:%d let go: %s", c.robot.robot_id, c.addr[0], c.addr[1], why)
+        else:
+            logger.info("legacy %s at %s:%d let go: %s", c.kind, c.addr[0], c.addr[1], why)
+
+    def _sweep(self, now: float) -> None:
+        """Once a second: the refusals due, the silent viewers let go."""
+        self.gate.due(now)
+        if now - self._swept < SWEEP_S:
+            return
+        self._swept = now
+        for v in self.clients.silent_viewers(now):
+            self._let_go(v, "it has not said a word since its reply")
 
     def _send_measures(self, robot: LegacyRobot, tick: int, *, force: bool = False) -> None:
         data = self._next_measures(robot, tick, force=force)
@@ -332,17 +385,23 @@ class Bridge:
     # --- the loop ------------------------------------------------------------------------
 
     def _drain(self, transport: DatagramTransport, client: Viewer | RobotLink | None) -> None:
-        """Reads a socket's waiting datagrams (at most 64: then the others get their turn)."""
-        for _ in range(64):
+        """Reads a socket's waiting datagrams (at most PER_PASS: then the bus and the other
+        sockets get their turn). A datagram over its source's budget (its address on the
+        registration port, its client on a client's socket) is dropped unread."""
+        now = time.monotonic()
+        for _ in range(PER_PASS):
             try:
                 data, peer = transport.recvfrom(RECV_BYTES)
             except BlockingIOError:
                 break
-            except OSError as e:
-                logger.warning("receive failed: %s", e)
+            except ConnectionRefusedError:
+                if client is not None:
+                    self._unreachable(client)
                 break
-            if self._flood.over(peer, time.monotonic()):
-                self._refuse(peer, f"more than {FLOOD_PER_S} datagrams a second: dropped")
+            except OSError as e:
+                self._refuse(client.addr if client else ("?", 0), f"receive failed: {e}")
+                break
+            if not self.gate.let_in(peer, client.addr if client else None, now):
                 continue
             if client is None:
                 self.on_registration(data, peer)
@@ -351,13 +410,14 @@ class Bridge:
 
     def poll(self, timeout_s: float = POLL_S) -> None:
         """One pass: the sockets' datagrams, the pass's actions, answered registrations, the bus."""
-        for key, _ in self.sel.select(timeout=timeout_s):
-            transport, client = key.data
-            self._drain(transport, client)
+        for transport, client in self.clients.ready(timeout_s):
+            if client is None or self.clients.get(client.addr) is client:  # not let go in this pass
+                self._drain(transport, client)
         self.outbox.flush()
         for peer, pending, reply in self.registrar.answered(time.monotonic()):
             self._registered(peer, pending, reply)
         self.pump_bus()
+        self._sweep(time.monotonic())
 
     def serve(self) -> None:
         """Runs until stopped."""
@@ -366,50 +426,5 @@ class Bridge:
 
     def close(self) -> None:
         """Closes every socket."""
-        for c in self.clients.values():
-            c.transport.close()
-        self.sel.close()
+        self.clients.close()
         self.reception.close()
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Runs ``iwz bridge ciberrato``."""
-    args_in = list(argv or [])
-    if args_in[:1] != ["ciberrato"]:
-        print("usage: iwz bridge ciberrato [options]   (iwz bridge ciberrato --help)")
-        return 2 if args_in[:1] not in (["-h"], ["--help"]) else 0
-    args = parser().parse_args(args_in[1:])
-    setup_logging(args.verbose, "bridge")
-    try:
-        params = load_parameters(args.param) if args.param else SimParameters()
-        bus = ZenohBus(net_from_args(args))
-    except (IwError, ValueError) as e:
-        print(f"iwz bridge ciberrato: {e}")
-        return 2
-    try:
-        reception = UdpTransport(args.bind, args.port, reuse=True)
-    except OSError as e:
-        bus.close()
-        print(
-            f"iwz bridge ciberrato: cannot listen on {args.bind}:{args.port}: {e.strerror}; "
-            "is another simulator running? Use --port"
-        )
-        return 2
-    bridge = Bridge(
-        bus,
-        keys.chunk(args.sim),
-        reception,
-        new_transport=udp_factory(args.bind),
-        params=params,
-        name=keys.chunk(args.name),
-        scoring=Mode(args.scoring),
-        pace=args.pace == "auto",
-    )
-    install_stop_signals(bridge.io.stop)
-    print(f"iwz bridge ciberrato: listening on udp {args.bind}:{reception.port} for iw/{args.sim}/", flush=True)
-    try:
-        bridge.serve()
-    finally:
-        bridge.close()
-        bus.close()
-    return 0

@@ -1,5 +1,5 @@
-"""Who may join through the legacy bridge: the flood guard, the throttle on refusal reports, and
-the legacy registrations waiting for the world's answer (asked again while no world answers).
+"""Who may join through the legacy bridge: the legacy registrations waiting for the world's answer
+(asked again while no world answers), at most MAX_PENDING at once.
 
 No sockets here: the node hands in parsed registrations and sends what the registrar decides.
 """
@@ -23,68 +23,20 @@ from iw_zenoh.messages import RegisterReply, RegisterRequest, WorldInfo
 from .codec import Registration, registration_spec
 
 __all__ = [
-    "EVENT_EVERY_S",
-    "FLOOD_PER_S",
+    "MAX_PENDING",
     "WORLD_WAIT_S",
     "Admission",
-    "FloodGuard",
     "Pending",
     "Registrar",
-    "RefusalThrottle",
 ]
 
-FLOOD_PER_S = 400  # datagrams a second one peer (address and port) may send before the rest are dropped
-EVENT_EVERY_S = 1.0  # at most one refusal event a second per peer
+MAX_PENDING = 64  # registrations waiting for the world's answer at once; more are refused
 WORLD_WAIT_S = 10.0  # a registration no world answers is asked again this long (a world still starting)
 QUERY_TIMEOUT_S = 2.0  # one ask of the world's registration queryable waits this long
 
 Peer = tuple[str, int]
 
 logger = logging.getLogger(__name__)
-
-
-class FloodGuard:
-    """Counts each peer's datagrams per second. Per address *and port*: a course's agents all
-    send from one machine's address, and must not share one budget.
-
-    Args:
-        per_s: Datagrams a peer may send in a second before the rest are refused.
-    """
-
-    def __init__(self, per_s: int) -> None:
-        self.per_s = per_s
-        self._rate: dict[Peer, tuple[float, int]] = {}
-
-    def over(self, peer: Peer, now: float) -> bool:
-        """Counts one datagram from ``peer`` at ``now`` (seconds); whether it is over the limit."""
-        if len(self._rate) > 4096:  # forget peers quiet for a second (spoofed ports cost no memory)
-            self._rate = {p: v for p, v in self._rate.items() if now - v[0] < 1.0}
-        start, n = self._rate.get(peer, (now, 0))
-        if now - start >= 1.0:
-            start, n = now, 0
-        self._rate[peer] = (start, n + 1)
-        return n + 1 > self.per_s
-
-
-class RefusalThrottle:
-    """Whether a refusal is worth a log line and an event: once per peer and reason every
-    ``every_s`` (a flood must not turn into a flood of log lines).
-
-    Args:
-        every_s: Seconds between two reports of one peer and reason.
-    """
-
-    def __init__(self, every_s: float = EVENT_EVERY_S) -> None:
-        self.every_s = every_s
-        self._last: dict[tuple[str, str], float] = {}
-
-    def report(self, peer: Peer, reason: str, now: float) -> bool:
-        """Whether to report this refusal now (``now`` in seconds); counts it as reported if so."""
-        key = (f"{peer[0]}:{peer[1]}", reason[:40])
-        if now - self._last.get(key, 0.0) >= self.every_s:
-            self._last[key] = now
-            return True
-        return False
 
 
 @dataclass
@@ -164,6 +116,8 @@ class Registrar:
             return Admission(refused=str(e))
         if peer in self.pending:
             return Admission()  # asked already; the answer is on its way (a client repeating itself)
+        if len(self.pending) >= MAX_PENDING:
+            return Admission(refused=f"{MAX_PENDING} registrations are waiting for the world's answer already")
         # beacons robots carry: those the world's description lists, and those accepted or being
         # registered here since (the description is published a moment later)
         carried = {r.id for r in info.robots if r.beacon_height is not None} if info else set()

@@ -87,16 +87,32 @@ class FakeTransport:
         self.inbox: collections.deque[tuple[bytes, Peer]] = collections.deque()
         self.sent: list[tuple[bytes, Peer]] = []
         self.closed = False
+        self.peer: Peer | None = None  # connected to
+        self.refused = False
+
+    def connect(self, peer: Peer, /) -> None:
+        self.peer = peer
 
     def deliver(self, data: bytes, peer: Peer) -> None:
         self.inbox.append((data, peer))
         os.write(self._w, b"x")
 
+    def gone(self) -> None:
+        """Nothing listens at the connected peer any more: the kernel says so on the next read."""
+        self.refused = True
+        os.write(self._w, b"x")
+
     def sendto(self, data: bytes, peer: Peer, /) -> int:
+        if self.closed:
+            raise OSError(9, "Bad file descriptor")
         self.sent.append((data, peer))
         return len(data)
 
     def recvfrom(self, size: int, /) -> tuple[bytes, Peer]:
+        if self.refused:
+            self.refused = False
+            os.read(self._r, 1)
+            raise ConnectionRefusedError(111, "Connection refused")
         if not self.inbox:
             raise BlockingIOError
         os.read(self._r, 1)

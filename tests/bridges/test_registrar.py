@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from iw_zenoh.bridges.ciberrato.codec import parse_registration
-from iw_zenoh.bridges.ciberrato.registrar import WORLD_WAIT_S, RefusalThrottle, Registrar
+from iw_zenoh.bridges.ciberrato.registrar import MAX_PENDING, WORLD_WAIT_S, Registrar
 
 from iw_zenoh.core.params import SimParameters
 from iw_zenoh.messages import RegisterReply, RegisterRequest, decode, encode
@@ -89,10 +89,13 @@ def test_a_second_robot_beacon_is_refused_while_the_first_is_registering() -> No
     assert "beacon" in refused
 
 
-def test_refusals_are_reported_once_per_peer_and_reason_a_second() -> None:
-    throttle = RefusalThrottle(1.0)
-    assert throttle.report(PEER, "bad", 5.0)
-    assert not throttle.report(PEER, "bad", 5.5)
-    assert throttle.report(PEER, "other", 5.5)
-    assert throttle.report(("127.0.0.1", 40002), "bad", 5.5)
-    assert throttle.report(PEER, "bad", 6.0)
+def test_registrations_waiting_for_the_world_are_bounded() -> None:
+    bus = FakeBus()
+    bus.answer = lambda key, payload: None  # no world answers: every one stays in flight
+    reg = _registrar(bus)
+    for port in range(MAX_PENDING):
+        assert not reg.admit(parse_registration(ROBOT), ("127.0.0.1", 20000 + port), None, (), 0.0).refused
+    adm = reg.admit(parse_registration(ROBOT), ("127.0.0.1", 30000), None, (), 0.0)
+    assert "waiting for the world's answer" in adm.refused
+    assert adm.answer
+    assert len(reg.pending) == MAX_PENDING

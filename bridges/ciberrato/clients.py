@@ -1,0 +1,102 @@
+"""The legacy bridge's clients and their sockets: bounded, and closed when the client is gone.
+
+A live Qt viewer sends ``<View/>``, then ``<LabReq/>``, ``<GridReq/>`` (0.5 s or 3 s after its
+reply) and perhaps ``<Start/>``, and nothing more while it watches (the captures): silence alone
+cannot say it is gone. What does: every client socket is connected to its client, so when nothing
+listens there any more the kernel says so (ECONNREFUSED, from the ICMP the client's machine sends)
+and the socket is closed; a viewer that has not said a word :data:`VIEWER_HANDSHAKE_S` after its
+reply (a real viewer asks for the lab within 3 s) is let go; at most :data:`MAX_VIEWERS` are
+served, a second ``<View/>`` from a served viewer is answered from its own socket, and a robot the
+world no longer holds for :data:`ROBOT_GONE_S` is let go.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import selectors
+from collections.abc import Collection
+
+from .transport import DatagramTransport, RobotLink, Viewer
+
+__all__ = ["MAX_VIEWERS", "ROBOT_GONE_S", "VIEWER_HANDSHAKE_S", "Client", "ClientTable"]
+
+MAX_VIEWERS = 32  # viewers and panels served at once; more are refused with the reason
+VIEWER_HANDSHAKE_S = 30.0  # a viewer silent this long after its reply is let go (a real one: 3 s)
+ROBOT_GONE_S = 3.0  # a robot missing from the world's states this long is gone
+
+Peer = tuple[str, int]
+Client = Viewer | RobotLink
+
+
+class ClientTable:
+    """The clients by address and robot id, and the selector over their sockets.
+
+    Args:
+        reception: The registration socket (watched too, with no client).
+        max_viewers: Viewers and panels served at once.
+    """
+
+    def __init__(self, reception: DatagramTransport, max_viewers: int = MAX_VIEWERS) -> None:
+        self.max_viewers = max_viewers
+        self.sel = selectors.DefaultSelector()
+        self.sel.register(reception, selectors.EVENT_READ, (reception, None))
+        self.by_peer: dict[Peer, Client] = {}
+        self.by_robot: dict[int, RobotLink] = {}
+
+    def get(self, peer: Peer) -> Client | None:
+        """The client at ``peer``, if any."""
+        return self.by_peer.get(peer)
+
+    def add(self, c: Client) -> None:
+        """Serves a new client from its own socket, connected to it (a client already at its
+        address is let go first)."""
+        old = self.by_peer.get(c.addr)
+        if old is not None:
+            self.drop(old)
+        c.transport.connect(c.addr)
+        self.by_peer[c.addr] = c
+        if isinstance(c, RobotLink):
+            self.by_robot[c.robot.robot_id] = c
+        self.sel.register(c.transport, selectors.EVENT_READ, (c.transport, c))
+
+    def drop(self, c: Client) -> None:
+        """Lets a client go: its socket is closed."""
+        if self.by_peer.get(c.addr) is c:
+            del self.by_peer[c.addr]
+        if isinstance(c, RobotLink) and self.by_robot.get(c.robot.robot_id) is c:
+            del self.by_robot[c.robot.robot_id]
+        with contextlib.suppress(KeyError, ValueError):
+            self.sel.unregister(c.transport)
+        c.transport.close()
+
+    def viewers(self, kind: str | None = None) -> list[Viewer]:
+        """The viewers and panels served (of ``kind`` only, if given)."""
+        return [c for c in self.by_peer.values() if isinstance(c, Viewer) and (kind is None or c.kind == kind)]
+
+    def full(self) -> bool:
+        """Whether as many viewers as may be are served."""
+        return len(self.viewers()) >= self.max_viewers
+
+    def silent_viewers(self, now: float) -> list[Viewer]:
+        """Viewers (not panels: they never speak) silent since their reply, VIEWER_HANDSHAKE_S ago."""
+        return [v for v in self.viewers("viewer") if not v.heard and now - v.since > VIEWER_HANDSHAKE_S]
+
+    def gone_robots(self, held: Collection[int], now: float) -> list[RobotLink]:
+        """Notes which robots a state of the world holds; those it has not held for ROBOT_GONE_S."""
+        gone = []
+        for link in list(self.by_robot.values()):
+            if link.robot.robot_id in held:
+                link.seen = now
+            elif now - link.seen > ROBOT_GONE_S:
+                gone.append(link)
+        return gone
+
+    def ready(self, timeout_s: float) -> list[tuple[DatagramTransport, Client | None]]:
+        """The sockets with datagrams (or an error) waiting, each with its client."""
+        return [key.data for key, _ in self.sel.select(timeout=timeout_s)]
+
+    def close(self) -> None:
+        """Closes every client's socket."""
+        for c in list(self.by_peer.values()):
+            self.drop(c)
+        self.sel.close()

@@ -1,0 +1,161 @@
+"""What floods and clients that go cost the bridge node (fake sockets): one refusal event per
+address and interval, bounded viewers, sockets closed when their client is gone."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import pytest
+from iw_zenoh.bridges.ciberrato import clients
+from iw_zenoh.bridges.ciberrato.node import Bridge
+
+from iw_zenoh import keys
+from iw_zenoh.messages import Event, RegisterReply, RobotSpecMsg, WorldState, decode, encode
+from tests.bridges.fakes import FakeBus, FakeTransport, Transports
+
+PEER = ("127.0.0.1", 40001)
+Rig = tuple[Bridge, FakeBus, FakeTransport, Transports]
+
+
+@pytest.fixture
+def rig() -> Iterator[Rig]:
+    bus, reception, made = FakeBus(), FakeTransport(), Transports()
+    accept = RegisterReply(ok=True, robot_id=7, spec=RobotSpecMsg(name="bot1", id=7, x=1.0, y=2.0))
+    bus.answer = lambda key, payload: [encode(accept)]
+    bridge = Bridge(bus, "s", reception, new_transport=made, pace=False)
+    yield bridge, bus, reception, made
+    bridge.close()
+
+
+def _refusals(bus: FakeBus) -> list[Event]:
+    return [decode(d, Event) for k, d in bus.published if k == keys.event("s", "legacy-refused")]
+
+
+def _poll_until_empty(bridge: Bridge, t: FakeTransport) -> None:
+    while t.inbox or t.refused:
+        bridge.poll(0)
+
+
+def test_a_flood_from_rotating_ports_is_one_event_a_second(rig: Rig, monkeypatch: pytest.MonkeyPatch) -> None:
+    bridge, bus, reception, _ = rig
+    now = [100.0]
+    monkeypatch.setattr("iw_zenoh.bridges.ciberrato.node.time.monotonic", lambda: now[0])
+    for i in range(3000):
+        reception.deliver(b"\xff\xfe junk", ("127.0.0.1", 20000 + i))
+    _poll_until_empty(bridge, reception)
+    assert len(_refusals(bus)) == 1  # the first, at once
+    now[0] += 1.0
+    bridge.poll(0)
+    first, summary = _refusals(bus)
+    assert first.data["count"] == 1
+    assert summary.data["count"] == 2999  # the rest, counted: 1000 within the address's budget
+    assert summary.data["dropped"] == 2999 - 999  # and the others dropped unread
+    assert summary.data["peer"].startswith("127.0.0.1:")
+    now[0] += 5.0
+    bridge.poll(0)
+    assert len(_refusals(bus)) == 2  # nothing refused since: nothing told
+
+
+def test_a_viewer_asking_again_is_answered_from_its_own_socket(rig: Rig) -> None:
+    bridge, _, reception, made = rig
+    for _ in range(2000):
+        reception.deliver(b"<View/>\n\x00", PEER)
+    _poll_until_empty(bridge, reception)
+    [own] = made.made  # one socket, however often it asks
+    assert own.peer == PEER  # connected: only its viewer reaches it
+    assert len(own.sent) == 1000  # answered within the address's budget, the rest dropped
+
+
+def test_viewers_are_bounded_and_those_past_it_refused(rig: Rig) -> None:
+    bridge, bus, reception, made = rig
+    for i in range(clients.MAX_VIEWERS + 5):
+        reception.deliver(b"<View/>\n\x00", ("127.0.0.1", 30000 + i))
+    _poll_until_empty(bridge, reception)
+    assert len(made.made) == clients.MAX_VIEWERS
+    assert len(reception.sent) == 5  # the others: the legacy refusal
+    assert b'Status="Refused"' in reception.sent[0][0]
+    assert "viewers and panels are served already" in _refusals(bus)[0].reason
+
+
+def test_a_viewer_nobody_listens_for_any_more_is_let_go(rig: Rig) -> None:
+    bridge, _, reception, made = rig
+    reception.deliver(b"<View/>\n\x00", PEER)
+    bridge.poll(0)
+    [own] = made.made
+    own.gone()
+    bridge.poll(0)
+    assert own.closed
+    assert bridge.clients.viewers() == []
+
+
+def test_a_silent_viewer_is_let_go_and_a_talking_one_kept(rig: Rig, monkeypatch: pytest.MonkeyPatch) -> None:
+    bridge, _, reception, made = rig
+    now = [100.0]
+    monkeypatch.setattr("iw_zenoh.bridges.ciberrato.node.time.monotonic", lambda: now[0])
+    reception.deliver(b"<View/>\n\x00", PEER)
+    reception.deliver(b"<View/>\n\x00", ("127.0.0.1", 40002))
+    _poll_until_empty(bridge, reception)
+    silent, talking = made.made
+    now[0] += 3.0
+    talking.deliver(b"<LabReq/>\x00", ("127.0.0.1", 40002))
+    bridge.poll(0)
+    now[0] += clients.VIEWER_HANDSHAKE_S
+    bridge.poll(0)
+    assert silent.closed
+    assert not talking.closed
+    now[0] += 3600  # a real viewer watches in silence, for as long as it likes
+    bridge.poll(0)
+    assert not talking.closed
+
+
+def test_a_robot_the_world_no_longer_holds_is_let_go(rig: Rig, monkeypatch: pytest.MonkeyPatch) -> None:
+    bridge, bus, reception, made = rig
+    now = [100.0]
+    monkeypatch.setattr("iw_zenoh.bridges.ciberrato.node.time.monotonic", lambda: now[0])
+    reception.deliver(b'<Robot Id="7" Name="bot1" />', PEER)
+    bridge.poll(0)
+    [own] = made.made
+    states = bus.queue(keys.state("s"))
+
+    def state(tick: int, ids: list[int]) -> None:
+        n = len(ids)
+        z = [0.0] * n
+        st = WorldState(
+            tick=tick,
+            revision=0,
+            ids=ids,
+            x=z,
+            y=z,
+            heading=z,
+            collided=[False] * n,
+            rolled_left=z,
+            rolled_right=z,
+            speed=z,
+        )
+        states.put(keys.state("s"), encode(st))
+        bridge.poll(0)
+
+    state(1, [7])
+    now[0] += clients.ROBOT_GONE_S + 1  # a world paused: no state, nothing let go
+    bridge.poll(0)
+    assert not own.closed
+    state(2, [7])
+    now[0] += 1.0
+    state(3, [])  # removed: one state without it is not enough (a state in flight)
+    assert not own.closed
+    now[0] += clients.ROBOT_GONE_S
+    state(4, [])
+    assert own.closed
+    assert 7 not in bridge.robots
+    assert bridge.clients.by_robot == {}
+
+
+def test_a_robot_nobody_listens_for_stays_in_the_world_and_is_told_once(rig: Rig) -> None:
+    bridge, _, reception, made = rig
+    reception.deliver(b'<Robot Id="7" Name="bot1" />', PEER)
+    bridge.poll(0)
+    [own] = made.made
+    own.gone()
+    bridge.poll(0)
+    assert not own.closed
+    assert bridge.clients.by_robot[7].unreachable
