@@ -6,8 +6,10 @@ cannot say it is gone. What does: every client socket is connected to its client
 listens there any more the kernel says so (ECONNREFUSED, from the ICMP the client's machine sends)
 and the socket is closed; a viewer that has not said a word :data:`VIEWER_HANDSHAKE_S` after its
 reply (a real viewer asks for the lab within 3 s) is let go; at most :data:`MAX_VIEWERS` are
-served, a second ``<View/>`` from a served viewer is answered from its own socket, and a robot the
-world no longer holds for :data:`ROBOT_GONE_S` is let go.
+served (when all are taken, one silent past :data:`VIEWER_QUIET_S` gives its place to a new one,
+so a burst of ``<View/>`` keeps real viewers out for seconds at most); a second ``<View/>`` from a
+served viewer is answered from its own socket; a robot the world no longer holds for
+:data:`ROBOT_GONE_S` is let go.
 """
 
 from __future__ import annotations
@@ -18,10 +20,11 @@ from collections.abc import Collection
 
 from .transport import DatagramTransport, RobotLink, Viewer
 
-__all__ = ["MAX_VIEWERS", "ROBOT_GONE_S", "VIEWER_HANDSHAKE_S", "Client", "ClientTable"]
+__all__ = ["MAX_VIEWERS", "ROBOT_GONE_S", "VIEWER_HANDSHAKE_S", "VIEWER_QUIET_S", "Client", "ClientTable"]
 
 MAX_VIEWERS = 32  # viewers and panels served at once; more are refused with the reason
-VIEWER_HANDSHAKE_S = 30.0  # a viewer silent this long after its reply is let go (a real one: 3 s)
+VIEWER_HANDSHAKE_S = 10.0  # a viewer silent this long after its reply is let go (a real one: 3 s)
+VIEWER_QUIET_S = 5.0  # ... and one silent this long gives its place to a new viewer when all are taken
 ROBOT_GONE_S = 3.0  # a robot missing from the world's states this long is gone
 
 Peer = tuple[str, int]
@@ -73,13 +76,20 @@ class ClientTable:
         """The viewers and panels served (of ``kind`` only, if given)."""
         return [c for c in self.by_peer.values() if isinstance(c, Viewer) and (kind is None or c.kind == kind)]
 
-    def full(self) -> bool:
-        """Whether as many viewers as may be are served."""
-        return len(self.viewers()) >= self.max_viewers
+    def full(self, now: float) -> bool:
+        """Whether as many viewers as may be are served, once the oldest viewer silent since its
+        reply for VIEWER_QUIET_S (if any) has been let go to make room."""
+        if len(self.viewers()) < self.max_viewers:
+            return False
+        quiet = self.silent_viewers(now, VIEWER_QUIET_S)
+        if not quiet:
+            return True
+        self.drop(min(quiet, key=lambda v: v.since))
+        return False
 
-    def silent_viewers(self, now: float) -> list[Viewer]:
-        """Viewers (not panels: they never speak) silent since their reply, VIEWER_HANDSHAKE_S ago."""
-        return [v for v in self.viewers("viewer") if not v.heard and now - v.since > VIEWER_HANDSHAKE_S]
+    def silent_viewers(self, now: float, after_s: float = VIEWER_HANDSHAKE_S) -> list[Viewer]:
+        """Viewers (not panels: they never speak) silent since their reply, ``after_s`` ago."""
+        return [v for v in self.viewers("viewer") if not v.heard and now - v.since > after_s]
 
     def gone_robots(self, held: Collection[int], now: float) -> list[RobotLink]:
         """Notes which robots a state of the world holds; those it has not held for ROBOT_GONE_S."""

@@ -179,7 +179,7 @@ class Bridge:
         if known is not None:  # asked again: answered from the socket it has, no new one
             known.transport.sendto(reply, peer)
             return
-        if self.clients.full():
+        if self.clients.full(time.monotonic()):
             self._refuse(peer, f"{self.clients.max_viewers} viewers and panels are served already")
             self.reception.sendto(build_refusal(), peer)
             return

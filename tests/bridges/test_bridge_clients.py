@@ -77,6 +77,23 @@ def test_viewers_are_bounded_and_those_past_it_refused(rig: Rig) -> None:
     assert "viewers and panels are served already" in _refusals(bus)[0].reason
 
 
+def test_a_quiet_viewer_gives_its_place_when_all_are_taken(rig: Rig, monkeypatch: pytest.MonkeyPatch) -> None:
+    bridge, _, reception, made = rig
+    now = [100.0]
+    monkeypatch.setattr("iw_zenoh.bridges.ciberrato.node.time.monotonic", lambda: now[0])
+    for i in range(clients.MAX_VIEWERS):
+        reception.deliver(b"<View/>\n\x00", ("127.0.0.1", 30000 + i))
+    _poll_until_empty(bridge, reception)
+    made.made[1].deliver(b"<LabReq/>\x00", ("127.0.0.1", 30001))  # a real one: it asked for the lab
+    bridge.poll(0)
+    now[0] += clients.VIEWER_QUIET_S + 0.5
+    reception.deliver(b"<View/>\n\x00", PEER)
+    bridge.poll(0)
+    assert reception.sent == []  # served
+    assert made.made[0].closed  # in the place of the oldest silent one
+    assert not made.made[1].closed
+
+
 def test_a_viewer_nobody_listens_for_any_more_is_let_go(rig: Rig) -> None:
     bridge, _, reception, made = rig
     reception.deliver(b"<View/>\n\x00", PEER)
