@@ -15,6 +15,7 @@ served viewer is answered from its own socket; a robot the world no longer holds
 from __future__ import annotations
 
 import contextlib
+import logging
 import selectors
 from collections.abc import Collection
 
@@ -29,6 +30,8 @@ ROBOT_GONE_S = 3.0  # a robot missing from the world's states this long is gone
 
 Peer = tuple[str, int]
 Client = Viewer | RobotLink
+
+logger = logging.getLogger(__name__)
 
 
 class ClientTable:
@@ -71,6 +74,36 @@ class ClientTable:
         with contextlib.suppress(KeyError, ValueError):
             self.sel.unregister(c.transport)
         c.transport.close()
+
+    def send(self, c: Client, data: bytes) -> str:
+        """Sends to a client: "" when sent (or the client is gone), else why it failed.
+
+        A client nobody listens for any more: a viewer is let go; a robot stays in the world (as in
+        the legacy simulator, whose robots outlive their clients) and is told once."""
+        if self.by_peer.get(c.addr) is not c:
+            return ""  # let go a moment ago
+        try:
+            c.transport.sendto(data, c.addr)
+        except ConnectionRefusedError:
+            self.unreachable(c)
+        except OSError as e:
+            return f"cannot send: {e}"
+        return ""
+
+    def unreachable(self, c: Client) -> None:
+        """Nothing listens at a client's address any more (see :meth:`send`)."""
+        if isinstance(c, Viewer):
+            self.drop(c)
+            logger.info("legacy %s at %s:%d let go: nothing listens there any more", c.kind, *c.addr)
+        elif not c.unreachable:
+            c.unreachable = True
+            logger.warning("legacy robot %d at %s:%d: nothing listens there any more", c.robot.robot_id, *c.addr)
+
+    def expire(self, now: float) -> None:
+        """Lets go the viewers silent since their reply for VIEWER_HANDSHAKE_S."""
+        for v in self.silent_viewers(now):
+            self.drop(v)
+            logger.info("legacy viewer at %s:%d let go: not a word since its reply", *v.addr)
 
     def viewers(self, kind: str | None = None) -> list[Viewer]:
         """The viewers and panels served (of ``kind`` only, if given)."""

@@ -65,6 +65,7 @@ RECV_BYTES = 4096
 POLL_S = 0.001  # the loop looks at the bus queues at least this often
 PER_PASS = 64  # datagrams read from one socket in a pass of the loop (then the bus, Measures)
 SWEEP_S = 1.0  # how often gone clients are looked for
+INFO_ASK_S = 5.0  # while no world has answered, its description is asked at most this often
 
 Peer = tuple[str, int]
 
@@ -120,6 +121,7 @@ class Bridge:
         self.delivery = Delivery(pace=pace)
         self.gate = Gate(self._tell)  # the flood limits; refusals told once per address a second
         self._swept = 0.0
+        self._info_asked = -INFO_ASK_S
         self.io.alive()
         bus.token(keys.alive(sim, "bridge", name))
 
@@ -141,11 +143,17 @@ class Bridge:
         t = self.new_transport()
         try:
             t.sendto(data, peer)
+        except OSError as e:
+            self._refuse(peer, f"cannot answer: {e}")
         finally:
             t.close()
 
     def _world_info(self) -> WorldInfo | None:
-        if self.info is None:
+        """The world's description; asked (waiting up to 2 s) at most every INFO_ASK_S while no
+        world answers (asked for every registration, a flood of them froze the loop)."""
+        now = time.monotonic()
+        if self.info is None and now - self._info_asked >= INFO_ASK_S:
+            self._info_asked = now
             for data in self.bus.query(keys.info(self.sim), timeout_s=2.0):
                 try:
                     self.info = decode(data, WorldInfo)
@@ -340,42 +348,22 @@ class Bridge:
             self._send(link, data)
 
     def _send(self, c: Viewer | RobotLink, data: bytes) -> None:
-        """Sends to a client; one that is gone is let go (a viewer) or told once (a robot)."""
-        if self.clients.get(c.addr) is not c:
-            return  # let go a moment ago
-        try:
-            c.transport.sendto(data, c.addr)
-        except ConnectionRefusedError:
-            self._unreachable(c)
-        except OSError as e:
-            self._refuse(c.addr, f"cannot send: {e}")
+        why = self.clients.send(c, data)
+        if why:
+            self._refuse(c.addr, why)
 
-    def _unreachable(self, c: Viewer | RobotLink) -> None:
-        """Nothing listens at a client's address any more: a viewer is let go; a robot stays in the
-        world (as in the legacy simulator) and is told so once."""
-        if isinstance(c, Viewer):
-            self._let_go(c, "nothing listens at its address any more")
-        elif not c.unreachable:
-            c.unreachable = True
-            logger.warning("legacy robot %d at %s:%d: nothing listens there any more", c.robot.robot_id, *c.addr)
-
-    def _let_go(self, c: Viewer | RobotLink, why: str) -> None:
-        """Closes a client's socket and forgets it."""
-        self.clients.drop(c)
-        if isinstance(c, RobotLink):
-            self.robots.pop(c.robot.robot_id, None)
-            logger.info("legacy robot %d at %s:%d let go: %s", c.robot.robot_id, c.addr[0], c.addr[1], why)
-        else:
-            logger.info("legacy %s at %s:%d let go: %s", c.kind, c.addr[0], c.addr[1], why)
+    def _let_go(self, link: RobotLink, why: str) -> None:
+        """Closes a robot's socket and forgets it."""
+        self.clients.drop(link)
+        self.robots.pop(link.robot.robot_id, None)
+        logger.info("legacy robot %d at %s:%d let go: %s", link.robot.robot_id, link.addr[0], link.addr[1], why)
 
     def _sweep(self, now: float) -> None:
-        """Once a second: the refusals due, the silent viewers let go."""
+        """The refusals due; once a second, the silent viewers let go."""
         self.gate.due(now)
-        if now - self._swept < SWEEP_S:
-            return
-        self._swept = now
-        for v in self.clients.silent_viewers(now):
-            self._let_go(v, "it has not said a word since its reply")
+        if now - self._swept >= SWEEP_S:
+            self._swept = now
+            self.clients.expire(now)
 
     def _send_measures(self, robot: LegacyRobot, tick: int, *, force: bool = False) -> None:
         data = self._next_measures(robot, tick, force=force)
@@ -396,17 +384,20 @@ class Bridge:
                 break
             except ConnectionRefusedError:
                 if client is not None:
-                    self._unreachable(client)
+                    self.clients.unreachable(client)
                 break
             except OSError as e:
                 self._refuse(client.addr if client else ("?", 0), f"receive failed: {e}")
                 break
             if not self.gate.let_in(peer, client.addr if client else None, now):
                 continue
-            if client is None:
-                self.on_registration(data, peer)
-            else:
-                self.on_client_datagram(client, data, peer)
+            try:
+                if client is None:
+                    self.on_registration(data, peer)
+                else:
+                    self.on_client_datagram(client, data, peer)
+            except OSError as e:  # no socket left for a client, a full send buffer: refused, not fatal
+                self._refuse(peer, f"cannot serve it: {e}")
 
     def poll(self, timeout_s: float = POLL_S) -> None:
         """One pass: the sockets' datagrams, the pass's actions, answered registrations, the bus."""

@@ -176,3 +176,19 @@ def test_a_robot_nobody_listens_for_stays_in_the_world_and_is_told_once(rig: Rig
     bridge.poll(0)
     assert not own.closed
     assert bridge.clients.by_robot[7].unreachable
+
+
+def test_registrations_with_no_world_ask_for_its_description_once_in_a_while(rig: Rig) -> None:
+    bridge, bus, reception, _ = rig
+    asked: list[str] = []
+    query = bus.query
+
+    def counted(key: str, payload: bytes = b"", timeout_s: float = 2.0) -> list[bytes]:
+        asked.append(key)  # the real one waits up to 2 s when no world answers
+        return query(key, payload, timeout_s)
+
+    bus.query = counted  # type: ignore[method-assign]
+    for i in range(500):
+        reception.deliver(b"<View/>\n\x00", ("127.0.0.1", 30000 + i))
+    _poll_until_empty(bridge, reception)
+    assert len(asked) == 1
