@@ -29,7 +29,7 @@ from tests.integration.test_legacy_bridge import LegacyClient, _udp_port
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
 
 FLOOD = 120_000  # datagrams
-SOURCES = 64  # sockets, each its own source port
+SOURCES = 1024  # sockets, each its own source port
 LOG_BOUND = 100_000  # bytes the bridge's log may grow by during the flood
 TIME_RE = re.compile(rb'<Measures Time="(\d+)"')
 
