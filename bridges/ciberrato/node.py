@@ -406,7 +406,10 @@ class Bridge:
                 self._drain(transport, client)
         self.outbox.flush()
         for peer, pending, reply in self.registrar.answered(time.monotonic()):
-            self._registered(peer, pending, reply)
+            try:
+                self._registered(peer, pending, reply)
+            except OSError as e:  # no socket left for it: refused, the others go on
+                self._refuse(peer, f"cannot serve it: {e}")
         self.pump_bus()
         self._sweep(time.monotonic())
 

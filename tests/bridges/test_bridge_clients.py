@@ -192,3 +192,21 @@ def test_registrations_with_no_world_ask_for_its_description_once_in_a_while(rig
         reception.deliver(b"<View/>\n\x00", ("127.0.0.1", 30000 + i))
     _poll_until_empty(bridge, reception)
     assert len(asked) == 1
+
+
+def test_no_socket_left_for_a_client_is_a_refusal_not_the_end(rig: Rig) -> None:
+    bridge, bus, reception, made = rig
+
+    def exhausted() -> FakeTransport:
+        raise OSError(24, "Too many open files")
+
+    bridge.new_transport = exhausted
+    reception.deliver(b"<View/>\n\x00", PEER)
+    reception.deliver(b'<Robot Id="7" Name="bot1" />', ("127.0.0.1", 40002))
+    bridge.poll(0)
+    bridge.poll(0)
+    assert "Too many open files" in _refusals(bus)[0].reason
+    bridge.new_transport = made
+    reception.deliver(b"<View/>\n\x00", ("127.0.0.1", 40003))
+    bridge.poll(0)
+    assert made.made[-1].sent  # still serving
