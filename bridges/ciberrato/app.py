@@ -2,65 +2,81 @@
 
 from __future__ import annotations
 
+import argparse
 from collections.abc import Sequence
 
 from iw_zenoh import keys
-from iw_zenoh.bus import ZenohBus
-from iw_zenoh.cliargs import net_from_args
 from iw_zenoh.core.params import SimParameters
 from iw_zenoh.errors import IwError
 from iw_zenoh.maps import load_parameters
-from iw_zenoh.runtime import install_stop_signals, setup_logging
+from iw_zenoh.runtime import Process, start_role
 
 from .node import Bridge
-from .options import parser
+from .options import DESCRIPTION, EPILOG, add_arguments
 from .scoring import Mode
 from .transport import PortTaken, UdpTransport, udp_factory
 
 __all__ = ["main"]
+
+PROG = "iwz bridge ciberrato"
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Runs ``iwz bridge ciberrato``: 2 when it cannot start (its UDP port taken: by whom)."""
     args_in = list(argv or [])
     if args_in[:1] != ["ciberrato"]:
-        print("usage: iwz bridge ciberrato [options]   (iwz bridge ciberrato --help)")
+        print(f"usage: {PROG} [options]   ({PROG} --help)")
         return 2 if args_in[:1] not in (["-h"], ["--help"]) else 0
-    args = parser().parse_args(args_in[1:])
-    setup_logging(args.verbose, "bridge")
+    return start_role(
+        args_in[1:],
+        role="bridge",
+        prog=PROG,
+        description=DESCRIPTION,
+        epilog=EPILOG,
+        arguments=add_arguments,
+        prepare=_prepare,
+        run=_run,
+        name=lambda args: "ciberrato",
+        name_help="ciberrato",
+    )
+
+
+def _prepare(args: argparse.Namespace) -> tuple[UdpTransport, SimParameters]:
+    """The registration port, bound before joining the bus (a taken one: who has it), and the
+    legacy parameters."""
     try:
         reception = UdpTransport(args.bind, args.port)
     except PortTaken as e:
-        print(
-            f"iwz bridge ciberrato: cannot listen on UDP {args.bind}:{args.port}: the port is taken by "
+        raise IwError(
+            f"cannot listen on UDP {args.bind}:{args.port}: the port is taken by "
             f"{e.owner or 'another socket'}; stop it, or give this bridge another --port"
-        )
-        return 2
+        ) from None
     except OSError as e:
-        print(f"iwz bridge ciberrato: cannot listen on UDP {args.bind}:{args.port}: {e.strerror}")
-        return 2
+        raise IwError(f"cannot listen on UDP {args.bind}:{args.port}: {e.strerror}") from None
     try:
-        params = load_parameters(args.param) if args.param else SimParameters()
-        bus = ZenohBus(net_from_args(args))
-    except (IwError, ValueError) as e:
+        return reception, load_parameters(args.param) if args.param else SimParameters()
+    except (IwError, ValueError):
         reception.close()
-        print(f"iwz bridge ciberrato: {e}")
-        return 2
+        raise
+
+
+def _run(proc: Process, prepared: tuple[UdpTransport, SimParameters]) -> int:
+    reception, params = prepared
+    args = proc.args
     bridge = Bridge(
-        bus,
-        keys.chunk(args.sim),
+        proc.bus,
+        proc.sim,
         reception,
         new_transport=udp_factory(args.bind),
         params=params,
-        name=keys.chunk(args.name),
+        name=keys.chunk(proc.name),
         scoring=Mode(args.scoring),
         pace=args.pace == "auto",
     )
-    install_stop_signals(bridge.io.stop)
-    print(f"iwz bridge ciberrato: listening on udp {args.bind}:{reception.port} for iw/{args.sim}/", flush=True)
+    proc.on_stop(bridge.io.stop.set)
+    print(f"{PROG}: listening on udp {args.bind}:{reception.port} for iw/{proc.sim}/", flush=True)
     try:
         bridge.serve()
     finally:
         bridge.close()
-        bus.close()
     return 0

@@ -1,25 +1,22 @@
-"""The options of ``iwz bridge ciberrato``."""
+"""The options of ``iwz bridge ciberrato`` (``--sim``, ``--name``, ``-v`` and the network flags
+are every role's: :func:`iw_zenoh.runtime.start_role`)."""
 
 from __future__ import annotations
 
 import argparse
 
-from iw_zenoh.cliargs import add_common_arguments
+__all__ = ["DESCRIPTION", "EPILOG", "add_arguments"]
 
-__all__ = ["parser"]
+DESCRIPTION = "Let unmodified Ciber-Rato / Intellwheels agents and viewers (XML/UDP) join a Zenoh simulation."
+EPILOG = (
+    "Example:\n"
+    "iwz bridge ciberrato --param maps/ciberrato/C1-config.xml\n"
+    "then start the legacy agents and viewers against UDP port 6000, unchanged."
+)
 
 
-def parser() -> argparse.ArgumentParser:
-    """The command line of ``iwz bridge ciberrato`` (after ``ciberrato``)."""
-    p = argparse.ArgumentParser(
-        prog="iwz bridge ciberrato",
-        description="Let unmodified Ciber-Rato / Intellwheels agents and viewers (XML/UDP) join a Zenoh simulation.",
-        epilog=(
-            "Example: iwz bridge ciberrato --param maps/ciberrato/C1-config.xml\n"
-            "then start the legacy agents and viewers against UDP port 6000, unchanged."
-        ),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The flags of ``iwz bridge ciberrato`` (after ``ciberrato``)."""
     p.add_argument("--port", type=int, default=6000, help="registration port (default 6000: unmodified clients use it)")
     p.add_argument(
         "--bind", default="127.0.0.1", help="address to listen on (default loopback only; 0.0.0.0 to open it)"
@@ -41,6 +38,3 @@ def parser() -> argparse.ArgumentParser:
         "learned from how late readings come (auto, default: one period between Measures as the legacy "
         "server keeps it); off: send each as soon as its readings arrive",
     )
-    p.add_argument("--name", default="ciberrato", help="process name (liveliness)")
-    add_common_arguments(p)
-    return p
