@@ -18,8 +18,10 @@ from __future__ import annotations
 
 import logging
 import time
+from typing import TypeVar
 
 from iw_zenoh import keys
+from iw_zenoh.bus import Queue
 from iw_zenoh.convert import grid_from_msg, lab_from_msg
 from iw_zenoh.core.params import SimParameters
 from iw_zenoh.errors import IwError, ProtocolError
@@ -29,6 +31,7 @@ from iw_zenoh.messages import (
     Control,
     EventKind,
     LegacyRefusedData,
+    Message,
     RadioBatch,
     RegisterReply,
     SensorBatch,
@@ -68,6 +71,7 @@ SWEEP_S = 1.0  # how often gone clients are looked for
 INFO_ASK_S = 5.0  # while no world has answered, its description is asked at most this often
 
 Peer = tuple[str, int]
+M = TypeVar("M", bound=Message)
 
 
 class Bridge:
@@ -255,23 +259,13 @@ class Bridge:
 
     def pump_bus(self) -> None:
         """Takes new readings, hear lists, states and ticks; sends Measures and viewer states."""
-        for _, data, _ in self.infos.drain()[-1:]:
-            try:
-                self.info = decode(data, WorldInfo)
-            except IwError:
-                continue
-        for _, data, _ in self.verdicts.drain():
-            try:
-                self.referee.on_verdict(decode(data, Verdict))
-            except IwError:
-                continue
+        for info in _decoded(self.infos, WorldInfo)[-1:]:
+            self.info = info
+        for verdict in _decoded(self.verdicts, Verdict):
+            self.referee.on_verdict(verdict)
         self._take_states()
         self._take_readings()
-        for _, data, _ in self.hears.drain():
-            try:
-                delivered = decode(data, RadioBatch)
-            except IwError:
-                continue
+        for delivered in _decoded(self.hears, RadioBatch):
             for hear in delivered.hear:
                 robot = self.robots.get(hear.robot_id)
                 if robot is not None:
@@ -279,12 +273,7 @@ class Bridge:
         self._take_ticks()
 
     def _take_states(self) -> None:
-        states: list[WorldState] = []
-        for _, data, _ in self.states.drain():
-            try:
-                states.append(decode(data, WorldState))
-            except IwError:
-                continue
+        states = _decoded(self.states, WorldState)
         for st in states:  # every step counts for the scores
             self.referee.step(st, self.robots, self.info)
             self._check_finished(st.tick)
@@ -315,11 +304,7 @@ class Bridge:
         return self._next_measures(robot, reading.tick)
 
     def _take_ticks(self) -> None:
-        for _, data, _ in self.ticks.drain()[-1:]:
-            try:
-                t = decode(data, Tick)
-            except IwError:
-                continue
+        for t in _decoded(self.ticks, Tick)[-1:]:
             self.running = t.running
             if not t.running:  # stopped: Measures keep coming, as the legacy server sends them
                 for robot in self.robots.values():
@@ -422,3 +407,14 @@ class Bridge:
         """Closes every socket."""
         self.clients.close()
         self.reception.close()
+
+
+def _decoded(queue: Queue, kind: type[M]) -> list[M]:
+    """The messages waiting in a bus queue; one that does not decode is skipped."""
+    out = []
+    for _, data, _ in queue.drain():
+        try:
+            out.append(decode(data, kind))
+        except IwError:
+            continue
+    return out
