@@ -21,7 +21,7 @@ from lxml import etree
 
 from iw_zenoh import keys
 from iw_zenoh.bus import ZenohBus
-from iw_zenoh.messages import Event, decode
+from iw_zenoh.messages import Event, WorldState, decode
 from iw_zenoh.net import NetConfig
 from tests.integration.harness import MAPS, Net, iwz_run_argv, stop_run, subscribe
 from tests.integration.test_legacy_bridge import LegacyClient, _udp_port
@@ -102,6 +102,7 @@ def test_a_flood_from_many_ports_costs_the_run_a_bounded_amount(tmp_path: Path) 
         assert etree.fromstring(reply[:-1]).get("Status") == "Ok"
         bus = ZenohBus(NetConfig(connect=(endpoint,)))
         events = subscribe(bus, keys.event("flood", "legacy-refused"))
+        states = subscribe(bus, keys.state("flood"))
         bridge_pid = _pid_of(f"bridge ciberrato --port {port}")
         log = tmp_path / "bridge.log"
         times: list[int] = []
@@ -116,6 +117,8 @@ def test_a_flood_from_many_ports_costs_the_run_a_bounded_amount(tmp_path: Path) 
         sent, flood_s = int(out.split()[0]), float(out.split()[1])
         log_growth = log.stat().st_size - log_before
         refusals = [decode(d, Event) for _, d, _ in events.drain()]
+        during = [decode(d, WorldState) for _, d, _ in states.drain()]
+        held = sum(st.held for st in during if min(times) <= st.tick <= max(times))
         assert run.poll() is None, "the run ended under the flood"
         assert _pid_of(f"bridge ciberrato --port {port}") == bridge_pid  # the same bridge: never restarted
     finally:
@@ -128,7 +131,8 @@ def test_a_flood_from_many_ports_costs_the_run_a_bounded_amount(tmp_path: Path) 
     print(
         f"\nflood: {sent} datagrams from {SOURCES} source ports in {flood_s:.1f} s; good robot: {len(times)} "
         f"Measures, Time {min(times)}..{max(times)}, {missed} cycles missed; bridge log +{log_growth} bytes; "
-        f"{len(refusals)} refusal events on the bus, counting {counted} datagrams the bridge read and refused"
+        f"{len(refusals)} refusal events on the bus, counting {counted} datagrams the bridge read and refused; "
+        f"the world held its robots {held} times"
     )
     assert sent >= 100_000
     assert missed == 0, times
