@@ -44,10 +44,14 @@ class FloodGuard:
     def __init__(self, per_s: int) -> None:
         self.per_s = per_s
         self._rate: dict[object, tuple[float, int]] = {}
+        self._pruned = 0.0
 
     def over(self, source: object, now: float) -> bool:
         """Counts one datagram from ``source`` at ``now`` (seconds); whether it is over the limit."""
-        if len(self._rate) > MAX_HOSTS:  # forget sources quiet for a second (spoofing costs no memory)
+        if len(self._rate) > MAX_HOSTS and now - self._pruned >= 1.0:
+            # forget sources quiet for a second (spoofing costs no memory), once a second at most
+            # (a table full of fresh spoofed addresses must not be rebuilt for every datagram)
+            self._pruned = now
             self._rate = {p: v for p, v in self._rate.items() if now - v[0] < 1.0}
         start, n = self._rate.get(source, (now, 0))
         if now - start >= 1.0:
@@ -104,6 +108,7 @@ class Refusals:
         self._open: dict[str, Report] = {}  # refusals not told yet, by address
         self._told: dict[str, float] = {}  # when each address was last told
         self._window = (0.0, 0)  # the interval's start and the addresses told in it
+        self._scanned = -1e18  # when the open reports were last looked at
 
     def refuse(self, peer: tuple[str, int], reason: str, now: float, *, dropped: bool = False) -> Report | None:
         """Counts one refused datagram; the report to tell now, if any.
@@ -129,7 +134,11 @@ class Refusals:
         return None
 
     def due(self, now: float) -> list[Report]:
-        """The reports whose interval is over (called every pass of the loop)."""
+        """The reports whose interval is over (called every pass of the loop; they are looked
+        for ten times an interval, so a pass costs nothing however many addresses are open)."""
+        if now - self._scanned < self.every_s / 10:
+            return []
+        self._scanned = now
         out = [self._tell(h, now) for h in list(self._open) if now - self._told.get(h, -1e18) >= self.every_s]
         if len(self._told) > MAX_HOSTS:
             self._told = {h: t for h, t in self._told.items() if now - t < self.every_s or h in self._open}
