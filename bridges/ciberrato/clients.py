@@ -48,6 +48,7 @@ class ClientTable:
         self.sel.register(reception, selectors.EVENT_READ, (reception, None))
         self.by_peer: dict[Peer, Client] = {}
         self.by_robot: dict[int, RobotLink] = {}
+        self._muted: dict[DatagramTransport, tuple[float, Client | None]] = {}  # not read until then
 
     def get(self, peer: Peer) -> Client | None:
         """The client at ``peer``, if any."""
@@ -65,8 +66,24 @@ class ClientTable:
             self.by_robot[c.robot.robot_id] = c
         self.sel.register(c.transport, selectors.EVENT_READ, (c.transport, c))
 
+    def mute(self, transport: DatagramTransport, client: Client | None, until: float) -> None:
+        """Reads nothing from a socket until ``until`` (its budget is spent: what comes meanwhile
+        waits in its buffer, or is dropped by the kernel when that is full, and costs nothing)."""
+        with contextlib.suppress(KeyError, ValueError):
+            self.sel.unregister(transport)
+            self._muted[transport] = (until, client)
+
+    def unmute(self, now: float) -> None:
+        """Reads again the sockets whose time has come (those of clients let go meanwhile: no)."""
+        for t, (until, c) in list(self._muted.items()):
+            if now >= until:
+                del self._muted[t]
+                if c is None or self.by_peer.get(c.addr) is c:
+                    self.sel.register(t, selectors.EVENT_READ, (t, c))
+
     def drop(self, c: Client) -> None:
         """Lets a client go: its socket is closed."""
+        self._muted.pop(c.transport, None)
         if self.by_peer.get(c.addr) is c:
             del self.by_peer[c.addr]
         if isinstance(c, RobotLink) and self.by_robot.get(c.robot.robot_id) is c:

@@ -19,6 +19,7 @@ __all__ = [
     "MAX_HOSTS",
     "MAX_REPORTS",
     "OTHERS",
+    "RECEPTION_PER_S",
     "FloodGuard",
     "Gate",
     "Refusals",
@@ -26,6 +27,8 @@ __all__ = [
 ]
 
 FLOOD_PER_S = 1000  # datagrams a second one address (any port) may send to the registration port
+RECEPTION_PER_S = 5000  # datagrams a second read from the registration port at all (the rest wait or
+# are dropped by the kernel: a flood costs the bridge this much reading, whatever its rate)
 CLIENT_PER_S = 400  # datagrams a second a client may send to its own socket
 EVENT_EVERY_S = 1.0  # at most one refusal report per address in this long
 MAX_HOSTS = 4096  # addresses remembered at once (more: the quiet ones are forgotten)
@@ -58,6 +61,11 @@ class FloodGuard:
             start, n = now, 0
         self._rate[source] = (start, n + 1)
         return n + 1 > self.per_s
+
+    def resumes_at(self, source: object, now: float) -> float | None:
+        """When ``source`` has a budget again, if it has spent this second's; else None."""
+        start, n = self._rate.get(source, (now, 0))
+        return start + 1.0 if n > self.per_s and now - start < 1.0 else None
 
 
 @dataclass
@@ -180,9 +188,11 @@ class Gate:
         per_host: int = FLOOD_PER_S,
         per_client: int = CLIENT_PER_S,
         every_s: float = EVENT_EVERY_S,
+        reception_per_s: int = RECEPTION_PER_S,
     ) -> None:
         self.tell = tell
         self.every_s = every_s
+        self._reception = FloodGuard(reception_per_s)
         self._hosts = FloodGuard(per_host)
         self._clients = FloodGuard(per_client)
         self._refusals = Refusals(every_s)
@@ -192,15 +202,25 @@ class Gate:
         registration port (``client`` None), or its client's on the client's socket. One that
         is not is counted as refused, dropped unread."""
         if client is None:
-            if not self._hosts.over(peer[0], now):
+            if self._reception.over(None, now):
+                why = f"more than {self._reception.per_s} datagrams a second to the registration port"
+            elif not self._hosts.over(peer[0], now):
                 return True
-            why = f"more than {self._hosts.per_s} datagrams a second from the address"
+            else:
+                why = f"more than {self._hosts.per_s} datagrams a second from the address"
         else:
             if not self._clients.over(client, now):
                 return True
             why = f"more than {self._clients.per_s} datagrams a second to a client's socket"
         self.refuse(peer, why, now, dropped=True)
         return False
+
+    def resumes_at(self, client: tuple[str, int] | None, now: float) -> float | None:
+        """When a socket that has spent this second's budget (the registration port's, ``client``
+        None, or a client's) is to be read again; None while it has not."""
+        if client is None:
+            return self._reception.resumes_at(None, now)
+        return self._clients.resumes_at(client, now)
 
     def refuse(self, peer: tuple[str, int], reason: str, now: float, *, dropped: bool = False) -> None:
         """Counts a refused datagram; tells it if its address has not been told within the interval."""

@@ -375,6 +375,10 @@ class Bridge:
                 self._refuse(client.addr if client else ("?", 0), f"receive failed: {e}")
                 break
             if not self.gate.let_in(peer, client.addr if client else None, now):
+                until = self.gate.resumes_at(client.addr if client else None, now)
+                if until is not None:  # its budget is spent: not read again until it has one
+                    self.clients.mute(transport, client, until)
+                    break
                 continue
             try:
                 if client is None:
@@ -386,6 +390,7 @@ class Bridge:
 
     def poll(self, timeout_s: float = POLL_S) -> None:
         """One pass: the sockets' datagrams, the pass's actions, answered registrations, the bus."""
+        self.clients.unmute(time.monotonic())
         for transport, client in self.clients.ready(timeout_s):
             if client is None or self.clients.get(client.addr) is client:  # not let go in this pass
                 self._drain(transport, client)

@@ -7,6 +7,7 @@ from collections.abc import Iterator
 
 import pytest
 from iw_zenoh.bridges.ciberrato import clients
+from iw_zenoh.bridges.ciberrato.guard import RECEPTION_PER_S
 from iw_zenoh.bridges.ciberrato.node import Bridge
 
 from iw_zenoh import keys
@@ -210,3 +211,19 @@ def test_no_socket_left_for_a_client_is_a_refusal_not_the_end(rig: Rig) -> None:
     reception.deliver(b"<View/>\n\x00", ("127.0.0.1", 40003))
     bridge.poll(0)
     assert made.made[-1].sent  # still serving
+
+
+def test_the_registration_port_is_read_within_its_budget_then_left_alone(
+    rig: Rig, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    bridge, bus, reception, _ = rig
+    now = [100.0]
+    monkeypatch.setattr("iw_zenoh.bridges.ciberrato.node.time.monotonic", lambda: now[0])
+    for i in range(RECEPTION_PER_S + 1000):  # spoofed addresses: each within its own budget
+        reception.deliver(b"junk", (f"10.0.{i // 256}.{i % 256}", 5000))
+    for _ in range(200):
+        bridge.poll(0)
+    assert len(reception.inbox) == 1000 - 1  # the rest of the second: not read (the kernel drops)
+    now[0] += 1.0
+    _poll_until_empty(bridge, reception)  # a new second: read again
+    assert sum(e.data["count"] for e in _refusals(bus)) <= RECEPTION_PER_S + 1000
