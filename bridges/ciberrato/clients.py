@@ -60,7 +60,11 @@ class ClientTable:
         old = self.by_peer.get(c.addr)
         if old is not None:
             self.drop(old)
-        c.transport.connect(c.addr)
+        try:
+            c.transport.connect(c.addr)
+        except OSError:
+            c.transport.close()  # an address no socket can talk to: no socket left behind
+            raise
         self.by_peer[c.addr] = c
         if isinstance(c, RobotLink):
             self.by_robot[c.robot.robot_id] = c

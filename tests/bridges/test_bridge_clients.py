@@ -227,3 +227,23 @@ def test_the_registration_port_is_read_within_its_budget_then_left_alone(
     now[0] += 1.0
     _poll_until_empty(bridge, reception)  # a new second: read again
     assert sum(e.data["count"] for e in _refusals(bus)) <= RECEPTION_PER_S + 1000
+
+
+def test_a_client_address_no_socket_can_talk_to_leaves_no_socket_behind(rig: Rig) -> None:
+    bridge, bus, reception, made = rig
+
+    def refusing(peer: tuple[str, int], /) -> None:
+        raise PermissionError(13, "Permission denied")
+
+    reception.deliver(b"<View/>\n\x00", ("255.255.255.255", 9))
+
+    def making() -> FakeTransport:
+        t = made()
+        t.connect = refusing  # type: ignore[method-assign]
+        return t
+
+    bridge.new_transport = making
+    bridge.poll(0)
+    assert made.made[-1].closed
+    assert "Permission denied" in _refusals(bus)[0].reason
+    assert bridge.clients.viewers() == []
