@@ -17,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import selectors
+import time
 from collections.abc import Collection
 
 from .transport import DatagramTransport, RobotLink, Viewer
@@ -49,6 +50,7 @@ class ClientTable:
         self.by_peer: dict[Peer, Client] = {}
         self.by_robot: dict[int, RobotLink] = {}
         self._muted: dict[DatagramTransport, tuple[float, Client | None]] = {}  # not read until then
+        self._unsent = (0.0, 0)  # when a failed send was last logged, and the failures since
 
     def get(self, peer: Peer) -> Client | None:
         """The client at ``peer``, if any."""
@@ -96,20 +98,25 @@ class ClientTable:
             self.sel.unregister(c.transport)
         c.transport.close()
 
-    def send(self, c: Client, data: bytes) -> str:
-        """Sends to a client: "" when sent (or the client is gone), else why it failed.
-
-        A client nobody listens for any more: a viewer is let go; a robot stays in the world (as in
-        the legacy simulator, whose robots outlive their clients) and is told once."""
+    def send(self, c: Client, data: bytes) -> None:
+        """Sends to a client. A client nobody listens for any more: a viewer is let go; a robot
+        stays in the world (as in the legacy simulator, whose robots outlive their clients) and
+        is told once. Other failures (a full buffer) are logged once a second, with their count."""
         if self.by_peer.get(c.addr) is not c:
-            return ""  # let go a moment ago
+            return  # let go a moment ago
         try:
             c.transport.sendto(data, c.addr)
         except ConnectionRefusedError:
             self.unreachable(c)
         except OSError as e:
-            return f"cannot send: {e}"
-        return ""
+            last, n = self._unsent
+            now = time.monotonic()
+            if now - last < 1.0:
+                self._unsent = (last, n + 1)
+                return
+            self._unsent = (now, 0)
+            more = f" ({n} more failed sends since the last line)" if n else ""
+            logger.warning("cannot send to %s:%d: %s%s", c.addr[0], c.addr[1], e, more)
 
     def unreachable(self, c: Client) -> None:
         """Nothing listens at a client's address any more (see :meth:`send`)."""

@@ -284,7 +284,7 @@ class Bridge:
         if states and viewers:
             for data in self.referee.robot_states(states[-1], self.robots, self.info, running=self.running):
                 for v in viewers:
-                    self._send(v, data)
+                    self.clients.send(v, data)
 
     def _take_readings(self) -> None:
         batches: list[SensorBatch] = []
@@ -330,12 +330,7 @@ class Bridge:
     def _send_to(self, robot: LegacyRobot, data: bytes) -> None:
         link = self.clients.by_robot.get(robot.robot_id)
         if link is not None:
-            self._send(link, data)
-
-    def _send(self, c: Viewer | RobotLink, data: bytes) -> None:
-        why = self.clients.send(c, data)
-        if why:
-            self._refuse(c.addr, why)
+            self.clients.send(link, data)
 
     def _let_go(self, link: RobotLink, why: str) -> None:
         """Closes a robot's socket and forgets it."""

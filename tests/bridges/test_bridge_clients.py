@@ -247,3 +247,21 @@ def test_a_client_address_no_socket_can_talk_to_leaves_no_socket_behind(rig: Rig
     assert made.made[-1].closed
     assert "Permission denied" in _refusals(bus)[0].reason
     assert bridge.clients.viewers() == []
+
+
+def test_failed_sends_are_logged_once_a_second_with_their_count(rig: Rig, caplog: pytest.LogCaptureFixture) -> None:
+    bridge, _, reception, made = rig
+    reception.deliver(b"<View/>\n\x00", PEER)
+    bridge.poll(0)
+    [own] = made.made
+
+    def full(data: bytes, peer: tuple[str, int], /) -> int:
+        raise BlockingIOError(11, "Resource temporarily unavailable")
+
+    own.sendto = full  # type: ignore[method-assign]
+    viewer = bridge.clients.viewers()[0]
+    for _ in range(1000):
+        bridge.clients.send(viewer, b"<Robot/>")
+    lines = [r for r in caplog.records if "cannot send" in r.getMessage()]
+    assert len(lines) == 1
+    assert not own.closed  # a full buffer is not a gone viewer
