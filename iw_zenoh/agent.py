@@ -33,7 +33,7 @@ from iw_zenoh.bus import Bus, Inbox
 from iw_zenoh.convert import spec_from_msg, spec_to_msg
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.core.spec import RobotSpec
-from iw_zenoh.errors import DecodeError, IwError
+from iw_zenoh.errors import DecodeError, IwError, ProtocolError
 from iw_zenoh.hosting import Command, Outbox, WorldRegistration
 from iw_zenoh.messages import (
     Heard,
@@ -45,6 +45,7 @@ from iw_zenoh.messages import (
     readings_of,
 )
 from iw_zenoh.runtime import NodeIO
+from iw_zenoh.ticks import TickWindow
 
 __all__ = ["BATCH_FROM", "Agent", "AgentHost", "Command", "RegistrationRefused"]
 
@@ -102,6 +103,7 @@ class AgentHost:
         self.radio_alive: set[str] = set()
         self._heard: dict[int, dict[int, list[Heard]]] = {}
         self._fresh: dict[int, int] = {}  # tick -> how many hosted robots have that tick's readings
+        self.window = TickWindow()  # a reading or radio batch from too far ahead is refused
         self.lockstep = False
         self._requests = 0
         self.outbox = Outbox(bus, sim, name, batched=batched)
@@ -150,6 +152,8 @@ class AgentHost:
         if not reply.ok or reply.spec is None:
             raise RegistrationRefused(reply.reason)
         spec = spec_from_msg(reply.spec)
+        if self.window.newest is None or reply.tick > self.window.newest:
+            self.window.anchor(reply.tick, time.monotonic_ns())  # the world's own word for its tick
         if not self.hosted:  # learn the world's mode once (lock-step changes when we answer)
             for data in self.io.bus.query(keys.info(self.sim), timeout_s=timeout_s):
                 self.lockstep = decode(data, WorldInfo).mode == Mode.LOCKSTEP
@@ -161,10 +165,17 @@ class AgentHost:
             on_reg(reply.robot_id, spec)
         return reply.robot_id
 
+    def _in_window(self, key: str, tick: int) -> bool:
+        """Whether a tick is within the window; one that is not is refused with a bad-message event."""
+        why = self.window.refuse(tick, time.monotonic_ns())
+        if why:
+            self.io.bad_message(key, ProtocolError(why))
+        return not why
+
     def _collect(self) -> None:
         for d in self.radio.drain():
             b = self.io.decode(d, RadioBatch)
-            if b is not None:
+            if b is not None and self._in_window(d[0], b.tick):
                 self._heard[b.tick] = {h.robot_id: h.messages for h in b.hear}
         for d in self.readings.drain():
             rid = keys.robot_id_of(d[0])
@@ -172,7 +183,9 @@ class AgentHost:
             if h is None:
                 continue
             r = self.io.decode(d, SensorReading)
-            if r is not None and r.robot_id == rid:
+            if r is not None and r.robot_id != rid:
+                self.io.bad_message(d[0], ProtocolError(f"a reading of robot {r.robot_id} on robot {rid}'s key"))
+            elif r is not None and self._in_window(d[0], r.tick):
                 self._take(h, r)
         if self.batches is not None:
             for d in self.batches.drain():
@@ -181,8 +194,9 @@ class AgentHost:
                 except DecodeError as e:
                     self.io.bad_message(d[0], e)
                     continue
-                for r in mine:
-                    self._take(self.hosted[r.robot_id], r)
+                if mine and self._in_window(d[0], max(r.tick for r in mine)):
+                    for r in mine:
+                        self._take(self.hosted[r.robot_id], r)
 
     def _take(self, h: _Hosted, r: SensorReading) -> None:
         """Keeps a robot's newest reading and counts the tick's fresh ones."""

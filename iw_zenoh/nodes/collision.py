@@ -10,21 +10,38 @@ from collections.abc import Sequence
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus
 from iw_zenoh.core.contact import warm_up
+from iw_zenoh.errors import ProtocolError
 from iw_zenoh.messages import Proposed
 from iw_zenoh.nodes.info import InfoCache
 from iw_zenoh.runtime import NodeIO, start_role
 from iw_zenoh.sim.collision import CollisionNode
+from iw_zenoh.sim.view import WorldView
+from iw_zenoh.ticks import ViewWindow
 
 __all__ = ["main", "run"]
 
 logger = logging.getLogger(__name__)
 
 
+def _newest(
+    io: NodeIO, window: ViewWindow[WorldView], key: str, decoded: list[Proposed]
+) -> tuple[Proposed, WorldView | None] | None:
+    """The newest proposal that is not refused (a forged one, too far ahead or naming robots the
+    world does not have, is reported as a bad message), and its view of the world (None: no
+    world info for it); None when every one is refused."""
+    for msg in reversed(decoded):
+        view, why = window.view(msg, time.monotonic_ns())
+        if not why:
+            return msg, view
+        io.bad_message(key, ProtocolError(why))
+    return None
+
+
 def run(bus: Bus, sim: str, *, name: str = "collision", io: NodeIO | None = None) -> None:
     """Answers every proposal with a verdict until stopped."""
     io = io or NodeIO(bus, sim, "collision", name)
     inbox = io.inbox(keys.proposed(sim))
-    cache = InfoCache(bus, sim)
+    window = ViewWindow(InfoCache(bus, sim).get)
     node = CollisionNode()
     io.alive()
     while not io.stop.is_set():
@@ -37,9 +54,11 @@ def run(bus: Bus, sim: str, *, name: str = "collision", io: NodeIO | None = None
         decoded = [m for m in (io.decode(d, Proposed) for d in pending) if m is not None]
         if not decoded:
             continue
-        msg = decoded[-1]
-        view = cache.get(msg.revision)
-        if view is None or any(i not in view.specs for i in msg.ids):
+        newest = _newest(io, window, keys.proposed(sim), decoded)
+        if newest is None:
+            continue
+        msg, view = newest
+        if view is None:
             logger.warning(
                 "tick %d: no world info for revision %d; no verdict (the world holds robots)", msg.tick, msg.revision
             )

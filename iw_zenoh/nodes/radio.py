@@ -5,13 +5,16 @@ from __future__ import annotations
 
 import argparse
 import logging
+import time
 from collections.abc import Sequence
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus
+from iw_zenoh.errors import ProtocolError
 from iw_zenoh.messages import Say, WorldState
 from iw_zenoh.runtime import NodeIO, start_role
 from iw_zenoh.sim.radio import RadioConfig, RadioNode
+from iw_zenoh.ticks import TickWindow
 
 __all__ = ["main", "run"]
 
@@ -24,18 +27,24 @@ def run(bus: Bus, sim: str, cfg: RadioConfig | None = None, *, name: str = "radi
     says = io.inbox(keys.all_say(sim))
     states = io.inbox(keys.state(sim))
     node = RadioNode(sim, cfg)
+    window = TickWindow()  # a state too far ahead is refused (its hear lists would be too)
     io.alive()
     while not io.stop.is_set():
         got = False
         for d in says.drain():
             got = True
             msg = io.decode(d, Say)
-            if msg is not None and keys.robot_id_of(d[0]) == msg.robot_id:
+            if msg is not None and keys.robot_id_of(d[0]) != msg.robot_id:
+                io.bad_message(d[0], ProtocolError(f"a message of robot {msg.robot_id} on another robot's key"))
+            elif msg is not None:
                 node.on_say(msg)
         for d in states.drain():
             got = True
             st = io.decode(d, WorldState)
-            if st is not None:
+            why = window.refuse(st.tick, time.monotonic_ns()) if st is not None else ""
+            if why:
+                io.bad_message(d[0], ProtocolError(why))
+            elif st is not None:
                 io.send_all(node.on_state(st))
         if not got:
             io.wait(0.2)

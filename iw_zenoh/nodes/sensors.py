@@ -15,10 +15,13 @@ from collections.abc import Sequence
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus, Delivery, Inbox
 from iw_zenoh.core.cones import warm_up
+from iw_zenoh.errors import ProtocolError
 from iw_zenoh.messages import Proposed, WorldState, encode_sensor_batch
 from iw_zenoh.nodes.info import InfoCache
 from iw_zenoh.runtime import NodeIO, start_role
 from iw_zenoh.sim.sensors import Computed, SensorsNode
+from iw_zenoh.sim.view import WorldView
+from iw_zenoh.ticks import ViewWindow
 
 __all__ = ["main", "parse_shard", "run"]
 
@@ -59,7 +62,7 @@ def run(
     io = io or NodeIO(bus, sim, "sensors", name)
     inbox = io.inbox(keys.state(sim))
     proposals = io.inbox(keys.proposed(sim)) if ahead else Inbox()
-    cache = InfoCache(bus, sim)
+    window = ViewWindow(InfoCache(bus, sim).get)
     node: SensorsNode | None = None
     early: Computed | None = None
     ahead_from = 0  # compute ahead from this tick on
@@ -69,7 +72,7 @@ def run(
         if not pending:
             props = proposals.drain()
             if props and node is not None and node.last_tick + 1 >= ahead_from:
-                early = _ahead(io, cache, node, props[-1], early)
+                early = _ahead(io, window, node, props[-1], early)
                 continue
             io.wait(0.2)
             continue
@@ -78,9 +81,8 @@ def run(
         # are worth computing. Every message is decoded so a bad one is always reported.
         decoded = [m for m in (io.decode(d, WorldState) for d in pending) if m is not None]
         for msg in decoded[-CATCH_UP:]:
-            view = cache.get(msg.revision)
-            if view is None or any(i not in view.specs for i in msg.ids):
-                logger.warning("tick %d: no world info for revision %d", msg.tick, msg.revision)
+            view = _checked(io, window, keys.state(sim), msg)
+            if view is None:
                 continue
             if node is None:
                 node = SensorsNode(sim, view.info.seed, shard)
@@ -105,12 +107,25 @@ def run(
                 )
 
 
-def _ahead(io: NodeIO, cache: InfoCache, node: SensorsNode, d: Delivery, early: Computed | None) -> Computed | None:
+def _checked(io: NodeIO, window: ViewWindow[WorldView], key: str, msg: WorldState | Proposed) -> WorldView | None:
+    """The view to compute ``msg`` in, or None; a refused one (a tick too far ahead, robots the
+    world does not have) is reported as a bad message."""
+    view, why = window.view(msg, time.monotonic_ns())
+    if why:
+        io.bad_message(key, ProtocolError(why))
+    elif view is None:
+        logger.warning("tick %d: no world info for revision %d and robots %s", msg.tick, msg.revision, msg.ids[:5])
+    return view
+
+
+def _ahead(
+    io: NodeIO, window: ViewWindow[WorldView], node: SensorsNode, d: Delivery, early: Computed | None
+) -> Computed | None:
     """Tick n's readings computed ahead from its proposal while the collision process checks it
-    (``early`` when the proposal cannot be used: malformed, or no world info for it)."""
+    (``early`` when the proposal cannot be used: malformed, refused, or no world info for it)."""
     p = io.decode(d, Proposed)
-    view = cache.get(p.revision) if p is not None else None
-    if p is not None and view is not None and all(i in view.specs for i in p.ids):
+    view = _checked(io, window, d[0], p) if p is not None else None
+    if p is not None and view is not None:
         return node.ahead(p, view)
     return early
 

@@ -37,6 +37,7 @@ from iw_zenoh.nodes.world_options import WorldOptions, add_arguments, parse_obst
 from iw_zenoh.runtime import NodeIO, Process, options_from_args, start_role
 from iw_zenoh.sim.config import MS, WorldConfig
 from iw_zenoh.sim.world import WorldCore
+from iw_zenoh.ticks import too_far_ahead
 
 __all__ = ["WorldOptions", "add_arguments", "main", "parse_obstacle", "prepare", "run", "world_config"]
 
@@ -110,18 +111,42 @@ class _World:
             msg = io.decode(d, Control)
             if msg is not None:
                 io.send_all(core.on_control(msg))
+        self._take_actions(now)
+        self._take_batches(now)
+        for d in self.reports.drain():
+            r = io.decode(d, PoseReport)
+            if r is not None and self._robot_message(d[0], r.robot_id, r.tick):
+                core.on_pose_report(r, now)
+
+    def _robot_message(self, key: str, robot_id: int, tick: int) -> bool:
+        """Whether a robot's message may be acted on: on its own key, for a robot the world knows,
+        its tick within the window; otherwise it is refused with a bad-message event saying why."""
+        why = too_far_ahead(tick, self.core.tick)
+        if keys.robot_id_of(key) != robot_id:
+            why = f"a message of robot {robot_id} on another robot's key"
+        elif robot_id not in self.core.registry.entries:
+            why = f"robot {robot_id} is not in the world"
+        if why:
+            self.io.event(EventKind.BAD_MESSAGE, why, key=key, robot_id=robot_id, tick=self.core.tick)
+        return not why
+
+    def _take_actions(self, now: int) -> None:
         for d in self.actions.drain():
-            a = io.decode(d, Actions)
-            if a is not None and keys.robot_id_of(d[0]) == a.robot_id:
-                io.send_all(core.on_actions(a, now))
-            elif a is not None:
-                io.event(EventKind.BAD_MESSAGE, f"actions for robot {a.robot_id} on another robot's key", key=d[0])
+            a = self.io.decode(d, Actions)
+            if a is not None and self._robot_message(d[0], a.robot_id, a.tick):
+                self.io.send_all(self.core.on_actions(a, now))
+
+    def _take_batches(self, now: int) -> None:
+        core, io = self.core, self.io
         for d in self.batches.drain():
             b = io.decode(d, ActionBatch)
             if b is None:
                 continue
+            why = too_far_ahead(max([b.tick, *(a.tick for a in b.actions)]), core.tick)
             if keys.agent_of(d[0]) != b.agent:
-                io.event(EventKind.BAD_MESSAGE, f"actions of agent {b.agent!r} on another agent's key", key=d[0])
+                why = f"actions of agent {b.agent!r} on another agent's key"
+            if why:
+                io.event(EventKind.BAD_MESSAGE, why, key=d[0], tick=core.tick)
                 continue
             for a in b.actions:
                 entry = core.registry.entries.get(a.robot_id)
@@ -133,10 +158,6 @@ class _World:
                         f"agent {b.agent!r} sent actions for robot {a.robot_id}, not its own",
                         key=d[0],
                     )
-        for d in self.reports.drain():
-            r = io.decode(d, PoseReport)
-            if r is not None and keys.robot_id_of(d[0]) == r.robot_id:
-                core.on_pose_report(r, now)
 
     def wait_until(self, deadline_ns: int, done: object = None) -> None:
         """Pumps inputs until the deadline, or until ``done()`` is true."""
