@@ -73,8 +73,10 @@ __all__ = [
 T = TypeVar("T", bound="Message")
 
 Finite = Annotated[float, msgspec.Meta(description="a finite number")]
-NonNeg = Annotated[int, msgspec.Meta(ge=0)]
-RobotId = Annotated[int, msgspec.Meta(ge=0)]
+INT64_MAX = 2**63 - 1  # every integer on the wire fits 64 bits (numpy arrays, MCAP times)
+NonNeg = Annotated[int, msgspec.Meta(ge=0, le=INT64_MAX)]
+RobotId = Annotated[int, msgspec.Meta(ge=0, le=INT64_MAX)]
+Int64 = Annotated[int, msgspec.Meta(ge=-INT64_MAX - 1, le=INT64_MAX)]
 SAY_MAX_BYTES = 100  # Ciber-Rato DCOSS: at most 100 bytes a message
 COORD_LIMIT = 1e9  # a pose, power or distance beyond this (m, rad, deg) measures nothing real
 
@@ -256,7 +258,7 @@ class WorldInfo(Message, frozen=True, kw_only=True):
     profile: Profile = Profile.NATIVE
     mode: Mode = Mode.REALTIME
     period_ns: NonNeg
-    seed: int = 0
+    seed: NonNeg = 0  # seeds numpy's generators, which take no negative seed
     robots: list[RobotSpecMsg] = []
     obstacles: list[Obstacle] = []
     sim: str = "default"
@@ -322,8 +324,8 @@ class Hit(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True)
     """One collision: a robot and a wall (index; the lab's wall count is the border) or robot."""
 
     robot_id: RobotId
-    wall: Annotated[int, msgspec.Meta(ge=-1)] = -1
-    other: Annotated[int, msgspec.Meta(ge=-1)] = -1
+    wall: Annotated[int, msgspec.Meta(ge=-1, le=INT64_MAX)] = -1
+    other: Annotated[int, msgspec.Meta(ge=-1, le=INT64_MAX)] = -1
 
 
 class Verdict(Message, frozen=True, kw_only=True):
@@ -426,15 +428,15 @@ class SensorReading(Message, frozen=True, kw_only=True):
 
     schema: ClassVar[str] = "iw.SensorReading/1"
     robot_id: RobotId
-    proximity_ids: list[int]
+    proximity_ids: list[Int64]
     proximity_m: list[float | None]
     proximity_legacy: list[float]
     compass_deg: float
     beacons_deg: list[float | None] = []
     gps: tuple[float, float, float]
-    ground: int = -1
+    ground: Int64 = -1
     collision: bool = False
-    encoders: tuple[int, int] = (0, 0)
+    encoders: tuple[Int64, Int64] = (0, 0)
     bumpers: list[bool] = []
     tick_wall_ns: NonNeg = 0  # the world's tick start, copied from the state
 
@@ -544,7 +546,7 @@ class Control(Message, frozen=True, kw_only=True):
     ]
     robot_id: RobotId = 0
     obstacle: Obstacle | None = None
-    steps: Annotated[int, msgspec.Meta(ge=1)] = 1
+    steps: Annotated[int, msgspec.Meta(ge=1, le=INT64_MAX)] = 1
     at_ns: NonNeg = 0  # seek: the simulation time to go to (replays)
 
 
@@ -583,7 +585,7 @@ class Event(Message, frozen=True, kw_only=True):
     schema: ClassVar[str] = "iw.Event/1"
     kind: EventKind
     reason: str = ""
-    robot_id: int = -1
+    robot_id: Annotated[int, msgspec.Meta(ge=-1, le=INT64_MAX)] = -1
     key: str = ""
     source: str = ""
     data: dict[str, Any] = {}
@@ -605,7 +607,7 @@ class CollisionData(EventData, frozen=True, kw_only=True):
 
     x: float
     y: float
-    walls: list[int] = []
+    walls: list[Int64] = []
     robots: list[RobotId] = []
 
 
@@ -809,12 +811,13 @@ _STAMP = msgspec.json.Decoder(_Stamp)
 
 
 def stamp_of(data: bytes) -> tuple[int, int]:
-    """``(tick, sim_time_ns)`` of any message, cheaply; ``(0, 0)`` when it does not say."""
+    """``(tick, sim_time_ns)`` of any message, cheaply, each within 0..2**63-1; ``(0, 0)`` when
+    it does not say."""
     try:
         s = _STAMP.decode(data)
     except (msgspec.DecodeError, msgspec.ValidationError):
         return 0, 0
-    return max(0, s.tick), max(0, s.sim_time_ns)
+    return min(max(0, s.tick), INT64_MAX), min(max(0, s.sim_time_ns), INT64_MAX)
 
 
 _ENCODER = msgspec.json.Encoder()
