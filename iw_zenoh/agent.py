@@ -138,7 +138,13 @@ class AgentHost:
         )
         while not reg.poll(time.monotonic()) and not self.io.stop.is_set():
             reg.wait(self.io.stop, time.monotonic())
-        reply = reg.reply()
+        try:
+            reply = reg.reply()
+            spec = spec_from_msg(reply.spec) if reply is not None and reply.ok and reply.spec is not None else None
+        except IwError as e:  # an answer that does not decode, or a spec the world should not have sent
+            if early is not None:
+                early.undeclare()
+            raise RegistrationRefused(f"the answer on {keys.register(self.sim)} is refused: {e}") from None
         if reply is None:
             if early is not None:
                 early.undeclare()
@@ -149,14 +155,15 @@ class AgentHost:
         if early is not None and (not reply.ok or reply.robot_id != asked.id):
             early.undeclare()
             early = None
-        if not reply.ok or reply.spec is None:
+        if not reply.ok or spec is None:
             raise RegistrationRefused(reply.reason)
-        spec = spec_from_msg(reply.spec)
-        if self.window.newest is None or reply.tick > self.window.newest:
-            self.window.anchor(reply.tick, time.monotonic_ns())  # the world's own word for its tick
+        self.window.anchor(reply.tick, time.monotonic_ns())  # the world's own word for its tick
         if not self.hosted:  # learn the world's mode once (lock-step changes when we answer)
             for data in self.io.bus.query(keys.info(self.sim), timeout_s=timeout_s):
-                self.lockstep = decode(data, WorldInfo).mode == Mode.LOCKSTEP
+                try:
+                    self.lockstep = decode(data, WorldInfo).mode == Mode.LOCKSTEP
+                except DecodeError as e:
+                    self.io.bad_message(keys.info(self.sim), e)
         self.hosted[reply.robot_id] = _Hosted(agent, reply.robot_id, spec)
         if early is None and not self.batched:
             self.io.bus.subscribe(keys.sensors(self.sim, reply.robot_id), self.readings)

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Asked, Bus
+from iw_zenoh.errors import DecodeError
 from iw_zenoh.messages import (
     ActionBatch,
     Actions,
@@ -167,9 +168,18 @@ class WorldRegistration:
             stop.wait(max(0.0, ASK_AGAIN_S - (now - self.asked_at)))
 
     def reply(self) -> RegisterReply | None:
-        """The world's answer, or None when no world answered.
+        """The world's answer (the first that decodes: one that does not, from some other
+        queryable, is passed over), or None when no world answered.
 
         Raises:
-            DecodeError: When the answer does not decode.
+            DecodeError: When no answer decodes (the first one's reason).
         """
-        return decode(self.asked.replies[0], RegisterReply) if self.asked.replies else None
+        refused: DecodeError | None = None
+        for data in list(self.asked.replies):
+            try:
+                return decode(data, RegisterReply)
+            except DecodeError as e:
+                refused = refused or e
+        if refused is not None:
+            raise refused
+        return None

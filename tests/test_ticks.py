@@ -5,8 +5,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import pytest
+
 from iw_zenoh import keys
-from iw_zenoh.agent import AgentHost
+from iw_zenoh.agent import AgentHost, RegistrationRefused
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.hosting import Command
 from iw_zenoh.messages import (
@@ -164,3 +166,20 @@ def test_an_agent_refuses_a_radio_batch_from_far_ahead_and_a_reading_on_another_
     assert [e.key for e in _bad(bus)] == [keys.radio("t"), keys.sensors("t", 1)]
     assert "robot 2 on robot 1's key" in _bad(bus)[1].reason
     assert _answered(bus) == []
+
+
+def test_a_registration_answer_that_does_not_decode_is_passed_over_for_one_that_does() -> None:
+    bus = FakeBus()
+    good = RegisterReply(tick=5, ok=True, robot_id=1, spec=RobotSpecMsg(name="fwd", id=1, x=1.0, y=1.0))
+    bus.answer = lambda key, payload: [b'{"ok": "yes"}', encode(good)]
+    host = AgentHost(bus, "t", "host")
+    assert host.add(_Forward(), timeout_s=1.0) == 1
+
+
+def test_a_registration_answer_that_is_refused_refuses_the_registration_with_its_reason() -> None:
+    bus = FakeBus()
+    bad = RegisterReply(tick=5, ok=True, robot_id=1, spec=RobotSpecMsg(name="fwd", id=1, width=-1.0))
+    bus.answer = lambda key, payload: [encode(bad)]
+    host = AgentHost(bus, "t", "host")
+    with pytest.raises(RegistrationRefused, match="width"):
+        host.add(_Forward(), timeout_s=1.0)

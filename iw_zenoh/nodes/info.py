@@ -43,15 +43,15 @@ class InfoCache:
         for data in self.bus.query(keys.info(self.sim), timeout_s=self.timeout_s):
             try:
                 info = decode(data, WorldInfo)
-            except IwError as e:
+                lab = lab_from_msg(info.lab)
+                key = (info.lab.name, len(lab.walls), tuple(w.corners for w in lab.walls))
+                specs = {s.id: spec_from_msg(s) for s in info.robots}
+                if self._scene is None or key != self._scene_key:
+                    self._scene = Scene(lab)
+                    self._scene_key = key
+            except (IwError, ValueError) as e:  # not the world's: a robot or a wall it cannot have
                 logger.warning("world/info answer refused: %s", e)
                 continue
-            lab = lab_from_msg(info.lab)
-            key = (info.lab.name, len(lab.walls), tuple(w.corners for w in lab.walls))
-            if self._scene is None or key != self._scene_key:
-                self._scene = Scene(lab)
-                self._scene_key = key
-            specs = {s.id: spec_from_msg(s) for s in info.robots}
             self.view = WorldView(info, self._scene, specs)
             return self.view if info.revision >= revision else None
         return None
