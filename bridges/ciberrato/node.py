@@ -43,6 +43,7 @@ from iw_zenoh.messages import (
     decode,
 )
 from iw_zenoh.runtime import NodeIO
+from iw_zenoh.ticks import TickWindow
 
 from .clients import ClientTable
 from .codec import build_refusal, build_reply, parse_actions, parse_registration, parse_viewer_command
@@ -119,6 +120,7 @@ class Bridge:
         self.hears = bus.queue(keys.radio(sim), 256)  # the radio's batch: one message a tick
         self.infos = bus.queue(keys.info(sim), 16)
         self.verdicts = bus.queue(keys.verdict(sim), 64)  # which collisions were walls, which robots
+        self.window = TickWindow()  # a tick of 10^15 would finish the game or silence a robot
         self.outbox = Outbox(bus, sim, name, batched=True)  # every robot's actions of a pass in one
         self.registrar = Registrar(bus, sim, name, self.params)
         self.referee = Referee(self.params, scoring, self._world_info)
@@ -261,7 +263,7 @@ class Bridge:
         """Takes new readings, hear lists, states and ticks; sends Measures and viewer states."""
         for info in _decoded(self.infos, WorldInfo)[-1:]:
             self.info = info
-        for verdict in _decoded(self.verdicts, Verdict):
+        for verdict in self._current(self.verdicts, Verdict):
             self.referee.on_verdict(verdict)
         self._take_states()
         self._take_readings()
@@ -272,8 +274,28 @@ class Bridge:
                     robot.heard = [(h.sender, h.text) for h in hear.messages]
         self._take_ticks()
 
+    def _in_window(self, key: str, tick: int) -> bool:
+        """Whether a tick is within the window (:mod:`iw_zenoh.ticks`); if not, a bad message."""
+        why = self.window.refuse(tick, time.monotonic_ns())
+        if why:
+            self.io.bad_message(key, ProtocolError(why))
+        return not why
+
+    def _current(self, queue: Queue, kind: type[M]) -> list[M]:
+        """The messages waiting in a bus queue whose tick is within the window; one that does not
+        decode is skipped, one from too far ahead reported."""
+        out = []
+        for key, data, _ in queue.drain():
+            try:
+                msg = decode(data, kind)
+            except IwError:
+                continue
+            if self._in_window(key, msg.tick):
+                out.append(msg)
+        return out
+
     def _take_states(self) -> None:
-        states = _decoded(self.states, WorldState)
+        states = self._current(self.states, WorldState)
         for st in states:  # every step counts for the scores
             self.referee.step(st, self.robots, self.info)
             self._check_finished(st.tick)
@@ -290,9 +312,12 @@ class Bridge:
         batches: list[SensorBatch] = []
         for key, data, _ in self.readings.drain():
             try:
-                batches.append(decode(data, SensorBatch))
+                b = decode(data, SensorBatch)
             except IwError as e:
                 self.io.bad_message(key, e)
+                continue
+            if self._in_window(key, max([b.tick, *(r.tick for r in b.readings)])):
+                batches.append(b)
         now = time.time_ns()
         for robot, reading in self.delivery.arrived(batches, self.robots, self.info, now):
             robot.reading = reading
@@ -304,7 +329,7 @@ class Bridge:
         return self._next_measures(robot, reading.tick)
 
     def _take_ticks(self) -> None:
-        for t in _decoded(self.ticks, Tick)[-1:]:
+        for t in self._current(self.ticks, Tick)[-1:]:
             self.running = t.running
             if not t.running:  # stopped: Measures keep coming, as the legacy server sends them
                 for robot in self.robots.values():
