@@ -48,7 +48,7 @@ class WorldSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     mode: Mode = Mode.REALTIME
     profile: Profile = Profile.NATIVE
     period_ms: Annotated[float, msgspec.Meta(gt=0)] = 100.0
-    seed: int = 0
+    seed: Annotated[int, msgspec.Meta(ge=0)] = 0  # numpy takes no negative seed
     duration_s: Annotated[float, msgspec.Meta(gt=0)] = 60.0
     args: tuple[Arg, ...] = ()
 

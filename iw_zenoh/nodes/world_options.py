@@ -46,7 +46,7 @@ class WorldOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     period_ms: Annotated[float, msgspec.Meta(gt=0)] = _CORE.period_ms
     mode: Mode = _CORE.mode
     profile: Profile = _CORE.profile
-    seed: int = _CORE.seed
+    seed: Annotated[int, msgspec.Meta(ge=0)] = _CORE.seed  # numpy takes no negative seed
     action_timeout_ms: float = _CORE.action_timeout_ms
     grace_ms: float = _CORE.grace_ms
     lockstep_timeout_ms: float = _CORE.lockstep_timeout_ms
