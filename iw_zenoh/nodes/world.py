@@ -43,6 +43,9 @@ __all__ = ["WorldOptions", "add_arguments", "main", "parse_obstacle", "prepare",
 
 logger = logging.getLogger(__name__)
 
+UNKNOWN_EVERY_NS = 1_000_000_000  # messages for a robot the world does not have: one event a second
+UNKNOWN_KEPT = 1_000  # robots remembered for that (forged ids by the million cost no memory)
+
 
 class _World:
     """The world's I/O loop around a :class:`WorldCore`."""
@@ -60,6 +63,7 @@ class _World:
         self.register_q = bus.serve(keys.register(sim))
         self.info_q = bus.serve(keys.info(sim))
         self.alive_changes: list[tuple[str, bool]] = []
+        self._unknown: dict[int, int] = {}  # robot the world does not have -> when last reported
         self._info_revision = -1
         bus.watch_alive(keys.all_alive(sim), self._on_alive)
         self.io.alive()
@@ -115,16 +119,23 @@ class _World:
         self._take_batches(now)
         for d in self.reports.drain():
             r = io.decode(d, PoseReport)
-            if r is not None and self._robot_message(d[0], r.robot_id, r.tick):
+            if r is not None and self._robot_message(d[0], r.robot_id, r.tick, now):
                 core.on_pose_report(r, now)
 
-    def _robot_message(self, key: str, robot_id: int, tick: int) -> bool:
+    def _robot_message(self, key: str, robot_id: int, tick: int, now: int) -> bool:
         """Whether a robot's message may be acted on: on its own key, for a robot the world knows,
-        its tick within the window; otherwise it is refused with a bad-message event saying why."""
+        its tick within the window; otherwise it is refused with a bad-message event saying why
+        (for a robot the world does not have, at most once a second: a removed robot's agent may
+        go on sending a while)."""
         why = too_far_ahead(tick, self.core.tick)
         if keys.robot_id_of(key) != robot_id:
             why = f"a message of robot {robot_id} on another robot's key"
         elif robot_id not in self.core.registry.entries:
+            if now - self._unknown.get(robot_id, now - UNKNOWN_EVERY_NS) < UNKNOWN_EVERY_NS:
+                return False
+            if len(self._unknown) >= UNKNOWN_KEPT:
+                self._unknown.clear()
+            self._unknown[robot_id] = now
             why = f"robot {robot_id} is not in the world"
         if why:
             self.io.event(EventKind.BAD_MESSAGE, why, key=key, robot_id=robot_id, tick=self.core.tick)
@@ -133,7 +144,7 @@ class _World:
     def _take_actions(self, now: int) -> None:
         for d in self.actions.drain():
             a = self.io.decode(d, Actions)
-            if a is not None and self._robot_message(d[0], a.robot_id, a.tick):
+            if a is not None and self._robot_message(d[0], a.robot_id, a.tick, now):
                 self.io.send_all(self.core.on_actions(a, now))
 
     def _take_batches(self, now: int) -> None:
