@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import enum
 import math
-from collections.abc import Container, Sized
+from collections.abc import Container, Mapping, Sized
 from typing import Annotated, Any, ClassVar, Literal, TypeVar, overload
 
 import msgspec
@@ -86,7 +86,7 @@ COORD_LIMIT = 1e9  # a pose, power or distance beyond this (m, rad, deg) measure
 # 20-30 us more to decode, ~170 us before)
 
 
-def _lengths(n: int, of: str, arrays: dict[str, Sized]) -> None:
+def _lengths(n: int, of: str, arrays: Mapping[str, Sized]) -> None:
     """Refuses arrays that do not hold one value per robot (or per reading)."""
     for name, a in arrays.items():
         if len(a) != n:
@@ -103,7 +103,7 @@ def _unique(ids: list[int], name: str = "ids") -> set[int]:
     return seen
 
 
-def _magnitudes(arrays: dict[str, list[float]], limit: float = COORD_LIMIT) -> None:
+def _magnitudes(arrays: Mapping[str, list[float]], limit: float = COORD_LIMIT) -> None:
     """Refuses an array holding a value beyond ``limit`` either way (its root sum of squares, one
     C pass, bounds every value; JSON carries no NaN, and one built here passes, to be refused
     by its receivers as before)."""
@@ -302,9 +302,10 @@ class Proposed(Message, frozen=True, kw_only=True):
     tick_wall_ns: NonNeg = 0
 
     def __post_init__(self) -> None:
-        """Refuses arrays of different lengths, a robot named twice, a value beyond any lab."""
+        """Refuses arrays of different lengths (``rolled_*`` may both be empty: older worlds did
+        not send them), a robot named twice, a value beyond any lab."""
         n = len(self.ids)
-        arrays = {
+        poses = {
             "x": self.x,
             "y": self.y,
             "heading": self.heading,
@@ -312,12 +313,12 @@ class Proposed(Message, frozen=True, kw_only=True):
             "next_y": self.next_y,
             "next_heading": self.next_heading,
             "linear": self.linear,
-            "rolled_left": self.rolled_left,
-            "rolled_right": self.rolled_right,
         }
-        _lengths(n, "robots", {**arrays, "active": self.active})
+        rolled = {"rolled_left": self.rolled_left, "rolled_right": self.rolled_right}
+        _lengths(n, "robots", {**poses, "active": self.active})
+        _lengths(n if self.rolled_left or self.rolled_right else 0, "robots", rolled)
         _unique(self.ids)
-        _magnitudes(arrays)
+        _magnitudes({**poses, **rolled})
 
 
 class Hit(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):

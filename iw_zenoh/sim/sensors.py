@@ -97,8 +97,13 @@ class SensorsNode:
 
     def ahead(self, proposal: Proposed, view: WorldView) -> Computed | None:
         """Readings of tick n computed from its proposal (not committed), or None when the
-        previous tick's readings are not out yet (encoder counts would be stale)."""
-        if self.last_tick >= 0 and proposal.tick != self.last_tick + 1:
+        previous tick's readings are not out yet (encoder counts would be stale), or when it does
+        not say how far the wheels rolled (an older world's)."""
+        if (
+            self.last_tick >= 0
+            and proposal.tick != self.last_tick + 1
+            or len(proposal.rolled_left) != len(proposal.ids)
+        ):
             return None
         return self.compute(state_from_proposal(proposal), view)
 

@@ -139,3 +139,11 @@ def test_computing_ahead_needs_the_previous_ticks_readings_out() -> None:
     node.on_state(_state(1, [1, 2], 1), view)
     assert node.ahead(_proposal(_state(3, [1, 2], 1)), view) is None  # tick 2 not out yet
     assert node.ahead(_proposal(_state(2, [1, 2], 1)), view) is not None
+
+
+def test_a_proposal_of_an_older_world_that_does_not_say_how_far_the_wheels_rolled_is_not_computed_ahead() -> None:
+    node = SensorsNode("t", seed=5)
+    st = _state(1, [1, 2], 1)
+    old = msgspec.structs.replace(_proposal(st), rolled_left=[], rolled_right=[])
+    assert node.ahead(old, _view([1, 2], 1)) is None
+    assert node.ahead(_proposal(st), _view([1, 2], 1)) is not None
