@@ -154,11 +154,12 @@ class Bridge:
         finally:
             t.close()
 
-    def _world_info(self) -> WorldInfo | None:
+    def _world_info(self, *, now_or_never: bool = False) -> WorldInfo | None:
         """The world's description; asked (waiting up to 2 s) at most every INFO_ASK_S while no
-        world answers (asked for every registration, a flood of them froze the loop)."""
+        world answers (asked for every registration, a flood of them froze the loop), or at once
+        with ``now_or_never`` (a world has just answered, so it is there)."""
         now = time.monotonic()
-        if self.info is None and now - self._info_asked >= INFO_ASK_S:
+        if self.info is None and (now_or_never or now - self._info_asked >= INFO_ASK_S):
             self._info_asked = now
             for data in self.bus.query(keys.info(self.sim), timeout_s=2.0):
                 try:
@@ -208,8 +209,10 @@ class Bridge:
             self._refuse(peer, reply.reason if reply else "no world answered the registration")
             self._answer_alone(build_refusal(), peer)
             return
+        # told what the world is now: a registration may have come before its description did
+        params, nb = self.registrar.told(self._world_info(now_or_never=True))
         t = self.new_transport()
-        robot = LegacyRobot(reply.robot_id, name=p.spec.name, n_beacons=p.nb_sensed)
+        robot = LegacyRobot(reply.robot_id, name=p.spec.name, n_beacons=nb + p.carried)
         self.registrar.accepted(reply.robot_id, p.spec)
         placed = reply.spec
         if placed is not None and placed.x is not None and placed.y is not None:
@@ -218,7 +221,7 @@ class Bridge:
         self.clients.add(link)
         self.robots[robot.robot_id] = robot
         self.referee.game(robot)  # its state machine and score, from its first step
-        t.sendto(build_reply(p.params, n_beacons=p.nb), peer)
+        t.sendto(build_reply(params, n_beacons=nb), peer)
         logger.info("legacy robot %s from %s:%d is robot %d", p.spec.name, peer[0], peer[1], robot.robot_id)
 
     def on_client_datagram(self, c: Viewer | RobotLink, data: bytes, peer: Peer) -> None:

@@ -45,9 +45,7 @@ class Pending:
 
     asked: WorldRegistration
     spec: RobotSpec
-    params: SimParameters  # what the client is told
-    nb: int  # NBeacons in the reply
-    nb_sensed: int  # beacons the robot will sense
+    carried: int  # beacons robots carried when it asked (the lab's own are counted at the answer)
 
 
 @dataclass(frozen=True)
@@ -136,7 +134,7 @@ class Registrar:
         asked = WorldRegistration(
             self.bus, self.sim, req, now=now, patience_s=WORLD_WAIT_S, query_timeout_s=QUERY_TIMEOUT_S
         )
-        self.pending[peer] = Pending(asked, spec, params, nb, nb + n_carried)
+        self.pending[peer] = Pending(asked, spec, n_carried)
         return Admission()
 
     def answered(self, now: float) -> list[tuple[Peer, Pending, RegisterReply | None]]:

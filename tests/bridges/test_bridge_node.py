@@ -12,10 +12,12 @@ from iw_zenoh import keys
 from iw_zenoh.messages import (
     ActionBatch,
     Event,
+    LabMsg,
     RegisterReply,
     RobotSpecMsg,
     SensorBatch,
     SensorReading,
+    WorldInfo,
     decode,
     encode,
 )
@@ -55,6 +57,26 @@ def test_a_robot_the_world_accepts_is_answered_from_a_socket_of_its_own(rig: Rig
     assert reply.startswith(b'<Reply Status="Ok">')
     assert reception.sent == []
     assert bridge.robots[7].start == (1.0, 2.0)
+
+
+def test_a_robot_that_asks_before_the_worlds_description_is_told_the_world_that_answers(rig: Rig) -> None:
+    # the world's queryables come up one by one: the registration may be answered by a world
+    # whose description the bridge has not had yet (it told the robot 0 beacons, 50 ms cycles)
+    bridge, bus, reception, made = rig
+    accept = encode(RegisterReply(ok=True, robot_id=7, spec=RobotSpecMsg(name="bot1", id=7, x=1.0, y=2.0)))
+    beacons = [(1.0, 1.0, 2.0), (2.0, 2.0, 2.0), (3.0, 3.0, 2.0)]
+    info = WorldInfo(revision=1, lab=LabMsg(name="l", width=28, height=14, beacons=beacons), period_ns=75_000_000)
+
+    def answer(key: str, payload: bytes) -> list[bytes]:
+        bus.info.append(encode(info))  # described only once it has answered
+        return [accept]
+
+    bus.answer = answer
+    own = _register(bridge, reception, made)
+    [(reply, _)] = own.sent
+    assert b'NBeacons="3"' in reply
+    assert b'CycleTime="75"' in reply
+    assert bridge.robots[7].n_beacons == 3
 
 
 def test_a_robot_the_world_refuses_gets_the_legacy_refusal(rig: Rig) -> None:
