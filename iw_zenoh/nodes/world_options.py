@@ -15,6 +15,7 @@ from iw_zenoh.core.modes import Mode, Profile
 from iw_zenoh.messages import Obstacle
 from iw_zenoh.runtime import add_options_argument, option
 from iw_zenoh.sim.config import WorldConfig
+from iw_zenoh.sim.resume import WorldSnapshot
 
 __all__ = ["WorldOptions", "add_arguments", "parse_obstacle"]
 
@@ -39,6 +40,8 @@ class WorldOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
         start_paused: Do not tick until a ``start`` control arrives.
         motors_noise_pct: Ciber-Rato MotorsNoise, percent (legacy profile).
         obstacles: Rectangular obstacles placed before the first tick.
+        resume: Go on from this last committed state (``iwz run`` restarting a world that died;
+            its obstacles replace ``obstacles``); None: a new run.
     """
 
     map: str = ""
@@ -55,6 +58,7 @@ class WorldOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     start_paused: bool = _CORE.start_paused
     motors_noise_pct: float = _CORE.motors_noise_pct
     obstacles: tuple[Obstacle, ...] = ()
+    resume: WorldSnapshot | None = None
 
 
 # each flag of ``iwz world``: the field it fills, how argparse reads it, its help ({default}: the field's)
