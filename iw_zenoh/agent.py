@@ -54,6 +54,7 @@ logger = logging.getLogger(__name__)
 
 BATCH_FROM = 8  # robots in one host from which `iwz agent` reads and answers in batches
 SILENT_S = 2.0  # no readings this long: the host asks the world whether its robots are still there
+UNANSWERED_S = 0.3  # and asks again this soon when no world answered
 
 
 class Agent(Protocol):
@@ -188,6 +189,8 @@ class AgentHost:
                 else:
                     self._orphans.append(h.agent)
         if self._asked_info is not None and self._asked_info.answered():
+            if not self._asked_info.replies:  # no world, or this process not connected again yet
+                self._asked_at = now - SILENT_S + UNANSWERED_S
             self._gone_from_info(self._asked_info.replies)
             self._asked_info = None
         silent = now - max(self._last_reading, self._asked_at) > SILENT_S
