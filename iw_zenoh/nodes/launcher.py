@@ -7,7 +7,6 @@ refused; 3 a role could not start; 130 interrupted.
 
 from __future__ import annotations
 
-import argparse
 import logging
 import os
 import signal
@@ -26,15 +25,15 @@ from iw_zenoh import keys
 from iw_zenoh.bus import Inbox, ZenohBus
 from iw_zenoh.config import Scenario, load_scenario
 from iw_zenoh.core.modes import Mode
-from iw_zenoh.errors import ConfigError, IwError
+from iw_zenoh.errors import IwError
 from iw_zenoh.messages import Control, Event, WorldInfo, WorldState, decode, encode
 from iw_zenoh.net import DEFAULT_PORT, NetConfig, free_port, port_in_use
 from iw_zenoh.nodes.child import Child
 from iw_zenoh.nodes.restarts import MAX_RESTARTS, Restarts
+from iw_zenoh.nodes.run_args import build_parser, default_recording
 from iw_zenoh.nodes.tally import Tally
-from iw_zenoh.nodes.world_options import WorldOptions
-from iw_zenoh.nodes.world_options import add_arguments as add_world_arguments
-from iw_zenoh.runtime import options_from_argv, setup_logging
+from iw_zenoh.nodes.world_options import world_options
+from iw_zenoh.runtime import setup_logging
 
 __all__ = ["Child", "Launcher", "main", "world_options"]
 
@@ -309,17 +308,7 @@ class Launcher:
             self._say(f"the router did not listen again on {self.endpoint} within 10 s")
 
     def _status_line(self, wall_s: float, agents: list[Child]) -> None:
-        t = self.tally
-        rtf = t.sim_s / wall_s if wall_s > 0 else 0.0
-        # what is really alive: an agent whose token is there (a stopped one is not, though its
-        # process exists), a robot whose agent is (the world keeps a lost one for its grace)
-        alive = sum(1 for c in agents if c.token in t.agents_alive)
-        line = (
-            f"t={t.sim_s:7.1f} s  tick {t.tick:6d}  RTF {rtf:5.2f}x  robots {t.robots_alive()}/{t.robots}  "
-            f"collisions {t.collisions}  agents {alive}/{len(agents)}"
-        )
-        if t.holding:
-            line += f"  HOLDING: {t.holding}"
+        line = self.tally.status(wall_s, sum(1 for c in agents if c.token in self.tally.agents_alive), len(agents))
         if sys.stdout.isatty():
             print("\r" + line.ljust(110), end="", flush=True)
         else:
@@ -351,59 +340,6 @@ class Launcher:
     def verdict(self) -> tuple[bool, list[str]]:
         """Whether the criteria are met, and a line per criterion."""
         return self.tally.verdict(self.sc.criteria)
-
-
-def world_options(sc: Scenario) -> tuple[WorldOptions, list[str]]:
-    """The world's options for a scenario, and what of its ``world.args`` is not an option flag.
-
-    Raises:
-        ConfigError: A ``world.args`` flag the world refuses (naming the scenario field).
-    """
-    w = sc.world
-    options = WorldOptions(
-        map=str(w.map),
-        grid=str(w.grid) if w.grid else "",
-        period_ms=w.period_ms,
-        mode=w.mode,
-        profile=w.profile,
-        seed=w.seed,
-        duration_s=w.duration_s,
-        expect=sc.robots,
-        obstacles=sc.obstacles,
-    )
-    try:
-        return options_from_argv(w.argv, WorldOptions, add_world_arguments, base=options, prog="iwz world")
-    except IwError as e:
-        raise ConfigError(f"{sc.name}: world.args", str(e)) from None
-
-
-def default_recording(name: str) -> Path:
-    """``recordings/NAME-DATE-TIME.mcap``."""
-    return Path("recordings") / f"{name}-{time.strftime('%Y%m%d-%H%M%S')}.mcap"
-
-
-def build_parser() -> argparse.ArgumentParser:
-    """The arguments of ``iwz run``."""
-    p = argparse.ArgumentParser(
-        prog="iwz run",
-        description=(
-            "Start a whole simulation from a scenario file: the router, world, collision, sensors, "
-            "radio and every agent, each its own process on this machine."
-        ),
-        epilog="Example: iwz run maps/demo.toml    (Ctrl-C stops everything cleanly)",
-    )
-    p.add_argument("scenario", help="scenario TOML file (see docs/scenarios.md)")
-    p.add_argument(
-        "--port", type=int, default=0, help="router port on 127.0.0.1 (default 7447, or a free port if taken)"
-    )
-    p.add_argument("--sim", default="default", help="simulation name (default: default)")
-    p.add_argument("--log-dir", help="where each process's log goes (default: a new temporary folder)")
-    p.add_argument("--no-status", action="store_true", help="no live status line")
-    p.add_argument("--record", metavar="FILE", help="record the run here (default recordings/SCENARIO-DATE-TIME.mcap)")
-    p.add_argument("--no-record", action="store_true", help="do not record the run")
-    p.add_argument("--lockstep", action="store_true", help="run in lock-step whatever the scenario says (reproducible)")
-    p.add_argument("-v", "--verbose", action="count", default=0, help="log more")
-    return p
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -465,6 +401,8 @@ def _summary(launcher: Launcher) -> bool:
     )
     for line in lines:
         print(f"  {line}")
+    for name, took in launcher.restarts.recovered.items():
+        print(f"iwz run: {name} restarted {len(took)} time(s), back after " + ", ".join(f"{s:.2f} s" for s in took))
     if launcher.record is not None and launcher.record.exists():
         print(f"iwz run: recorded to {launcher.record} (see iwz replay, iwz incidents, iwz doctor)")
     return ok

@@ -79,6 +79,17 @@ class Tally:
             1 for rid in self.state.ids if self.owners.get(rid, "") in self.agents_alive or not self.owners.get(rid)
         )
 
+    def status(self, wall_s: float, agents_alive: int, agents: int) -> str:
+        """The live status line: what is really alive, an agent whose token is there (a stopped
+        one is not, though its process exists), a robot whose agent is (the world keeps a lost one
+        for its grace period) out of the robots the world holds."""
+        rtf = self.sim_s / wall_s if wall_s > 0 else 0.0
+        line = (
+            f"t={self.sim_s:7.1f} s  tick {self.tick:6d}  RTF {rtf:5.2f}x  robots {self.robots_alive()}/{self.robots}  "
+            f"collisions {self.collisions}  agents {agents_alive}/{agents}"
+        )
+        return line + (f"  HOLDING: {self.holding}" if self.holding else "")
+
     def snapshot(self) -> WorldSnapshot | None:
         """The world's last committed state, for a world restarted in its place (None: the world's
         description was never heard, so there is nothing to resume)."""

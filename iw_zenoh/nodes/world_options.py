@@ -11,13 +11,15 @@ from typing import Annotated, Any
 
 import msgspec
 
+from iw_zenoh.config import Scenario
 from iw_zenoh.core.modes import Mode, Profile
+from iw_zenoh.errors import ConfigError, IwError
 from iw_zenoh.messages import Obstacle
-from iw_zenoh.runtime import add_options_argument, option
+from iw_zenoh.runtime import add_options_argument, option, options_from_argv
 from iw_zenoh.sim.config import WorldConfig
 from iw_zenoh.sim.resume import WorldSnapshot
 
-__all__ = ["WorldOptions", "add_arguments", "parse_obstacle"]
+__all__ = ["WorldOptions", "add_arguments", "parse_obstacle", "world_options"]
 
 _CORE = WorldConfig()  # the world core's defaults are the options' defaults
 
@@ -165,3 +167,27 @@ def _obstacle_flag(text: str) -> Obstacle:
         return parse_obstacle(text)
     except ValueError as e:
         raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def world_options(sc: Scenario) -> tuple[WorldOptions, list[str]]:
+    """The world's options for a scenario, and what of its ``world.args`` is not an option flag.
+
+    Raises:
+        ConfigError: A ``world.args`` flag the world refuses (naming the scenario field).
+    """
+    w = sc.world
+    options = WorldOptions(
+        map=str(w.map),
+        grid=str(w.grid) if w.grid else "",
+        period_ms=w.period_ms,
+        mode=w.mode,
+        profile=w.profile,
+        seed=w.seed,
+        duration_s=w.duration_s,
+        expect=sc.robots,
+        obstacles=sc.obstacles,
+    )
+    try:
+        return options_from_argv(w.argv, WorldOptions, add_arguments, base=options, prog="iwz world")
+    except IwError as e:
+        raise ConfigError(f"{sc.name}: world.args", str(e)) from None
