@@ -27,7 +27,9 @@ GRID = """<Grid><Position X="2" Y="5" Dir="0"/><Position X="2" Y="8" Dir="0"/></
 LEGS = ";".join(["8,5;3,5"] * 20)  # back and forth for as long as the run lasts
 
 
-def _scenario(tmp: Path, *, duration_s: float, world_args: str = "") -> Path:
+def _scenario(
+    tmp: Path, *, duration_s: float, world_args: str = "", mode: str = "realtime", legs: str = LEGS, goal_x: float = 8.0
+) -> Path:
     (tmp / "lab.xml").write_text(LAB)
     (tmp / "grid.xml").write_text(GRID)
     path = tmp / "faults.toml"
@@ -36,18 +38,19 @@ def _scenario(tmp: Path, *, duration_s: float, world_args: str = "") -> Path:
 [world]
 map = "lab.xml"
 grid = "grid.xml"
+mode = "{mode}"
 duration_s = {duration_s}
 args = [{world_args}]
 [[agents]]
 program = "waypoint"
 name = "driver"
-args = ["--id", "1", "--speed", "0.15", "--waypoints", "{LEGS}"]
+args = ["--id", "1", "--speed", "0.15", "--waypoints", "{legs}"]
 [criteria]
 max_collisions = 0
-stop_when_reached = false
+stop_when_reached = {"false" if legs == LEGS else "true"}
 [[criteria.reach]]
 robot = 1
-x = 8.0
+x = {goal_x}
 y = 5.0
 within = 0.5
 """
@@ -220,3 +223,24 @@ def test_an_agent_stopped_past_its_grace_drives_again_once_resumed(tmp_path: Pat
         print(f"registered again {registered:.2f} s after SIGCONT")
     finally:
         run.close()
+
+
+def test_a_lockstep_world_killed_resumes_where_it_was_and_its_agents_answer_it(tmp_path: Path) -> None:
+    # lock-step runs as fast as everyone answers: a long way, so the kills land on the way. (An
+    # agent is not killed here: lock-step does not wait for the robots of an agent that is gone,
+    # so the run races ahead while it restarts.)
+    run = _Run(_scenario(tmp_path, duration_s=120, mode="lockstep", legs="18,5", goal_x=18.0), tmp_path)
+    try:
+        for role in ("world", "collision", "sensors", "world"):
+            run.wait_moving(timeout_s=60)
+            before = wait_msg(run.states, WorldState, lambda m: 1 in m.ids, timeout_s=20)
+            subprocess.run(["kill", "-KILL", str(run.pid(role))], check=True, timeout=10)
+            run.wait_token(role, since=time.monotonic() - 0.05)
+            after = wait_msg(run.states, WorldState, lambda m, b=before.tick: 1 in m.ids and m.tick > b, 30)
+            assert _at(after)[0] >= _at(before)[0] - 0.01  # from where it was, not from the start
+        code, out = run.finish(timeout_s=90)
+    finally:
+        run.close()
+    assert code == 0, out
+    assert "PASS robot 1 within 0.5 m of (18, 5)" in out
+    assert "laggard" not in out.split("events")[-1].split("}")[0], out
