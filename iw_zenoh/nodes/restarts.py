@@ -3,6 +3,7 @@ what wait, and how long each role took to be back (its liveliness token seen aga
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass, field
 
 from iw_zenoh.nodes.child import Child
@@ -27,6 +28,7 @@ class Restarts:
     lost_at: dict[str, float] = field(default_factory=dict)
     waiting: dict[str, float] = field(default_factory=dict)
     recovered: dict[str, list[float]] = field(default_factory=dict)
+    _lock: threading.Lock = field(default_factory=threading.Lock)  # tokens arrive on the bus's thread
 
     @staticmethod
     def restartable(c: Child, code: int) -> bool:
@@ -45,14 +47,16 @@ class Restarts:
     def restarted(self, c: Child) -> None:
         """A child was started again: its token is now awaited."""
         c.restarts += 1
-        self.waiting[c.name] = self.lost_at.pop(c.name)
+        with self._lock:
+            self.waiting[c.name] = self.lost_at.pop(c.name)
 
     def on_alive(self, children: list[Child], role: str, name: str, now: float) -> str:
         """A liveliness token appeared: the restarted child it belongs to is back. Returns what to
         report ("" when it is no restarted child's)."""
-        for c in children:
-            if c.token_role == role and c.name in self.waiting and c.token in ("", name):
-                took = now - self.waiting.pop(c.name)
-                self.recovered.setdefault(c.name, []).append(took)
-                return f"{c.name} is back {took:.2f} s after it was found dead"
+        with self._lock:
+            for c in children:
+                if c.token_role == role and c.name in self.waiting and c.token in ("", name):
+                    took = now - self.waiting.pop(c.name)
+                    self.recovered.setdefault(c.name, []).append(took)
+                    return f"{c.name} is back {took:.2f} s after it was found dead"
         return ""
