@@ -164,6 +164,14 @@ class Registry:
                 return rid
         return None
 
+    def reclaim(self, robot_id: int, state: WorldState, now_ns: int) -> tuple[Entry, RobotSpec]:
+        """Hands a robot to its restarted agent: alive again, no command yet; with its spec
+        placed where it is now (the registration's answer)."""
+        e = self.entries[robot_id]
+        x, y, h = self.poses(state)[robot_id]
+        e.lost_ns, e.cmd, e.last_action_ns = None, (0.0, 0.0), now_ns
+        return e, e.spec.placed(robot_id, x, y, float(np.degrees(h)))
+
     def remove(self, robot_id: int) -> Entry | None:
         """Removes a robot; returns it, or None if there was none."""
         e = self.entries.pop(robot_id, None)

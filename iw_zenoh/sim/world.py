@@ -143,10 +143,7 @@ class WorldCore:
         instance = req.request_id.partition("-")[0]
         again = self.registry.reclaimable(spec, req.agent, instance)
         if again is not None:  # its agent restarted: the same robot, answered with where it is now
-            entry = self.registry.entries[again]
-            x, y, h = self.registry.poses(self.state)[again]
-            placed = entry.spec.placed(again, x, y, float(np.degrees(h)))
-            entry.lost_ns, entry.cmd, entry.last_action_ns = None, (0.0, 0.0), now_ns
+            entry, placed = self.registry.reclaim(again, self.state, now_ns)
         else:
             try:
                 placed = self.registry.place(spec, self.registry.poses(self.state))
