@@ -101,7 +101,8 @@ def snapshot(state: WorldState | None, info: WorldInfo, owners: dict[int, str], 
 def resume(core: WorldCore, snap: WorldSnapshot, now_ns: int) -> None:
     """Puts a new world (its obstacles already placed) in a snapshot's state.
 
-    Every robot with an agent counts as lost from ``now_ns`` until its agent's liveliness token
+    Each robot is commanded what its motors give until its agent answers again. Every robot with
+    an agent counts as lost from ``now_ns`` until its agent's liveliness token
     is seen (at once when the agent is still there): one whose agent died meanwhile is removed
     after the grace period, as if the world had seen it go. The first tick excuses the time the
     world was down, as after a pause, so no watchdog fires for it.
@@ -121,6 +122,10 @@ def resume(core: WorldCore, snap: WorldSnapshot, now_ns: int) -> None:
     out = np.array([_motors(r, core) for r in snap.robots]).reshape(-1, 2)
     collided = np.array([r.collided for r in snap.robots], dtype=bool)
     core.state = replace(core.state, tick=snap.tick, motor_out=out, collided=collided)
+    for e, (left, right) in zip(reg.entries.values(), out, strict=True):
+        # a chair goes on as it went until its agent's next answer (a command is sticky: the
+        # motors' outputs are what it last asked for, once they caught up)
+        e.cmd = (float(left), float(right))
     core.revision = snap.revision + 1
     core.presence.forget()
     core.running = snap.running

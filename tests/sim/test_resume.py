@@ -90,3 +90,14 @@ def test_a_restarted_agent_gets_its_robot_back_where_it_is() -> None:
     # another agent cannot take it
     other, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="a", id=1), agent="ag-z", request_id="7-1"), 0)
     assert not other.ok
+
+
+def test_a_resumed_chair_goes_on_as_it_went_until_its_agent_answers() -> None:
+    core, st = _driven()
+    again = _resumed(core, st, 10**12)
+    again.on_alive("agent", "ag-a", True, 10**12)
+    core.on_alive("agent", "ag-a", True, 10**12)
+    a = _tick(core, 21 * 100 * MS)  # the first world keeps the last command (sticky)
+    b = _tick(again, 10**12 + 100 * MS)
+    assert b.speed[0] == pytest.approx(a.speed[0], rel=0.02)
+    assert b.speed[0] > 0.1
