@@ -29,13 +29,15 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 from iw_zenoh import keys
-from iw_zenoh.bus import Bus, Inbox
+from iw_zenoh.bus import Asked, Bus, Handle, Inbox
 from iw_zenoh.convert import spec_from_msg, spec_to_msg
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import DecodeError, IwError, ProtocolError
 from iw_zenoh.hosting import Command, Outbox, WorldRegistration
 from iw_zenoh.messages import (
+    Event,
+    EventKind,
     Heard,
     RadioBatch,
     RegisterRequest,
@@ -52,6 +54,8 @@ __all__ = ["BATCH_FROM", "Agent", "AgentHost", "Command", "RegistrationRefused"]
 logger = logging.getLogger(__name__)
 
 BATCH_FROM = 8  # robots in one host from which `iwz agent` reads and answers in batches
+SILENT_S = 2.0  # no readings this long: the host asks the world whether its robots are still there
+UNANSWERED_S = 0.3  # and asks again this soon when no world answered
 
 
 class Agent(Protocol):
@@ -107,6 +111,16 @@ class AgentHost:
         self.lockstep = False
         self._requests = 0
         self.outbox = Outbox(bus, sim, name, batched=batched)
+        # a robot removed while this process was stopped or cut off is registered again when it
+        # is back: it learns from the removed event, or (the event missed) from a silence of
+        # SILENT_S and the world's description that no longer lists it
+        self.removed = self.io.inbox(keys.event(sim, EventKind.REMOVED))
+        self._subscribed: dict[int, Handle] = {}
+        self._last_reading = time.monotonic()
+        self._asked_info: Asked | None = None
+        self._asked_at = 0.0
+        self._orphans: list[Agent] = []  # robots removed, to register again
+        self._retry_at = 0.0  # when to try the orphans again
         bus.watch_alive(keys.all_alive(sim), self._on_alive)
         self.io.alive()
 
@@ -127,11 +141,9 @@ class AgentHost:
         # listen before asking when the id is known: in lock-step the world waits for this robot
         # from the first tick after it is accepted, and readings published before a subscription
         # made after the answer would be lost (the world then waits out its whole timeout)
-        early = (
-            self.io.bus.subscribe(keys.sensors(self.sim, asked.id), self.readings)
-            if asked.id > 0 and not self.batched
-            else None
-        )
+        early = None
+        if asked.id > 0 and not self.batched and asked.id not in self._subscribed:
+            early = self.io.bus.subscribe(keys.sensors(self.sim, asked.id), self.readings)
         # the world may still be starting: asked again until it answers
         reg = WorldRegistration(
             self.io.bus, self.sim, req, now=time.monotonic(), patience_s=timeout_s, query_timeout_s=min(1.0, timeout_s)
@@ -165,8 +177,11 @@ class AgentHost:
                 except DecodeError as e:
                     self.io.bad_message(keys.info(self.sim), e)
         self.hosted[reply.robot_id] = _Hosted(agent, reply.robot_id, spec)
-        if early is None and not self.batched:
-            self.io.bus.subscribe(keys.sensors(self.sim, reply.robot_id), self.readings)
+        if early is not None:
+            self._subscribed[reply.robot_id] = early
+        elif not self.batched and reply.robot_id not in self._subscribed:
+            key = keys.sensors(self.sim, reply.robot_id)
+            self._subscribed[reply.robot_id] = self.io.bus.subscribe(key, self.readings)
         on_reg = getattr(agent, "on_registered", None)
         if callable(on_reg):
             on_reg(reply.robot_id, spec)
@@ -178,6 +193,56 @@ class AgentHost:
         if why:
             self.io.bad_message(key, ProtocolError(why))
         return not why
+
+    def _check_removed(self, now: float) -> None:
+        """Registers again the robots the world removed (see SILENT_S); a robot removed by a
+        control command (an operator's choice) is let go."""
+        for d in self.removed.drain():
+            ev = self.io.decode(d, Event)
+            h = self.hosted.get(ev.robot_id) if ev is not None else None
+            if ev is not None and h is not None:
+                del self.hosted[ev.robot_id]
+                if "by control" in ev.reason:
+                    logger.warning("robot %d was removed by control: not registered again", ev.robot_id)
+                else:
+                    self._orphans.append(h.agent)
+        if self._asked_info is not None and self._asked_info.answered():
+            if not self._asked_info.replies:  # no world, or this process not connected again yet
+                self._asked_at = now - SILENT_S + UNANSWERED_S
+            self._gone_from_info(self._asked_info.replies)
+            self._asked_info = None
+        silent = now - max(self._last_reading, self._asked_at) > SILENT_S
+        if self.hosted and silent and self._asked_info is None:
+            self._asked_at = now
+            self._asked_info = self.io.bus.ask(keys.info(self.sim), timeout_s=1.0)
+        if self._orphans and now >= self._retry_at:
+            self._register_again(now)
+
+    def _gone_from_info(self, replies: list[bytes]) -> None:
+        """The hosted robots the world's description no longer lists become orphans."""
+        for data in replies[:1]:
+            try:
+                info = decode(data, WorldInfo)
+            except DecodeError:
+                return
+            there = {(r.id, r.name) for r in info.robots}
+            for rid, h in list(self.hosted.items()):
+                if (rid, h.spec.name) not in there:
+                    logger.warning("robot %d is no longer in the world: registering it again", rid)
+                    del self.hosted[rid]
+                    self._orphans.append(h.agent)
+
+    def _register_again(self, now: float) -> None:
+        """Registers the orphans again; one refused (its start place taken) is tried again later."""
+        orphans, self._orphans = self._orphans, []
+        for agent in orphans:
+            try:
+                rid = self.add(agent, timeout_s=2.0)
+                logger.warning("robot %d registered again for %s", rid, agent.spec().name)
+            except RegistrationRefused as e:
+                logger.warning("registering %s again: %s; trying again later", agent.spec().name, e)
+                self._orphans.append(agent)
+                self._retry_at = now + SILENT_S
 
     def _collect(self) -> None:
         for d in self.radio.drain():
@@ -207,6 +272,7 @@ class AgentHost:
 
     def _take(self, h: _Hosted, r: SensorReading) -> None:
         """Keeps a robot's newest reading and counts the tick's fresh ones."""
+        self._last_reading = time.monotonic()
         if h.reading is None or r.tick > h.reading.tick:
             h.reading = r
             if r.tick > h.answered:
@@ -227,6 +293,7 @@ class AgentHost:
     def step(self, timeout_s: float = 0.2) -> bool:
         """Answers the newest tick if ready; waits up to ``timeout_s`` for input otherwise."""
         self._collect()
+        self._check_removed(time.monotonic())
         n = self._ready()
         if n is None:
             self.io.wait(timeout_s)

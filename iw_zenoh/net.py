@@ -20,6 +20,10 @@ DEFAULT_PORT = 7447
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
 LEASE_MS = 3000  # a process whose link goes silent this long counts as lost
 CONNECT_TIMEOUT_MS = 15000  # a client started before its router keeps trying this long
+# a client whose router went away tries again this often (zenoh's default backs off to 4 s, so a
+# router restarted by `iwz run` in half a second was found again only seconds later); zenoh
+# re-declares every subscriber, queryable and liveliness token on the new link by itself
+RETRY = {"period_init_ms": 100, "period_max_ms": 500, "period_increase_factor": 1.5}
 
 
 @dataclass(frozen=True)
@@ -68,6 +72,7 @@ def zenoh_config(net: NetConfig) -> zenoh.Config:
     if connect:
         conf.insert_json5("connect/endpoints", json.dumps(connect))
         conf.insert_json5("connect/timeout_ms", json.dumps({"client": CONNECT_TIMEOUT_MS}))
+        conf.insert_json5("connect/retry", json.dumps(RETRY))
     if listen:
         conf.insert_json5("listen/endpoints", json.dumps(listen))
     conf.insert_json5("scouting/multicast/enabled", "true" if net.lan else "false")

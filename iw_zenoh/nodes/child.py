@@ -22,6 +22,12 @@ class Child:
     restarts: int = 0
     expected_exit: bool = False
     cwd: Path | None = None
+    token: str = ""  # the name of its liveliness token ("": any of its role's)
+
+    @property
+    def token_role(self) -> str:
+        """The role its liveliness token names (the bridge drives robots: an agent)."""
+        return {"record": "recorder", "bridge": "agent"}.get(self.role, self.role)
 
     def start(self, env: dict[str, str]) -> None:
         """Starts (or restarts) the process, its output to its log file."""
@@ -35,6 +41,11 @@ class Child:
                 start_new_session=True,
                 cwd=self.cwd,
             )
+
+    def set_option(self, flag: str, value: str) -> None:
+        """Replaces the value after ``flag`` in its command line (for its next start)."""
+        at = self.argv.index(flag)
+        self.argv[at + 1] = value
 
     def alive(self) -> bool:
         """Whether it is running."""

@@ -7,7 +7,6 @@ refused; 3 a role could not start; 130 interrupted.
 
 from __future__ import annotations
 
-import argparse
 import logging
 import os
 import signal
@@ -26,21 +25,19 @@ from iw_zenoh import keys
 from iw_zenoh.bus import Inbox, ZenohBus
 from iw_zenoh.config import Scenario, load_scenario
 from iw_zenoh.core.modes import Mode
-from iw_zenoh.errors import ConfigError, IwError
-from iw_zenoh.messages import Control, Event, WorldState, decode, encode
+from iw_zenoh.errors import IwError
+from iw_zenoh.messages import Control, Event, WorldInfo, WorldState, decode, encode
 from iw_zenoh.net import DEFAULT_PORT, NetConfig, free_port, port_in_use
 from iw_zenoh.nodes.child import Child
+from iw_zenoh.nodes.restarts import MAX_RESTARTS, Restarts
+from iw_zenoh.nodes.run_args import build_parser, default_recording
 from iw_zenoh.nodes.tally import Tally
-from iw_zenoh.nodes.world_options import WorldOptions
-from iw_zenoh.nodes.world_options import add_arguments as add_world_arguments
-from iw_zenoh.runtime import options_from_argv, setup_logging
+from iw_zenoh.nodes.world_options import world_options
+from iw_zenoh.runtime import setup_logging
 
 __all__ = ["Child", "Launcher", "main", "world_options"]
 
 logger = logging.getLogger(__name__)
-
-RESTARTABLE = ("collision", "sensors", "radio", "bridge")
-MAX_RESTARTS = 3
 
 
 class Launcher:
@@ -76,9 +73,13 @@ class Launcher:
         self.record = record
         self.children: list[Child] = []
         self.tally = Tally()
+        self.restarts = Restarts()
+        self.bus: ZenohBus | None = None  # the launcher's own session, from the router's start
+        self._inboxes: tuple[Inbox, Inbox, Inbox] | None = None
         self.stop_event = threading.Event()
         self.env = dict(os.environ, PYTHONUNBUFFERED="1")
         self.world_options = world_options(scenario)
+        self.tally.running = not self.world_options[0].start_paused
 
     def _cmd(self, *args: str) -> list[str]:
         return [sys.executable, "-m", "iw_zenoh.cli", *args]
@@ -102,7 +103,7 @@ class Launcher:
         self._child("collision", "collision")
         shards = sc.roles.sensors_shards
         for k in range(1, shards + 1):
-            self._child("sensors", f"sensors-{k}", "--shard", f"{k}/{shards}")
+            self._child("sensors", f"sensors-{k}", "--shard", f"{k}/{shards}").token = f"sensors-{k}-{shards}"
         if sc.roles.radio:
             self._child("radio", "radio")
         if sc.bridge is not None:
@@ -111,14 +112,16 @@ class Launcher:
             self._child("bridge", "bridge", "ciberrato", "--port", str(b.port), *extra, "--scoring", str(b.scoring))
         for i, a in enumerate(sc.agents):
             name = a.name or f"agent-{i + 1}-{a.program}"
-            self._child("agent", name, a.program, *a.argv, "--name", name).cwd = sc.base.resolve()
+            c = self._child("agent", name, a.program, *a.argv, "--name", name)
+            c.cwd, c.token = sc.base.resolve(), keys.chunk(name)
 
     def _wait_router(self, timeout_s: float = 15.0) -> bool:
         deadline = time.monotonic() + timeout_s
+        router = next(c for c in self.children if c.role == "router")
         while time.monotonic() < deadline:
             if port_in_use(self.port):
                 return True
-            if not self.children[0].alive():
+            if not router.alive():
                 return False
             time.sleep(0.05)
         return False
@@ -134,6 +137,10 @@ class Launcher:
         router.start(self.env)
         if not self._wait_router():
             raise IwError(f"the router did not start on {self.endpoint}:\n{router.tail()}")
+        # the launcher listens before any other role starts: it hears every registration (who
+        # drives each robot) and the world's description, what a restarted world resumes from
+        self.bus = ZenohBus(NetConfig(connect=(self.endpoint,)))
+        self._inboxes = self.observe(self.bus)
         rest = self.children[1:]
         if rest and rest[0].role == "record":
             rest[0].start(self.env)  # first, and heard from, so it misses nothing of the run
@@ -179,22 +186,34 @@ class Launcher:
         finally:
             bus.close()
 
-    def observe(self, bus: ZenohBus) -> tuple[Inbox, Inbox]:
-        """Subscribes to state and events, and watches agents' liveliness."""
+    def observe(self, bus: ZenohBus) -> tuple[Inbox, Inbox, Inbox]:
+        """Subscribes to state, events and the world's description, and watches liveliness
+        (agents alive; restarted roles back)."""
         states = Inbox(maxlen=1)
         events = Inbox()
+        infos = Inbox(maxlen=1)
         bus.subscribe(keys.state(self.sim), states)
         bus.subscribe(keys.all_events(self.sim), events)
+        bus.subscribe(keys.info(self.sim), infos)
 
         def on_alive(key: str, alive: bool) -> None:
             parts = keys.alive_parts(key)
             if parts and parts[0] == "agent":
                 (self.tally.agents_alive.add if alive else self.tally.agents_alive.discard)(parts[1])
+            if parts and alive:
+                back = self.restarts.on_alive(self.children, parts[0], parts[1], time.monotonic())
+                if back:
+                    self._say(back)
 
         bus.watch_alive(keys.all_alive(self.sim), on_alive)
-        return states, events
+        return states, events, infos
 
-    def _update(self, states: Inbox, events: Inbox) -> None:
+    def _update(self, states: Inbox, events: Inbox, infos: Inbox) -> None:
+        for _, data, _ in infos.drain():
+            try:
+                self.tally.info = decode(data, WorldInfo)
+            except IwError:
+                continue
         for _, data, _ in events.drain():
             try:
                 self.tally.on_event(decode(data, Event))
@@ -208,7 +227,7 @@ class Launcher:
 
     def supervise(self, bus: ZenohBus) -> int:
         """Watches the run until the world ends it, a criterion stops it, or Ctrl-C."""
-        states, events = self.observe(bus)
+        inboxes = self._inboxes if self._inboxes is not None and bus is self.bus else self.observe(bus)
         started = time.monotonic()
         last_print = 0.0
         world = next(c for c in self.children if c.role == "world")
@@ -218,7 +237,7 @@ class Launcher:
         try:
             while code is None and not self.stop_event.is_set():
                 self.stop_event.wait(0.1)
-                self._update(states, events)
+                self._update(*inboxes)
                 code = self._ended(bus, world)
                 if code is None:
                     code = self._restart_lost()
@@ -247,41 +266,49 @@ class Launcher:
                 except subprocess.TimeoutExpired:
                     self._say("the world did not stop by itself")
             return 0
-        if not world.alive():
-            code = world.proc.returncode if world.proc else 0
-            if code:
-                self._say(f"the world exited with {code}:\n{world.tail()}")
-                return 3
-            return 0
+        if not world.alive() and world.proc is not None and world.proc.returncode == 0:
+            return 0  # the world ended the run (its duration, a stop); one that died is restarted
         return None
 
     def _restart_lost(self) -> int | None:
-        """Restarts a lost role that may be restarted; 3 when the router is lost."""
+        """Restarts every lost role that may be restarted, once its wait is over; 3 when the
+        router or the world is lost for good."""
+        now = time.monotonic()
         for c in self.children:
             if c.alive() or c.expected_exit or c.proc is None:
                 continue
             code = c.proc.returncode
-            if c.role in RESTARTABLE and c.restarts < MAX_RESTARTS:
-                c.restarts += 1
-                self._say(f"{c.name} exited with {code}; restarting ({c.restarts}/{MAX_RESTARTS})")
-                c.start(self.env)
-            else:
-                c.expected_exit = True
+            if self.restarts.restartable(c, code) and c.restarts < MAX_RESTARTS:
+                if c.name not in self.restarts.lost_at:
+                    self._say(f"{c.name} exited with {code}; restarting it ({c.restarts + 1}/{MAX_RESTARTS})")
+                if self.restarts.due(c, now):
+                    self._restart(c)
+                continue
+            c.expected_exit = True
+            if code or c.role not in ("agent",):
                 self._say(f"{c.name} exited with {code}:\n{c.tail()}")
-                if c.role == "router":
-                    return 3
+            if c.role in ("router", "world"):
+                return 3
         return None
 
+    def _restart(self, c: Child) -> None:
+        """Starts a lost child again: the router on the same port (every client finds it again by
+        itself), the world from the last committed state the launcher heard."""
+        if c.role == "world":
+            snap = self.tally.snapshot()
+            options = msgspec.structs.replace(self.world_options[0], resume=snap)
+            c.set_option("--options", msgspec.json.encode(options).decode())
+            if snap is None:
+                self._say("the world's description was never heard: the new world starts afresh")
+            else:
+                self._say(f"the new world resumes at tick {snap.tick} with {len(snap.robots)} robots")
+        self.restarts.restarted(c)
+        c.start(self.env)
+        if c.role == "router" and not self._wait_router(timeout_s=10.0):
+            self._say(f"the router did not listen again on {self.endpoint} within 10 s")
+
     def _status_line(self, wall_s: float, agents: list[Child]) -> None:
-        t = self.tally
-        rtf = t.sim_s / wall_s if wall_s > 0 else 0.0
-        alive = sum(1 for c in agents if c.alive())
-        line = (
-            f"t={t.sim_s:7.1f} s  tick {t.tick:6d}  RTF {rtf:5.2f}x  robots {t.robots}  "
-            f"collisions {t.collisions}  agents {alive}/{len(agents)}"
-        )
-        if t.holding:
-            line += f"  HOLDING: {t.holding}"
+        line = self.tally.status(wall_s, sum(1 for c in agents if c.token in self.tally.agents_alive), len(agents))
         if sys.stdout.isatty():
             print("\r" + line.ljust(110), end="", flush=True)
         else:
@@ -315,59 +342,6 @@ class Launcher:
         return self.tally.verdict(self.sc.criteria)
 
 
-def world_options(sc: Scenario) -> tuple[WorldOptions, list[str]]:
-    """The world's options for a scenario, and what of its ``world.args`` is not an option flag.
-
-    Raises:
-        ConfigError: A ``world.args`` flag the world refuses (naming the scenario field).
-    """
-    w = sc.world
-    options = WorldOptions(
-        map=str(w.map),
-        grid=str(w.grid) if w.grid else "",
-        period_ms=w.period_ms,
-        mode=w.mode,
-        profile=w.profile,
-        seed=w.seed,
-        duration_s=w.duration_s,
-        expect=sc.robots,
-        obstacles=sc.obstacles,
-    )
-    try:
-        return options_from_argv(w.argv, WorldOptions, add_world_arguments, base=options, prog="iwz world")
-    except IwError as e:
-        raise ConfigError(f"{sc.name}: world.args", str(e)) from None
-
-
-def default_recording(name: str) -> Path:
-    """``recordings/NAME-DATE-TIME.mcap``."""
-    return Path("recordings") / f"{name}-{time.strftime('%Y%m%d-%H%M%S')}.mcap"
-
-
-def build_parser() -> argparse.ArgumentParser:
-    """The arguments of ``iwz run``."""
-    p = argparse.ArgumentParser(
-        prog="iwz run",
-        description=(
-            "Start a whole simulation from a scenario file: the router, world, collision, sensors, "
-            "radio and every agent, each its own process on this machine."
-        ),
-        epilog="Example: iwz run maps/demo.toml    (Ctrl-C stops everything cleanly)",
-    )
-    p.add_argument("scenario", help="scenario TOML file (see docs/scenarios.md)")
-    p.add_argument(
-        "--port", type=int, default=0, help="router port on 127.0.0.1 (default 7447, or a free port if taken)"
-    )
-    p.add_argument("--sim", default="default", help="simulation name (default: default)")
-    p.add_argument("--log-dir", help="where each process's log goes (default: a new temporary folder)")
-    p.add_argument("--no-status", action="store_true", help="no live status line")
-    p.add_argument("--record", metavar="FILE", help="record the run here (default recordings/SCENARIO-DATE-TIME.mcap)")
-    p.add_argument("--no-record", action="store_true", help="do not record the run")
-    p.add_argument("--lockstep", action="store_true", help="run in lock-step whatever the scenario says (reproducible)")
-    p.add_argument("-v", "--verbose", action="count", default=0, help="log more")
-    return p
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Runs ``iwz run``."""
     args = build_parser().parse_args(argv)
@@ -398,19 +372,18 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     signal.signal(signal.SIGTERM, on_term)
     code = 0
-    bus: ZenohBus | None = None
     try:
         launcher.start()
-        bus = ZenohBus(NetConfig(connect=(launcher.endpoint,)))
-        code = launcher.supervise(bus)
+        assert launcher.bus is not None
+        code = launcher.supervise(launcher.bus)
     except IwError as e:
         print(f"iwz run: {e}")
         code = 3
     except KeyboardInterrupt:
         code = 130
     finally:
-        if bus is not None:
-            bus.close()
+        if launcher.bus is not None:
+            launcher.bus.close()
         launcher.shutdown()
     ok = _summary(launcher)
     if code:
@@ -428,6 +401,8 @@ def _summary(launcher: Launcher) -> bool:
     )
     for line in lines:
         print(f"  {line}")
+    for name, took in launcher.restarts.recovered.items():
+        print(f"iwz run: {name} restarted {len(took)} time(s), back after " + ", ".join(f"{s:.2f} s" for s in took))
     if launcher.record is not None and launcher.record.exists():
         print(f"iwz run: recorded to {launcher.record} (see iwz replay, iwz incidents, iwz doctor)")
     return ok

@@ -1,4 +1,5 @@
-"""What ``iwz run`` sees of a run (ticks, positions, events) and its verdict on the criteria."""
+"""What ``iwz run`` sees of a run (ticks, positions, events, who is alive), its verdict on the
+criteria, and the world's last committed state (what a restarted world resumes from)."""
 
 from __future__ import annotations
 
@@ -6,14 +7,24 @@ import math
 from dataclasses import dataclass, field
 
 from iw_zenoh.config import Criteria, Reach
-from iw_zenoh.messages import Event, EventKind, WorldState
+from iw_zenoh.errors import DecodeError
+from iw_zenoh.messages import Event, EventKind, RegisteredData, WorldInfo, WorldState, event_payload
+from iw_zenoh.sim.resume import WorldSnapshot, snapshot
 
 __all__ = ["Tally"]
 
 
 @dataclass
 class Tally:
-    """What the launcher saw of the run."""
+    """What the launcher saw of the run.
+
+    Attributes:
+        owners: The agent of every robot registered and not removed (``registered`` events).
+        agents_alive: Agent processes whose liveliness token is there.
+        running: False while the world is paused.
+        state: The last committed state heard.
+        info: The world's latest description heard.
+    """
 
     tick: int = 0
     sim_s: float = 0.0
@@ -24,10 +35,23 @@ class Tally:
     events: dict[str, int] = field(default_factory=dict)
     holding: str = ""
     agents_alive: set[str] = field(default_factory=set)
+    owners: dict[int, str] = field(default_factory=dict)
+    running: bool = True
+    state: WorldState | None = None
+    info: WorldInfo | None = None
 
     def on_event(self, ev: Event) -> None:
-        """Counts an event; a collision, a hold and its end are also kept."""
+        """Counts an event; a collision, a hold and its end, who drives each robot, a pause are also kept."""
         self.events[str(ev.kind)] = self.events.get(str(ev.kind), 0) + 1
+        if ev.kind == EventKind.REGISTERED:
+            try:
+                self.owners[ev.robot_id] = event_payload(ev, RegisteredData).agent
+            except DecodeError:
+                self.owners[ev.robot_id] = ""
+        if ev.kind == EventKind.REMOVED:
+            self.owners.pop(ev.robot_id, None)
+        if ev.kind in (EventKind.PAUSED, EventKind.STARTED):
+            self.running = ev.kind == EventKind.STARTED
         if ev.kind == EventKind.COLLISION:
             self.collisions += 1
         if ev.kind == EventKind.HOLDING:
@@ -38,12 +62,40 @@ class Tally:
     def on_state(self, st: WorldState, reach: tuple[Reach, ...]) -> None:
         """Keeps the tick, the time and every robot's position; notes each goal when first reached."""
         self.tick, self.sim_s, self.robots = st.tick, st.sim_time_ns / 1e9, len(st.ids)
+        self.state = st
         for rid, x, y in zip(st.ids, st.x, st.y, strict=True):
             self.positions[rid] = (x, y)
         for r in reach:
             p = self.positions.get(r.robot)
             if p is not None and r.robot not in self.reached and math.hypot(p[0] - r.x, p[1] - r.y) <= r.within:
                 self.reached[r.robot] = self.sim_s
+
+    def robots_alive(self) -> int:
+        """Robots in the last state whose agent is alive (or that have none): a robot whose agent
+        is stopped or gone is not counted, though the world keeps it for its grace period."""
+        if self.state is None:
+            return 0
+        return sum(
+            1 for rid in self.state.ids if self.owners.get(rid, "") in self.agents_alive or not self.owners.get(rid)
+        )
+
+    def status(self, wall_s: float, agents_alive: int, agents: int) -> str:
+        """The live status line: what is really alive, an agent whose token is there (a stopped
+        one is not, though its process exists), a robot whose agent is (the world keeps a lost one
+        for its grace period) out of the robots the world holds."""
+        rtf = self.sim_s / wall_s if wall_s > 0 else 0.0
+        line = (
+            f"t={self.sim_s:7.1f} s  tick {self.tick:6d}  RTF {rtf:5.2f}x  robots {self.robots_alive()}/{self.robots}  "
+            f"collisions {self.collisions}  agents {agents_alive}/{agents}"
+        )
+        return line + (f"  HOLDING: {self.holding}" if self.holding else "")
+
+    def snapshot(self) -> WorldSnapshot | None:
+        """The world's last committed state, for a world restarted in its place (None: the world's
+        description was never heard, so there is nothing to resume)."""
+        if self.info is None:
+            return None
+        return snapshot(self.state, self.info, self.owners, running=self.running)
 
     def verdict(self, crit: Criteria) -> tuple[bool, list[str]]:
         """Whether the criteria are met, and a line per criterion."""

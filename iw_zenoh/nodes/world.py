@@ -36,6 +36,7 @@ from iw_zenoh.messages import (
 from iw_zenoh.nodes.world_options import WorldOptions, add_arguments, parse_obstacle
 from iw_zenoh.runtime import NodeIO, Process, options_from_args, start_role
 from iw_zenoh.sim.config import MS, WorldConfig
+from iw_zenoh.sim.resume import resume
 from iw_zenoh.sim.world import WorldCore
 from iw_zenoh.ticks import too_far_ahead
 
@@ -290,11 +291,16 @@ def prepare(args: argparse.Namespace) -> WorldCore:
     lab = load_lab(opts.map)
     grid = load_grid(opts.grid, lab) if opts.grid else Grid(())
     core = WorldCore(world_config(opts, keys.chunk(args.sim)), lab, grid)
-    for o in opts.obstacles:
+    for o in opts.resume.obstacles if opts.resume is not None else opts.obstacles:
         bad = [m for _, m in core.on_control(Control(command="add_obstacle", obstacle=o)) if isinstance(m, Event)]
         bad = [m for m in bad if m.kind == EventKind.BAD_CONTROL]
         if bad:
             raise ValueError(bad[0].reason)
+    if opts.resume is not None:
+        resume(core, opts.resume, time.monotonic_ns())
+        logger.warning(
+            "resuming at tick %d with %d robots (the world was restarted)", core.tick, len(core.registry.entries)
+        )
     return core
 
 

@@ -11,12 +11,15 @@ from typing import Annotated, Any
 
 import msgspec
 
+from iw_zenoh.config import Scenario
 from iw_zenoh.core.modes import Mode, Profile
+from iw_zenoh.errors import ConfigError, IwError
 from iw_zenoh.messages import Obstacle
-from iw_zenoh.runtime import add_options_argument, option
+from iw_zenoh.runtime import add_options_argument, option, options_from_argv
 from iw_zenoh.sim.config import WorldConfig
+from iw_zenoh.sim.resume import WorldSnapshot
 
-__all__ = ["WorldOptions", "add_arguments", "parse_obstacle"]
+__all__ = ["WorldOptions", "add_arguments", "parse_obstacle", "world_options"]
 
 _CORE = WorldConfig()  # the world core's defaults are the options' defaults
 
@@ -39,6 +42,8 @@ class WorldOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
         start_paused: Do not tick until a ``start`` control arrives.
         motors_noise_pct: Ciber-Rato MotorsNoise, percent (legacy profile).
         obstacles: Rectangular obstacles placed before the first tick.
+        resume: Go on from this last committed state (``iwz run`` restarting a world that died;
+            its obstacles replace ``obstacles``); None: a new run.
     """
 
     map: str = ""
@@ -55,6 +60,7 @@ class WorldOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     start_paused: bool = _CORE.start_paused
     motors_noise_pct: float = _CORE.motors_noise_pct
     obstacles: tuple[Obstacle, ...] = ()
+    resume: WorldSnapshot | None = None
 
 
 # each flag of ``iwz world``: the field it fills, how argparse reads it, its help ({default}: the field's)
@@ -161,3 +167,27 @@ def _obstacle_flag(text: str) -> Obstacle:
         return parse_obstacle(text)
     except ValueError as e:
         raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def world_options(sc: Scenario) -> tuple[WorldOptions, list[str]]:
+    """The world's options for a scenario, and what of its ``world.args`` is not an option flag.
+
+    Raises:
+        ConfigError: A ``world.args`` flag the world refuses (naming the scenario field).
+    """
+    w = sc.world
+    options = WorldOptions(
+        map=str(w.map),
+        grid=str(w.grid) if w.grid else "",
+        period_ms=w.period_ms,
+        mode=w.mode,
+        profile=w.profile,
+        seed=w.seed,
+        duration_s=w.duration_s,
+        expect=sc.robots,
+        obstacles=sc.obstacles,
+    )
+    try:
+        return options_from_argv(w.argv, WorldOptions, add_arguments, base=options, prog="iwz world")
+    except IwError as e:
+        raise ConfigError(f"{sc.name}: world.args", str(e)) from None

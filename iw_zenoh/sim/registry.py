@@ -33,6 +33,8 @@ class Entry:
         watchdog: True while its motors are zeroed for want of fresh actions.
         lost_ns: When its agent was lost (for removal after the grace period), or None.
         report: Last reported pose of a Real robot (x, y, heading rad), or None.
+        instance: Which run of its agent process registered it (the first part of the request
+            id, the process id): the same agent name from another process is its agent restarted.
     """
 
     spec: RobotSpec
@@ -44,6 +46,7 @@ class Entry:
     lost_ns: int | None = None
     report: tuple[float, float, float] | None = None
     leds: dict[str, bool] = field(default_factory=dict)
+    instance: str = ""
 
 
 class Registry:
@@ -131,13 +134,43 @@ class Registry:
                 raise Refused(f"start ({x:g}, {y:g}) puts the body on robot {other}; choose a free place")
         return placed
 
-    def add(self, spec: RobotSpec, agent: str, now_ns: int) -> Entry:
-        """Adds an accepted robot (placed: its id and start pose set)."""
+    def add(self, spec: RobotSpec, agent: str, now_ns: int, *, pose: tuple[float, float, float] | None = None) -> Entry:
+        """Adds an accepted robot (placed: its id and start pose set).
+
+        Args:
+            spec: The placed spec.
+            agent: Liveliness name of its agent ("" for none).
+            now_ns: Monotonic time now.
+            pose: Where it is (x, y, heading rad), when not at its start pose (a resumed world).
+        """
         e = Entry(spec=spec, agent=agent, last_action_ns=now_ns)
         self.entries[spec.id] = e
-        self._new_poses[spec.id] = np.array([spec.x_m or 0.0, spec.y_m or 0.0, np.radians(spec.dir_deg or 0.0)])
+        start = (spec.x_m or 0.0, spec.y_m or 0.0, float(np.radians(spec.dir_deg or 0.0)))
+        self._new_poses[spec.id] = np.array(pose if pose is not None else start)
         self._stale = True
         return e
+
+    def reclaimable(self, spec: RobotSpec, agent: str, instance: str) -> int | None:
+        """The robot a restarted agent asks for again, or None: one registered by the same agent
+        name from another process (another ``instance``), with the id asked (or, for id 0, the
+        same name). Its robot keeps its id and place instead of being refused as a duplicate.
+        """
+        if not agent or not instance:
+            return None
+        for rid, e in self.entries.items():
+            if e.agent != agent or e.instance == instance:
+                continue
+            if rid == spec.id if spec.id else e.spec.name == spec.name:
+                return rid
+        return None
+
+    def reclaim(self, robot_id: int, state: WorldState, now_ns: int) -> tuple[Entry, RobotSpec]:
+        """Hands a robot to its restarted agent: alive again, no command yet; with its spec
+        placed where it is now (the registration's answer)."""
+        e = self.entries[robot_id]
+        x, y, h = self.poses(state)[robot_id]
+        e.lost_ns, e.cmd, e.last_action_ns = None, (0.0, 0.0), now_ns
+        return e, e.spec.placed(robot_id, x, y, float(np.degrees(h)))
 
     def remove(self, robot_id: int) -> Entry | None:
         """Removes a robot; returns it, or None if there was none."""

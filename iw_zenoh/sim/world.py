@@ -140,17 +140,23 @@ class WorldCore:
             spec = spec_from_msg(req.spec)
         except SpecError as e:
             return self._refuse(req, f"field {e.field}: {e.reason}")
-        try:
-            placed = self.registry.place(spec, self.registry.poses(self.state))
-        except Refused as e:
-            return self._refuse(req, str(e))
-        entry = self.registry.add(placed, req.agent, now_ns)
+        instance = req.request_id.partition("-")[0]
+        again = self.registry.reclaimable(spec, req.agent, instance)
+        if again is not None:  # its agent restarted: the same robot, answered with where it is now
+            entry, placed = self.registry.reclaim(again, self.state, now_ns)
+        else:
+            try:
+                placed = self.registry.place(spec, self.registry.poses(self.state))
+            except Refused as e:
+                return self._refuse(req, str(e))
+            entry = self.registry.add(placed, req.agent, now_ns)
+            self._roster_changed()
+        entry.instance = instance
         # lock-step: its first readings are of the next tick, so it owes nothing for this one;
         # and its agent is alive
         entry.last_action_tick = self.tick
         if req.agent:
             self.presence.agent_registered(req.agent)
-        self._roster_changed()
         msg = spec_to_msg(placed)
         reply = RegisterReply(tick=self.tick, sim_time_ns=self.sim_time_ns(), ok=True, robot_id=placed.id, spec=msg)
         out: list[Outgoing] = [

@@ -42,3 +42,43 @@ def test_collisions_and_holds_are_counted() -> None:
     ok, lines = t.verdict(Criteria(max_collisions=0))
     assert not ok
     assert lines == ["FAIL collisions 1 (at most 0)"]
+
+
+def _registered(rid: int, agent: str) -> Event:
+    from iw_zenoh.messages import RegisteredData, make_event
+
+    return make_event(EventKind.REGISTERED, RegisteredData(agent=agent), reason="", robot_id=rid, source="world")
+
+
+def test_the_status_counts_only_robots_whose_agent_is_alive() -> None:
+    t = Tally()
+    t.on_event(_registered(1, "driver"))
+    t.on_state(_state(3, 1.0), ())
+    t.agents_alive.add("driver")
+    assert t.robots_alive() == 1
+    assert "robots 1/1" in t.status(1.0, 1, 1)
+    t.agents_alive.discard("driver")  # stopped: its token gone, its robot still in the world
+    assert t.robots_alive() == 0
+    line = t.status(1.0, 0, 1)
+    assert "robots 0/1" in line
+    assert "agents 0/1" in line
+
+
+def test_the_snapshot_holds_the_last_state_the_roster_and_each_robots_agent() -> None:
+    from iw_zenoh.messages import LabMsg, RobotSpecMsg, WorldInfo
+
+    t = Tally()
+    assert t.snapshot() is None  # nothing to resume from yet
+    t.on_event(_registered(1, "driver"))
+    t.on_event(Event(kind=EventKind.PAUSED, reason="", source="world"))
+    t.on_state(_state(7, 2.5), ())
+    t.info = WorldInfo(
+        revision=4,
+        lab=LabMsg(name="t", width=10.0, height=5.0),
+        period_ns=100_000_000,
+        robots=[RobotSpecMsg(name="a", id=1, x=1.0, y=0.5), RobotSpecMsg(name="b", id=2, x=3.0, y=0.5)],
+    )
+    snap = t.snapshot()
+    assert snap is not None
+    assert (snap.tick, snap.revision, snap.running) == (7, 4, False)
+    assert [(r.spec.id, r.agent, r.pose) for r in snap.robots] == [(1, "driver", (2.5, 0.0, 0.0)), (2, "", None)]

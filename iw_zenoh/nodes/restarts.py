@@ -1,0 +1,62 @@
+"""How ``iwz run`` brings back a role that died: which exits are restarted, how often, after
+what wait, and how long each role took to be back (its liveliness token seen again)."""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass, field
+
+from iw_zenoh.nodes.child import Child
+
+__all__ = ["BACKOFF_S", "MAX_RESTARTS", "NOT_RESTARTED", "Restarts"]
+
+MAX_RESTARTS = 3  # restarts of one role in a run; after them it stays down
+BACKOFF_S = (0.0, 0.5, 2.0)  # wait before the first, second, third restart of one role
+NOT_RESTARTED = ("record",)  # the recorder's restart (into a numbered part) is not done yet
+
+
+@dataclass
+class Restarts:
+    """The restarts of one run.
+
+    Attributes:
+        lost_at: Each child found dead and not yet restarted: when (monotonic s).
+        waiting: Each child restarted whose liveliness token is not back yet: when it was found dead.
+        recovered: Each role's times to recover (found dead to token back), in seconds.
+    """
+
+    lost_at: dict[str, float] = field(default_factory=dict)
+    waiting: dict[str, float] = field(default_factory=dict)
+    recovered: dict[str, list[float]] = field(default_factory=dict)
+    _lock: threading.Lock = field(default_factory=threading.Lock)  # tokens arrive on the bus's thread
+
+    @staticmethod
+    def restartable(c: Child, code: int) -> bool:
+        """Whether a child that exited with ``code`` is started again: every role but the
+        recorder, unless it ended by itself (exit 0) where that is how it finishes (the world at
+        its duration, an agent done); a router or a collision process never finishes by itself."""
+        if c.role in NOT_RESTARTED:
+            return False
+        return not (code == 0 and c.role in ("world", "agent"))
+
+    def due(self, c: Child, now: float) -> bool:
+        """Whether a dead child's wait before its next restart is over (noting when it was found dead)."""
+        since = self.lost_at.setdefault(c.name, now)
+        return now - since >= BACKOFF_S[min(c.restarts, len(BACKOFF_S) - 1)]
+
+    def restarted(self, c: Child) -> None:
+        """A child was started again: its token is now awaited."""
+        c.restarts += 1
+        with self._lock:
+            self.waiting[c.name] = self.lost_at.pop(c.name)
+
+    def on_alive(self, children: list[Child], role: str, name: str, now: float) -> str:
+        """A liveliness token appeared: the restarted child it belongs to is back. Returns what to
+        report ("" when it is no restarted child's)."""
+        with self._lock:
+            for c in children:
+                if c.token_role == role and c.name in self.waiting and c.token in ("", name):
+                    took = now - self.waiting.pop(c.name)
+                    self.recovered.setdefault(c.name, []).append(took)
+                    return f"{c.name} is back {took:.2f} s after it was found dead"
+        return ""

@@ -1,0 +1,69 @@
+from __future__ import annotations
+
+from pathlib import Path
+
+from iw_zenoh.nodes.child import Child
+from iw_zenoh.nodes.restarts import BACKOFF_S, Restarts
+
+
+def _child(role: str, name: str = "", token: str = "") -> Child:
+    return Child(role, name or role, ["x"], Path("x.log"), token=token)
+
+
+def test_every_role_but_the_recorder_is_restarted_unless_it_finished_by_itself() -> None:
+    r = Restarts()
+    for role in ("router", "world", "collision", "sensors", "radio", "bridge", "agent"):
+        assert r.restartable(_child(role), -9)
+    assert not r.restartable(_child("record"), -9)
+    assert not r.restartable(_child("world"), 0)  # its duration reached: the run is over
+    assert not r.restartable(_child("agent"), 0)
+    assert r.restartable(_child("collision"), 0)
+
+
+def test_restarts_wait_longer_each_time_and_report_the_time_to_recover() -> None:
+    r = Restarts()
+    c = _child("sensors", "sensors-1", token="sensors-1-1")
+    assert r.due(c, 10.0)  # the first at once
+    r.restarted(c)
+    assert r.on_alive([c], "sensors", "sensors-2-2", 10.2) == ""  # another shard's token
+    assert "sensors-1 is back 0.40 s" in r.on_alive([c], "sensors", "sensors-1-1", 10.4)
+    assert list(r.recovered) == ["sensors-1"]
+    assert abs(r.recovered["sensors-1"][0] - 0.4) < 1e-9
+    assert not r.due(c, 20.0)  # found dead again: the second waits
+    assert r.due(c, 20.0 + BACKOFF_S[1])
+
+
+def test_a_restarted_world_is_handed_the_last_committed_state_in_its_options(tmp_path: Path) -> None:
+    import msgspec
+
+    from iw_zenoh.config import load_scenario
+    from iw_zenoh.messages import LabMsg, RobotSpecMsg, WorldInfo, WorldState
+    from iw_zenoh.nodes.launcher import Launcher
+    from iw_zenoh.nodes.world_options import WorldOptions
+
+    maps = Path(__file__).resolve().parents[2] / "maps"
+    launcher = Launcher(load_scenario(maps / "demo.toml"), port=7999, log_dir=tmp_path, status=False)
+    launcher.plan()
+    world = next(c for c in launcher.children if c.role == "world")
+    started: list[bool] = []
+    world.start = lambda env: started.append(True)  # type: ignore[method-assign]
+    launcher.tally.info = WorldInfo(
+        revision=3, lab=LabMsg(name="t", width=40.0, height=20.0), period_ns=100_000_000,
+        robots=[RobotSpecMsg(name="slalom", id=1, x=10.0, y=6.1)],
+    )  # fmt: skip
+    launcher.tally.on_state(
+        WorldState(
+            tick=42, revision=3, ids=[1], x=[12.5], y=[6.0], heading=[0.1], collided=[False],
+            rolled_left=[0.01], rolled_right=[0.01], speed=[0.1],
+        ),
+        (),
+    )  # fmt: skip
+    assert launcher.restarts.due(world, 0.0)
+    launcher._restart(world)
+    assert started == [True]
+    opts = msgspec.json.decode(world.argv[world.argv.index("--options") + 1], type=WorldOptions)
+    assert opts.resume is not None
+    assert opts.resume.tick == 42
+    assert opts.resume.robots[0].pose == (12.5, 6.0, 0.1)
+    assert opts.obstacles[0].name == "A"  # the scenario's options are kept beside it
+    assert world.restarts == 1
