@@ -33,6 +33,7 @@ from iw_zenoh.nodes.restarts import MAX_RESTARTS, Restarts
 from iw_zenoh.nodes.run_args import build_parser, default_recording
 from iw_zenoh.nodes.tally import Tally
 from iw_zenoh.nodes.world_options import world_options
+from iw_zenoh.record.parts import recording_parts
 from iw_zenoh.runtime import setup_logging
 
 __all__ = ["Child", "Launcher", "main", "world_options"]
@@ -293,7 +294,10 @@ class Launcher:
 
     def _restart(self, c: Child) -> None:
         """Starts a lost child again: the router on the same port (every client finds it again by
-        itself), the world from the last committed state the launcher heard."""
+        itself), the world from the last committed state the launcher heard, the recorder into
+        the next part of the run's recording (its ``--continue RUN``). Only the router is waited
+        for: the run goes on while the others come up (a recorder is not heard from as at the
+        start: what the bus carries meanwhile waits for it in its queue once it listens)."""
         if c.role == "world":
             snap = self.tally.snapshot()
             options = msgspec.structs.replace(self.world_options[0], resume=snap)
@@ -302,6 +306,8 @@ class Launcher:
                 self._say("the world's description was never heard: the new world starts afresh")
             else:
                 self._say(f"the new world resumes at tick {snap.tick} with {len(snap.robots)} robots")
+        if c.role == "record":
+            self._say("the new recorder continues the recording in its next part")
         self.restarts.restarted(c)
         c.start(self.env)
         if c.role == "router" and not self._wait_router(timeout_s=10.0):
@@ -404,5 +410,7 @@ def _summary(launcher: Launcher) -> bool:
     for name, took in launcher.restarts.recovered.items():
         print(f"iwz run: {name} restarted {len(took)} time(s), back after " + ", ".join(f"{s:.2f} s" for s in took))
     if launcher.record is not None and launcher.record.exists():
-        print(f"iwz run: recorded to {launcher.record} (see iwz replay, iwz incidents, iwz doctor)")
+        parts = recording_parts(launcher.record)
+        more = f" in {len(parts)} parts ({', '.join(p.name for p in parts)})" if len(parts) > 1 else ""
+        print(f"iwz run: recorded to {launcher.record}{more} (see iwz replay, iwz incidents, iwz doctor)")
     return ok

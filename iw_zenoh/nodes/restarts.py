@@ -8,11 +8,10 @@ from dataclasses import dataclass, field
 
 from iw_zenoh.nodes.child import Child
 
-__all__ = ["BACKOFF_S", "MAX_RESTARTS", "NOT_RESTARTED", "Restarts"]
+__all__ = ["BACKOFF_S", "MAX_RESTARTS", "Restarts"]
 
 MAX_RESTARTS = 3  # restarts of one role in a run; after them it stays down
 BACKOFF_S = (0.0, 0.5, 2.0)  # wait before the first, second, third restart of one role
-NOT_RESTARTED = ("record",)  # the recorder's restart (into a numbered part) is not done yet
 
 
 @dataclass
@@ -32,11 +31,10 @@ class Restarts:
 
     @staticmethod
     def restartable(c: Child, code: int) -> bool:
-        """Whether a child that exited with ``code`` is started again: every role but the
-        recorder, unless it ended by itself (exit 0) where that is how it finishes (the world at
-        its duration, an agent done); a router or a collision process never finishes by itself."""
-        if c.role in NOT_RESTARTED:
-            return False
+        """Whether a child that exited with ``code`` is started again: every role, unless it ended
+        by itself (exit 0) where that is how it finishes (the world at its duration, an agent
+        done); a router, a collision process or a recorder never finishes by itself (a restarted
+        recorder writes the next part of the same recording: ``iwz record --continue``)."""
         return not (code == 0 and c.role in ("world", "agent"))
 
     def due(self, c: Child, now: float) -> bool:

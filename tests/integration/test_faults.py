@@ -1,5 +1,6 @@
 """Every role survives its own death during an ``iwz run``: killed, it comes back and the run goes
-on to meet its criteria; an agent stopped past the grace period drives again once resumed."""
+on to meet its criteria (a killed recorder goes on in the next part of the recording); an agent
+stopped past the grace period drives again once resumed."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from iw_zenoh import keys
 from iw_zenoh.bus import ZenohBus
 from iw_zenoh.messages import WorldState
 from iw_zenoh.net import NetConfig, free_port
+from iw_zenoh.record.reader import RecordingReader
 from tests.integration.harness import ROOT, stop_run, subscribe, wait_event, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(170)]
@@ -61,11 +63,12 @@ within = 0.5
 class _Run:
     """An ``iwz run`` of the scenario, its output read as it comes, and the test's own session."""
 
-    def __init__(self, scenario: Path, tmp: Path, *, status: bool = False) -> None:
+    def __init__(self, scenario: Path, tmp: Path, *, status: bool = False, record: Path | None = None) -> None:
         self.port = free_port()
         self.sim = "faults"
         argv = [sys.executable, "-m", "iw_zenoh.cli", "run", str(scenario), "--port", str(self.port)]
-        argv += ["--sim", self.sim, "--log-dir", str(tmp / "logs"), "--no-record"]
+        argv += ["--sim", self.sim, "--log-dir", str(tmp / "logs")]
+        argv += ["--record", str(record)] if record is not None else ["--no-record"]
         argv += [] if status else ["--no-status"]
         self.p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=ROOT)
         self.lines: queue.Queue[str] = queue.Queue()
@@ -161,6 +164,7 @@ def _at(m: WorldState) -> tuple[float, float]:
 
 # the order the roles are killed in, each once the one before is back; the token role of each
 KILLS = (
+    ("record", "recorder"),  # first: the time lost between its parts is measured without the router's restart
     ("collision", "collision"),
     ("sensors", "sensors"),
     ("radio", "radio"),
@@ -171,7 +175,8 @@ KILLS = (
 
 
 def test_every_role_killed_in_turn_comes_back_and_the_run_meets_its_criteria(tmp_path: Path) -> None:
-    run = _Run(_scenario(tmp_path, duration_s=40), tmp_path)
+    recording = tmp_path / "run.mcap"
+    run = _Run(_scenario(tmp_path, duration_s=40), tmp_path, record=recording)
     recovered: dict[str, float] = {}
     try:
         run.wait_moving(timeout_s=60)
@@ -196,11 +201,49 @@ def test_every_role_killed_in_turn_comes_back_and_the_run_meets_its_criteria(tmp
     assert "PASS robot 1 within 0.5 m of (8, 5)" in out
     assert "PASS collisions 0" in out
     for role, _ in KILLS:
-        name = {"sensors": "sensors-1", "agent": "driver"}.get(role, role)
+        name = {"sensors": "sensors-1", "agent": "driver", "record": "recorder"}.get(role, role)
         assert f"{name} exited with -9; restarting it (1/3)" in out
         assert f"{name} is back" in out
         assert recovered[role] < 15.0, recovered
     assert "the new world resumes at tick" in out
+    assert "the new recorder continues the recording in its next part" in out
+    _the_recording_is_in_two_parts_and_mends(recording, out)
+
+
+def _iwz(*args: str) -> subprocess.CompletedProcess[str]:
+    argv = [sys.executable, "-m", "iw_zenoh.cli", *args]
+    return subprocess.run(argv, capture_output=True, text=True, timeout=60, check=False, cwd=ROOT)
+
+
+def _log_times(path: Path) -> list[int]:
+    with path.open("rb") as f:  # this file alone (open_recording would read every part)
+        return [r.log_time for r in RecordingReader(f).raw()]
+
+
+def _the_recording_is_in_two_parts_and_mends(recording: Path, out: str) -> None:
+    """The recorder killed once: part 1 cut off (or whole), part 2 whole, the cut mended by
+    ``iwz recover``, and the log time between the parts about the 1 s budget at most."""
+    part2 = recording.with_name("run.part2.mcap")
+    assert f"recorded to {recording} in 2 parts (run.mcap, run.part2.mcap)" in out
+    doctor = _iwz("doctor", str(recording))
+    assert "run.part2.mcap (part 2 of 2): whole" in doctor.stdout, doctor.stdout
+    part1 = recording
+    if doctor.returncode != 0:  # killed mid-chunk, as it nearly always is: cut off, and mended
+        assert "run.mcap (part 1 of 2): NOT whole" in doctor.stdout, doctor.stdout
+        assert "cut off" in doctor.stdout, doctor.stdout
+        assert f"iwz recover {recording}" in doctor.stdout, doctor.stdout
+        mended = _iwz("recover", str(recording))
+        assert mended.returncode == 0, mended.stdout + mended.stderr
+        again = _iwz("doctor", str(recording))
+        assert again.returncode == 0, again.stdout
+        part1 = recording.with_name("run.recovered.mcap")
+    else:
+        assert "run.mcap (part 1 of 2): whole" in doctor.stdout, doctor.stdout
+    last, first = max(_log_times(part1)), min(_log_times(part2))
+    gap_s = (first - last) / 1e9
+    how = "cut off, mended by iwz recover" if part1 != recording else "whole"
+    print(f"part 1 of the recording {how}; log time lost between the parts: {gap_s:.3f} s")
+    assert 0 < gap_s < 2.0  # the budget is 1 s; generous on a loaded machine
 
 
 def test_an_agent_stopped_past_its_grace_drives_again_once_resumed(tmp_path: Path) -> None:
