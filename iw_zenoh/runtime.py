@@ -5,9 +5,10 @@ examples, its flags, a warm-up, what it prepares before joining, what it runs); 
 here, once: ``--sim``, ``-v``, ``--name`` and the network flags, the logging set-up, opening the
 bus (a failure prints ``iwz ROLE: reason`` and exits 2), SIGINT and SIGTERM, closing the bus.
 
-A role the launcher configures declares its options as a ``msgspec.Struct``; its flags fill it
-(:func:`options_from_args`) and ``--options JSON`` hands it whole, decoded and validated by
-msgspec, so ``iwz run`` passes typed configuration instead of strings the child parses again.
+A role the launcher configures declares its options as a ``msgspec.Struct``; its flags, declared
+as a table (:data:`Flag`, :func:`add_option_flags`), fill it (:func:`options_from_args`) and
+``--options JSON`` hands it whole (:func:`options_json`), decoded and validated by msgspec, so
+``iwz run`` passes typed configuration instead of strings the child parses again.
 """
 
 from __future__ import annotations
@@ -30,14 +31,17 @@ from iw_zenoh.errors import DecodeError, IwError
 from iw_zenoh.messages import EventData, EventKind, Message, Outgoing, decode, encode, make_event
 
 __all__ = [
+    "Flag",
     "NodeIO",
     "Outgoing",
     "Process",
+    "add_option_flags",
     "add_options_argument",
     "install_stop_signals",
     "option",
     "options_from_args",
     "options_from_argv",
+    "options_json",
     "setup_logging",
     "start_role",
 ]
@@ -194,6 +198,31 @@ OPTION_DEST = "option:"  # the dest of a flag that fills an options field: never
 def option(field_name: str) -> str:
     """The ``dest`` of a flag that fills the options field ``field_name`` (see :func:`options_from_args`)."""
     return OPTION_DEST + field_name
+
+
+# one flag of a role: its names ("-o --output"), the options field it fills, how argparse reads
+# it (type, action, metavar...), and its help ("{default}" is replaced by the field's default)
+Flag = tuple[str, str, dict[str, Any], str]
+
+
+def add_option_flags(parser: argparse.ArgumentParser, kind: type[msgspec.Struct], flags: Sequence[Flag]) -> None:
+    """Adds a role's flags, each filling a field of ``kind`` (see :data:`Flag`), and ``--options``.
+
+    A flag not given leaves its field to ``--options`` or the default (``argparse.SUPPRESS``);
+    :func:`options_from_args` then reads them into a ``kind``.
+    """
+    defaults = kind()
+    for names, name, how, text in flags:
+        text = text.format(default=getattr(defaults, name))
+        if how.get("action", "store") in ("store", "append") and "choices" not in how:
+            how = {"metavar": names.split()[-1].lstrip("-").upper(), **how}  # not OPTION:FIELD
+        parser.add_argument(*names.split(), dest=option(name), default=argparse.SUPPRESS, help=text, **how)
+    add_options_argument(parser, kind)
+
+
+def options_json(options: msgspec.Struct) -> str:
+    """``options`` as the ``--options JSON`` a role's command line takes (what ``iwz run`` passes)."""
+    return msgspec.json.encode(options).decode()
 
 
 def add_options_argument(parser: argparse.ArgumentParser, kind: type[msgspec.Struct]) -> None:

@@ -9,7 +9,8 @@ from iw_zenoh import keys
 from iw_zenoh.core.params import SimParameters
 from iw_zenoh.errors import IwError
 from iw_zenoh.maps import load_parameters
-from iw_zenoh.runtime import Process, start_role
+from iw_zenoh.nodes.role_options import BridgeOptions
+from iw_zenoh.runtime import Process, options_from_args, start_role
 
 from .node import Bridge
 from .options import DESCRIPTION, EPILOG, add_arguments
@@ -41,40 +42,40 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
 
 
-def _prepare(args: argparse.Namespace) -> tuple[UdpTransport, SimParameters]:
-    """The registration port, bound before joining the bus (a taken one: who has it), and the
-    legacy parameters."""
+def _prepare(args: argparse.Namespace) -> tuple[BridgeOptions, UdpTransport, SimParameters]:
+    """The options, the registration port, bound before joining the bus (a taken one: who has
+    it), and the legacy parameters."""
+    opts = options_from_args(args, BridgeOptions)
     try:
-        reception = UdpTransport(args.bind, args.port)
+        reception = UdpTransport(opts.bind, opts.port)
     except PortTaken as e:
         raise IwError(
-            f"cannot listen on UDP {args.bind}:{args.port}: the port is taken by "
+            f"cannot listen on UDP {opts.bind}:{opts.port}: the port is taken by "
             f"{e.owner or 'another socket'}; stop it, or give this bridge another --port"
         ) from None
     except OSError as e:
-        raise IwError(f"cannot listen on UDP {args.bind}:{args.port}: {e.strerror}") from None
+        raise IwError(f"cannot listen on UDP {opts.bind}:{opts.port}: {e.strerror}") from None
     try:
-        return reception, load_parameters(args.param) if args.param else SimParameters()
+        return opts, reception, load_parameters(opts.param) if opts.param else SimParameters()
     except (IwError, ValueError):
         reception.close()
         raise
 
 
-def _run(proc: Process, prepared: tuple[UdpTransport, SimParameters]) -> int:
-    reception, params = prepared
-    args = proc.args
+def _run(proc: Process, prepared: tuple[BridgeOptions, UdpTransport, SimParameters]) -> int:
+    opts, reception, params = prepared
     bridge = Bridge(
         proc.bus,
         proc.sim,
         reception,
-        new_transport=udp_factory(args.bind),
+        new_transport=udp_factory(opts.bind),
         params=params,
         name=keys.chunk(proc.name),
-        scoring=Mode(args.scoring),
-        pace=args.pace == "auto",
+        scoring=Mode(opts.scoring),
+        pace=opts.pace == "auto",
     )
     proc.on_stop(bridge.io.stop.set)
-    print(f"{PROG}: listening on udp {args.bind}:{reception.port} for iw/{proc.sim}/", flush=True)
+    print(f"{PROG}: listening on udp {opts.bind}:{reception.port} for iw/{proc.sim}/", flush=True)
     try:
         bridge.serve()
     finally:

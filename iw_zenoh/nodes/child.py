@@ -7,6 +7,8 @@ import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
+import msgspec
+
 __all__ = ["Child"]
 
 
@@ -23,6 +25,7 @@ class Child:
     expected_exit: bool = False
     cwd: Path | None = None
     token: str = ""  # the name of its liveliness token ("": any of its role's)
+    options: msgspec.Struct | None = None  # its typed options, in its command line as --options JSON
 
     @property
     def token_role(self) -> str:

@@ -30,11 +30,12 @@ from iw_zenoh.messages import Control, Event, WorldInfo, WorldState, decode, enc
 from iw_zenoh.net import DEFAULT_PORT, NetConfig, free_port, port_in_use
 from iw_zenoh.nodes.child import Child
 from iw_zenoh.nodes.restarts import MAX_RESTARTS, Restarts
+from iw_zenoh.nodes.role_options import BridgeOptions, RadioOptions, RecorderOptions, SensorsOptions
 from iw_zenoh.nodes.run_args import build_parser, default_recording
 from iw_zenoh.nodes.tally import Tally
 from iw_zenoh.nodes.world_options import world_options
 from iw_zenoh.record.parts import recording_parts
-from iw_zenoh.runtime import setup_logging
+from iw_zenoh.runtime import options_json, setup_logging
 
 __all__ = ["Child", "Launcher", "main", "world_options"]
 
@@ -85,32 +86,39 @@ class Launcher:
     def _cmd(self, *args: str) -> list[str]:
         return [sys.executable, "-m", "iw_zenoh.cli", *args]
 
-    def _child(self, role: str, name: str, *args: str, client: bool = True) -> Child:
+    def _child(
+        self, role: str, name: str, *args: str, options: msgspec.Struct | None = None, client: bool = True
+    ) -> Child:
+        """A child of ``role``: its ``args``, then its typed ``options`` (passed whole, ``--options JSON``)."""
         common = ["--sim", self.sim, "-e", self.endpoint] if client else ["--sim", self.sim, "--listen", self.endpoint]
-        c = Child(role, name, self._cmd(role, *args, *common), self.log_dir / f"{name}.log")
+        given = ["--options", options_json(options)] if options is not None else []
+        c = Child(role, name, self._cmd(role, *args, *given, *common), self.log_dir / f"{name}.log", options=options)
         self.children.append(c)
         return c
 
     def plan(self) -> None:
-        """Builds the list of processes."""
+        """Builds the list of processes, each role handed its options as a typed Struct."""
         sc = self.sc
         self._child("router", "router", client=False)
         if self.record is not None:
-            meta = ["--meta", f"scenario={sc.name}", "--meta", f"seed={sc.world.seed}", "--meta", f"map={sc.world.map}"]
-            # restarted with these same arguments, it continues this run's recording in its next part
-            self._child("record", "recorder", "-o", str(self.record), "--quiet", "--continue", uuid.uuid4().hex, *meta)
+            meta = {"scenario": sc.name, "seed": str(sc.world.seed), "map": str(sc.world.map)}
+            # restarted with these same options, it continues this run's recording in its next part
+            rec = RecorderOptions(output=str(self.record), meta=meta, quiet=True, continue_run=uuid.uuid4().hex)
+            self._child("record", "recorder", options=rec)
         options, rest = self.world_options
-        self._child("world", "world", "--options", msgspec.json.encode(options).decode(), *rest)
+        self._child("world", "world", *rest, options=options)
         self._child("collision", "collision")
         shards = sc.roles.sensors_shards
         for k in range(1, shards + 1):
-            self._child("sensors", f"sensors-{k}", "--shard", f"{k}/{shards}").token = f"sensors-{k}-{shards}"
+            self._child(
+                "sensors", f"sensors-{k}", options=SensorsOptions(shard=(k, shards))
+            ).token = f"sensors-{k}-{shards}"
         if sc.roles.radio:
-            self._child("radio", "radio")
+            self._child("radio", "radio", options=RadioOptions())
         if sc.bridge is not None:
             b = sc.bridge
-            extra = ["--param", str(b.params)] if b.params else []
-            self._child("bridge", "bridge", "ciberrato", "--port", str(b.port), *extra, "--scoring", str(b.scoring))
+            bridge = BridgeOptions(port=b.port, param=str(b.params) if b.params else "", scoring=b.scoring)
+            self._child("bridge", "bridge", "ciberrato", options=bridge)
         for i, a in enumerate(sc.agents):
             name = a.name or f"agent-{i + 1}-{a.program}"
             c = self._child("agent", name, a.program, *a.argv, "--name", name)
@@ -301,7 +309,8 @@ class Launcher:
         if c.role == "world":
             snap = self.tally.snapshot()
             options = msgspec.structs.replace(self.world_options[0], resume=snap)
-            c.set_option("--options", msgspec.json.encode(options).decode())
+            c.set_option("--options", options_json(options))
+            c.options = options
             if snap is None:
                 self._say("the world's description was never heard: the new world starts afresh")
             else:

@@ -3,16 +3,18 @@
 
 from __future__ import annotations
 
-import argparse
 import logging
 import time
 from collections.abc import Sequence
+
+import msgspec
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus
 from iw_zenoh.errors import ProtocolError
 from iw_zenoh.messages import Say, WorldState
-from iw_zenoh.runtime import NodeIO, start_role
+from iw_zenoh.nodes.role_options import RadioOptions, add_radio_arguments
+from iw_zenoh.runtime import NodeIO, options_from_args, start_role
 from iw_zenoh.sim.radio import RadioConfig, RadioNode
 from iw_zenoh.ticks import TickWindow
 
@@ -56,22 +58,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         argv,
         role="radio",
         description="Robot-to-robot messages, delivered only to robots within range.",
-        epilog="Example (a shorter range than Ciber-Rato's 8 m):\n  iwz radio --range 4",
-        arguments=_arguments,
-        prepare=_config,
+        epilog=(
+            "Examples (a shorter range than Ciber-Rato's 8 m):\n"
+            "  iwz radio --range 4\n"
+            '  iwz radio --options \'{"range_m": 4, "max_heard_bytes": 200}\'    (as iwz run starts it)'
+        ),
+        arguments=add_radio_arguments,
+        prepare=lambda args: RadioConfig(**msgspec.structs.asdict(options_from_args(args, RadioOptions))),
         run=lambda proc, cfg: run(proc.bus, proc.sim, cfg, io=proc.io),
     )
-
-
-def _arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--range", type=float, default=8.0, help="delivery range in metres (default 8)")
-    p.add_argument(
-        "--max-bytes", type=int, default=100, help="longest message in bytes; longer ones are dropped (default 100)"
-    )
-    p.add_argument("--budget", type=int, default=400, help="bytes a robot hears per tick at most (default 400)")
-
-
-def _config(args: argparse.Namespace) -> RadioConfig:
-    if args.range <= 0 or args.max_bytes <= 0 or args.budget <= 0:
-        raise ValueError("--range, --max-bytes and --budget must be > 0")
-    return RadioConfig(args.range, args.max_bytes, args.budget)

@@ -10,7 +10,6 @@ before it opens its file, so what arrives while it starts is kept.
 
 from __future__ import annotations
 
-import argparse
 import logging
 import platform
 import sys
@@ -21,8 +20,9 @@ from typing import IO, TYPE_CHECKING
 
 from iw_zenoh import __version__, keys
 from iw_zenoh.bus import Queue, ZenohBus
+from iw_zenoh.nodes.role_options import RecorderOptions, add_recorder_arguments
 from iw_zenoh.record.parts import PART_META, next_part
-from iw_zenoh.runtime import NodeIO, Process, start_role
+from iw_zenoh.runtime import NodeIO, Process, options_from_args, start_role
 
 if TYPE_CHECKING:
     from iw_zenoh.record.recording import Recorder
@@ -138,56 +138,26 @@ def main(argv: Sequence[str] | None = None) -> int:
             "Record every key of a simulation (iw/SIM/**) to an MCAP file: one channel per key, "
             "JSON Schemas, zstd chunks."
         ),
-        epilog="Example (Ctrl-C finishes the file):\n  iwz record -o recordings/today.mcap --meta scenario=demo",
-        arguments=_arguments,
-        prepare=_prepare,
+        epilog=(
+            "Examples (Ctrl-C finishes the file):\n"
+            "  iwz record -o recordings/today.mcap --meta scenario=demo\n"
+            '  iwz record --options \'{"output": "run.mcap", "meta": {"scenario": "demo"}, "continue_run": "RUN"}\''
+            "    (as iwz run starts it)"
+        ),
+        arguments=add_recorder_arguments,
+        prepare=lambda args: options_from_args(args, RecorderOptions),
         run=_run,
     )
 
 
-def _arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("-o", "--output", help="MCAP file to write (default recordings/SIM-DATE-TIME.mcap)")
-    p.add_argument(
-        "--meta",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="metadata to store (repeatable), e.g. scenario=demo",
-    )
-    p.add_argument("--quiet", action="store_true", help="no progress lines")
-    p.add_argument(
-        "--continue",
-        dest="continue_run",
-        nargs="?",
-        const="",
-        metavar="RUN",
-        help=(
-            "when FILE already holds a recording (of run id RUN, if given), write its next part "
-            "(FILE.part2.mcap...) instead of overwriting it: how a restarted recorder goes on"
-        ),
-    )
-
-
-def _prepare(args: argparse.Namespace) -> tuple[Path, dict[str, str]]:
-    """Where to write and the user's metadata."""
-    extra: dict[str, str] = {}
-    for item in args.meta:
-        k, sep, v = item.partition("=")
-        if not sep or not k:
-            raise ValueError(f"--meta takes KEY=VALUE, got {item!r}")
-        extra[k] = v
-    return (Path(args.output) if args.output else default_path(args.sim)), extra
-
-
-def _run(proc: Process, target: tuple[Path, dict[str, str]]) -> None:
-    out, extra = target
+def _run(proc: Process, opts: RecorderOptions) -> None:
     path, rec = record(
         proc.bus,
         proc.sim,
-        out,
+        Path(opts.output) if opts.output else default_path(proc.sim),
         io=proc.io,
-        metadata={"iw.user": extra, "iw.versions.recorder": {"iw-zenoh": __version__}},
-        status=not proc.args.quiet,
-        continue_run=proc.args.continue_run,
+        metadata={"iw.user": dict(opts.meta), "iw.versions.recorder": {"iw-zenoh": __version__}},
+        status=not opts.quiet,
+        continue_run=opts.continue_run,
     )
     print(f"iwz record: {sum(rec.counts.values())} messages on {len(rec.counts)} keys written to {path}", flush=True)

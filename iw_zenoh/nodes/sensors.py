@@ -18,34 +18,19 @@ from iw_zenoh.core.cones import warm_up
 from iw_zenoh.errors import ProtocolError
 from iw_zenoh.messages import Proposed, WorldState, encode_sensor_batch
 from iw_zenoh.nodes.info import InfoCache
-from iw_zenoh.runtime import NodeIO, start_role
+from iw_zenoh.nodes.role_options import SensorsOptions, add_sensors_arguments, parse_shard
+from iw_zenoh.runtime import NodeIO, options_from_args, start_role
 from iw_zenoh.sim.sensors import Computed, SensorsNode
 from iw_zenoh.sim.view import WorldView
 from iw_zenoh.ticks import ViewWindow
 
-__all__ = ["main", "parse_shard", "run"]
+__all__ = ["main", "parse_shard", "run"]  # parse_shard: from role_options, where it now lives
 
 logger = logging.getLogger(__name__)
 
 CATCH_UP = 2  # states computed at once after a stall: the newest and the one before
 MISSED_AHEAD = 0.25  # a tick whose readings were this much computed again ...
 PAUSE_AHEAD = 20  # ... stops computing ahead for this many ticks (stuck robots collide every tick)
-
-
-def parse_shard(text: str) -> tuple[int, int]:
-    """Parses ``K/N`` (1 <= K <= N).
-
-    Raises:
-        ValueError: Saying what a shard looks like.
-    """
-    k, sep, n = text.partition("/")
-    try:
-        kk, nn = int(k), int(n)
-    except ValueError:
-        kk = nn = 0
-    if not sep or nn < 1 or not 1 <= kk <= nn:
-        raise ValueError(f"--shard takes K/N with 1 <= K <= N (e.g. 2/3), got {text!r}")
-    return kk, nn
 
 
 def run(
@@ -160,22 +145,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         epilog=(
             "Split the robots between processes or hosts, one shard on each:\n"
             "  iwz sensors --shard 1/2\n"
-            "  iwz sensors --shard 2/2 --connect tcp/HOST:7447"
+            "  iwz sensors --shard 2/2 --connect tcp/HOST:7447\n"
+            "  iwz sensors --options '{\"shard\": [2, 2]}'    (as iwz run starts it)"
         ),
-        arguments=_arguments,
+        arguments=add_sensors_arguments,
         warm_up=warm_up,  # before joining: the first tick must not wait for a compilation
-        prepare=lambda args: parse_shard(args.shard),
-        run=lambda proc, shard: run(proc.bus, proc.sim, shard=shard, io=proc.io, ahead=not proc.args.no_ahead),
-        name=lambda args: "sensors-{}-{}".format(*parse_shard(args.shard)),
+        prepare=_options,
+        run=lambda proc, o: run(proc.bus, proc.sim, shard=o.shard, io=proc.io, ahead=o.ahead),
+        name=lambda args: _options(args).process_name,
         name_help="sensors-K-N",
     )
 
 
-def _arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--shard", default="1/1", help="K/N: compute the robots whose id is K modulo N (default 1/1, all)")
-    p.add_argument(
-        "--no-ahead",
-        action="store_true",
-        help="do not compute a tick ahead from the world's proposal (the same readings, later; "
-        "to compare, or on a machine with one core)",
-    )
+def _options(args: argparse.Namespace) -> SensorsOptions:
+    return options_from_args(args, SensorsOptions)

@@ -7,7 +7,7 @@ Apart from the world process itself so that ``iwz run`` builds a world's options
 from __future__ import annotations
 
 import argparse
-from typing import Annotated, Any
+from typing import Annotated
 
 import msgspec
 
@@ -15,7 +15,7 @@ from iw_zenoh.config import Scenario
 from iw_zenoh.core.modes import Mode, Profile
 from iw_zenoh.errors import ConfigError, IwError
 from iw_zenoh.messages import Obstacle
-from iw_zenoh.runtime import add_options_argument, option, options_from_argv
+from iw_zenoh.runtime import Flag, add_option_flags, option, options_from_argv
 from iw_zenoh.sim.config import WorldConfig
 from iw_zenoh.sim.resume import WorldSnapshot
 
@@ -63,8 +63,31 @@ class WorldOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     resume: WorldSnapshot | None = None
 
 
+def parse_obstacle(text: str) -> Obstacle:
+    """Parses ``NAME:X0,Y0,X1,Y1[,H]``.
+
+    Raises:
+        ValueError: Saying what the form is.
+    """
+    name, sep, rest = text.partition(":")
+    try:
+        v = [float(x) for x in rest.split(",")]
+    except ValueError:
+        v = []
+    if not sep or not name or len(v) not in (4, 5):
+        raise ValueError(f"--obstacle takes NAME:X0,Y0,X1,Y1[,HEIGHT], got {text!r}")
+    return Obstacle(name=name, x0=v[0], y0=v[1], x1=v[2], y1=v[3], height=v[4] if len(v) == 5 else 1.0)
+
+
+def _obstacle_flag(text: str) -> Obstacle:
+    try:
+        return parse_obstacle(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
 # each flag of ``iwz world``: the field it fills, how argparse reads it, its help ({default}: the field's)
-_FLAGS: tuple[tuple[str, str, dict[str, Any], str], ...] = (
+_FLAGS: tuple[Flag, ...] = (
     ("--grid", "grid", {"metavar": "FILE"}, "Grid XML file of start positions (default: none; robots give X, Y)"),
     (
         "--period-ms",
@@ -120,7 +143,7 @@ _FLAGS: tuple[tuple[str, str, dict[str, Any], str], ...] = (
     (
         "--obstacle",
         "obstacles",
-        {"action": "append", "type": "obstacle", "metavar": "NAME:X0,Y0,X1,Y1[,H]"},
+        {"action": "append", "type": _obstacle_flag, "metavar": "NAME:X0,Y0,X1,Y1[,H]"},
         "a rectangular obstacle from the start (repeatable)",
     ),
 )
@@ -131,7 +154,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
     A flag not given leaves its field to ``--options`` or the default (``argparse.SUPPRESS``).
     """
-    defaults = WorldOptions()
     p.add_argument(
         option("map"),
         nargs="?",
@@ -139,34 +161,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default=argparse.SUPPRESS,
         help="Lab XML file (Ciber-Rato / Intellwheels)",
     )
-    for flag, name, how, text in _FLAGS:
-        how = {**how, "type": _obstacle_flag} if how.get("type") == "obstacle" else how
-        text = text.format(default=getattr(defaults, name))
-        p.add_argument(flag, dest=option(name), default=argparse.SUPPRESS, help=text, **how)
-    add_options_argument(p, WorldOptions)
-
-
-def parse_obstacle(text: str) -> Obstacle:
-    """Parses ``NAME:X0,Y0,X1,Y1[,H]``.
-
-    Raises:
-        ValueError: Saying what the form is.
-    """
-    name, sep, rest = text.partition(":")
-    try:
-        v = [float(x) for x in rest.split(",")]
-    except ValueError:
-        v = []
-    if not sep or not name or len(v) not in (4, 5):
-        raise ValueError(f"--obstacle takes NAME:X0,Y0,X1,Y1[,HEIGHT], got {text!r}")
-    return Obstacle(name=name, x0=v[0], y0=v[1], x1=v[2], y1=v[3], height=v[4] if len(v) == 5 else 1.0)
-
-
-def _obstacle_flag(text: str) -> Obstacle:
-    try:
-        return parse_obstacle(text)
-    except ValueError as e:
-        raise argparse.ArgumentTypeError(str(e)) from None
+    add_option_flags(p, WorldOptions, _FLAGS)
 
 
 def world_options(sc: Scenario) -> tuple[WorldOptions, list[str]]:
