@@ -7,6 +7,7 @@ import argparse
 import io
 from pathlib import Path
 
+import msgspec
 import pytest
 
 from iw_zenoh import keys
@@ -14,7 +15,8 @@ from iw_zenoh.config import load_scenario
 from iw_zenoh.errors import RecordingError
 from iw_zenoh.messages import Event, EventKind, WorldState, decode, encode
 from iw_zenoh.nodes.launcher import Launcher
-from iw_zenoh.nodes.recorder import _arguments as recorder_arguments
+from iw_zenoh.nodes.role_options import RecorderOptions
+from iw_zenoh.nodes.role_options import add_recorder_arguments as recorder_arguments
 from iw_zenoh.record.incidents import find_incidents
 from iw_zenoh.record.parts import (
     PART_META,
@@ -29,6 +31,7 @@ from iw_zenoh.record.reader import open_recording
 from iw_zenoh.record.recording import SIM_INDEX, Recorder
 from iw_zenoh.record.replay import Player, ReplayOptions, sim_index
 from iw_zenoh.record.tools import check_recording, doctor_main, recover_main
+from iw_zenoh.runtime import options_from_args
 from tests.record.test_recording import _state
 
 T0 = 1_000_000_000
@@ -214,10 +217,11 @@ def test_the_launcher_starts_its_recorder_to_continue_this_run_when_restarted(tm
     )
     launcher.plan()
     argv = next(c for c in launcher.children if c.role == "record").argv
-    run = argv[argv.index("--continue") + 1]
+    run = msgspec.json.decode(argv[argv.index("--options") + 1], type=RecorderOptions).continue_run
+    assert run is not None
     assert len(run) == 32
     p = argparse.ArgumentParser()
     recorder_arguments(p)
-    assert p.parse_args(["--continue", run]).continue_run == run
-    assert p.parse_args(["--continue"]).continue_run == ""
-    assert p.parse_args([]).continue_run is None
+    assert options_from_args(p.parse_args(["--continue", run]), RecorderOptions).continue_run == run
+    assert options_from_args(p.parse_args(["--continue"]), RecorderOptions).continue_run == ""
+    assert options_from_args(p.parse_args([]), RecorderOptions).continue_run is None
