@@ -27,9 +27,10 @@ COMMANDS: dict[str, tuple[str, str] | tuple[str, str, str]] = {
     "radio": ("iw_zenoh.nodes.radio", "robot-to-robot messages within range"),
     "agent": ("iw_zenoh.nodes.agents", "run agent programs (wanderer, waypoint, ...)"),
     "bridge": (
-        "iw_zenoh.bridges.ciberrato.app",
-        "bridges: `iwz bridge ciberrato` lets legacy XML/UDP agents and viewers join",
+        "iw_zenoh.bridges.dispatch",
+        "bridges: `iwz bridge ciberrato` (legacy XML/UDP agents and viewers), `iwz bridge serial` (a real chair)",
     ),
+    "chair": ("iw_zenoh.bridges.serial.emulator", "`iwz chair emulate`: a chair board on a pseudo-terminal"),
     "record": ("iw_zenoh.nodes.recorder", "record every key of a simulation to MCAP"),
     "replay": ("iw_zenoh.nodes.replay", "play a recording back into Zenoh (rate, window, loop, seek)"),
     "incidents": ("iw_zenoh.record.incidents", "list a recording's collisions, near misses, stops and losses"),
