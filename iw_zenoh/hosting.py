@@ -38,6 +38,8 @@ class Command:
         say: A radio message (at most 100 bytes), or None.
         end_led: Ciber-Rato's end LED (and the other two).
         pose: For Real robots: the pose (x, y, dir_deg) from the robot's own odometry.
+        actions: Publish the motor powers (False: a serial bridge reports the pose of a chair
+            that another agent drives, and must not command it).
     """
 
     left: float = 0.0
@@ -47,6 +49,7 @@ class Command:
     returning_led: bool = False
     visiting_led: bool = False
     pose: tuple[float, float, float] | None = None
+    actions: bool = True
 
 
 class Outbox:
@@ -77,7 +80,7 @@ class Outbox:
             sim_time_ns: That tick's simulation time.
 
         Returns:
-            The robot's actions, as sent or queued.
+            The robot's actions, as sent or queued (or, with ``cmd.actions`` false, as not sent).
         """
         if cmd.say is not None:
             say = Say(tick=tick, sim_time_ns=sim_time_ns, robot_id=robot_id, text=cmd.say)
@@ -96,6 +99,8 @@ class Outbox:
             returning_led=cmd.returning_led,
             visiting_led=cmd.visiting_led,
         )
+        if not cmd.actions:
+            return act  # a pose alone: another agent commands this robot
         if self.batched:
             self._batch[robot_id] = act
         else:

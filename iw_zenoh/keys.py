@@ -17,6 +17,7 @@ one network::
     iw/{sim}/robot/{id}/spec         the accepted spec
     iw/{sim}/robot/{id}/actions      motor powers, leds
     iw/{sim}/robot/{id}/pose_report  a Real robot's own pose
+    iw/{sim}/robot/{id}/chair        a real chair's own readings (serial bridge)
     iw/{sim}/robot/{id}/sensors      readings of one tick
     iw/{sim}/robot/{id}/say          a radio message to send
     iw/{sim}/robot/{id}/hear         radio messages heard this tick
@@ -43,6 +44,7 @@ __all__ = [
     "all_say",
     "all_sensor_batches",
     "all_sensors",
+    "chair",
     "chunk",
     "control",
     "event",
@@ -217,6 +219,11 @@ def all_pose_reports(sim: str) -> str:
     return f"iw/{chunk(sim)}/robot/*/pose_report"
 
 
+def chair(sim: str, robot_id: int) -> str:
+    """A real chair's own readings (its serial bridge publishes them)."""
+    return f"iw/{chunk(sim)}/robot/{_rid(robot_id)}/chair"
+
+
 def sensors(sim: str, robot_id: int) -> str:
     """A robot's sensor readings."""
     return f"iw/{chunk(sim)}/robot/{_rid(robot_id)}/sensors"
@@ -294,7 +301,7 @@ def topic_kind(key: str) -> str | None:
     if len(parts) == 5 and parts[2] == "agent" and parts[4] == "actions":
         return "action_batch"
     if len(parts) == 5 and parts[2] == "robot" and parts[3].isdigit():
-        return parts[4] if parts[4] in ("spec", "actions", "pose_report", "sensors", "say", "hear") else None
+        return parts[4] if parts[4] in ("spec", "actions", "pose_report", "chair", "sensors", "say", "hear") else None
     return None
 
 

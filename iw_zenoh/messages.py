@@ -48,6 +48,7 @@ __all__ = [
     "PoseReport",
     "Proposed",
     "ActionBatch",
+    "ChairReading",
     "RadioBatch",
     "RegisterReply",
     "RegisterRequest",
@@ -423,6 +424,28 @@ class PoseReport(Message, frozen=True, kw_only=True):
         _bounded({"x": self.x, "y": self.y, "dir_deg": self.dir_deg})
 
 
+class ChairReading(Message, frozen=True, kw_only=True):
+    """A real chair's own readings, from its boards over the serial link (``iwz bridge serial``),
+    one per board status: what the augmented wheelchair merges with its virtual readings."""
+
+    schema: ClassVar[str] = "iw.ChairReading/1"
+    robot_id: RobotId
+    link: Literal["up", "down"] = "up"
+    pose: tuple[float, float, float]  # odometry: x m, y m, heading deg (drifts, as a real chair's)
+    encoders: tuple[int, int] = (0, 0)
+    wheels: tuple[float, float] = (0.0, 0.0)  # the powers the motors run at now
+    proximity_ids: list[int] = []
+    proximity_m: list[float | None] = []  # None: nothing in range
+    bumpers: list[bool] = []
+    battery_v: float = 0.0
+    estop: bool = False
+    estop_source: Literal["", "computer", "chair"] = ""
+    watchdog: bool = False  # the board's own watchdog holds the motors
+    fault: int = 0
+    frames: NonNeg = 0  # good frames received so far
+    dropped: NonNeg = 0  # corrupt, truncated or out-of-order frames dropped so far
+
+
 class SensorReading(Message, frozen=True, kw_only=True):
     """Every reading of tick n for one robot. ``None`` proximity means nothing within range,
     ``None`` beacon means not visible."""
@@ -543,7 +566,17 @@ class Control(Message, frozen=True, kw_only=True):
 
     schema: ClassVar[str] = "iw.Control/1"
     command: Literal[
-        "start", "pause", "step", "stop", "remove", "add_obstacle", "move_obstacle", "remove_obstacle", "seek"
+        "start",
+        "pause",
+        "step",
+        "stop",
+        "remove",
+        "add_obstacle",
+        "move_obstacle",
+        "remove_obstacle",
+        "seek",
+        "estop",
+        "clear",
     ]
     robot_id: RobotId = 0
     obstacle: Obstacle | None = None
@@ -774,6 +807,7 @@ MESSAGE_TYPES: tuple[type[Message], ...] = (
     Actions,
     ActionBatch,
     PoseReport,
+    ChairReading,
     SensorReading,
     SensorBatch,
     Say,
@@ -797,6 +831,7 @@ TOPIC_TYPES: dict[str, type[Message]] = {
     "spec": RegisterReply,
     "actions": Actions,
     "pose_report": PoseReport,
+    "chair": ChairReading,
     "sensors": SensorReading,
     "say": Say,
     "hear": Hear,

@@ -28,7 +28,7 @@ import numpy as np
 from iw_zenoh.core.lab import Lab, Wall
 from iw_zenoh.errors import IwError
 from iw_zenoh.maps import load_lab
-from iw_zenoh.nodes.base import install_stop_signals, setup_logging
+from iw_zenoh.runtime import install_stop_signals, setup_logging
 
 from .board import WATCHDOG_S, Board, chair_spec
 from .line import Line, LinkLost, PtyLine, SerialLine

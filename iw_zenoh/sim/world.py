@@ -235,6 +235,8 @@ class WorldCore:
             return self.remove(msg.robot_id, f"robot {msg.robot_id} removed by control")
         if c == "seek":
             return [self._event(EventKind.BAD_CONTROL, "seek is for replays; a live world cannot go back in time")]
+        if c in ("estop", "clear"):
+            return []  # for the chair's serial bridge, not the world
         return self._obstacle(msg)
 
     def _obstacle(self, msg: Control) -> list[Outgoing]:

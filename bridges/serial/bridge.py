@@ -1,0 +1,178 @@
+"""The serial bridge's logic: safety rules, odometry and what goes on the wire (pure; time passed in).
+
+Rules (``docs/serial.md``):
+
+* a command is fresh for :data:`STALE_S` after the agent's last action; after that the bridge
+  sends zero powers (agent silent, world gone, bus lost: the same);
+* an e-stop, from the operator or from the chair, latches: the bridge sends EStop every cycle
+  until an operator clears it, and a clear is followed by zero powers until a fresh action;
+* the link is down when the line fails or no good Status came for :data:`LINK_TIMEOUT_S`; the
+  odometry keeps its pose (the robot is held where it was) and picks the encoder counts up again
+  from the first Status after the link returns.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from .protocol import (
+    FLAG_ESTOP,
+    FLAG_ESTOP_BOARD,
+    FLAG_WATCHDOG,
+    NO_RANGE,
+    Clear,
+    EStop,
+    Message,
+    Motors,
+    Status,
+    power_from_units,
+    power_to_units,
+)
+
+__all__ = ["LINK_TIMEOUT_S", "STALE_S", "BridgeCore", "Snapshot", "WheelOdometry", "ranges_m", "watchdog", "wheels"]
+
+STALE_S = 0.2  # no fresh action for this long: command zero
+LINK_TIMEOUT_S = 0.3  # no good Status for this long: the link is down (the board sends every 50 ms)
+
+
+class WheelOdometry:
+    """Dead reckoning from wrapping int32 encoder counts (differential drive).
+
+    Args:
+        pose: Start (x m, y m, heading deg).
+        wheel_base_m: Distance between the wheels.
+        ticks_per_m: Encoder ticks per metre.
+    """
+
+    def __init__(self, pose: tuple[float, float, float], wheel_base_m: float, ticks_per_m: float) -> None:
+        self.x, self.y = pose[0], pose[1]
+        self.th = math.radians(pose[2])
+        self.base = wheel_base_m
+        self.per_m = ticks_per_m
+        self._last: tuple[int, int] | None = None
+
+    def forget(self) -> None:
+        """The next counts are a new baseline (the link was down, the board may have restarted)."""
+        self._last = None
+
+    def update(self, counts: tuple[int, int]) -> tuple[float, float, float]:
+        """Advances by the counts since the last call; returns (x, y, heading deg)."""
+        if self._last is not None:
+            dl = _wrap(counts[0] - self._last[0]) / self.per_m
+            dr = _wrap(counts[1] - self._last[1]) / self.per_m
+            d, dth = 0.5 * (dl + dr), (dr - dl) / self.base
+            mid = self.th + 0.5 * dth
+            self.x += d * math.cos(mid)
+            self.y += d * math.sin(mid)
+            self.th = math.remainder(self.th + dth, 2 * math.pi)
+        self._last = counts
+        return self.pose
+
+    @property
+    def pose(self) -> tuple[float, float, float]:
+        """(x, y, heading deg)."""
+        return self.x, self.y, math.degrees(self.th)
+
+
+def _wrap(d: int) -> int:
+    return (d + 2**31) % 2**32 - 2**31
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """The chair as the bridge last heard it."""
+
+    pose: tuple[float, float, float]
+    status: Status | None
+    link_up: bool
+    estop: bool
+    estop_source: str
+
+
+class BridgeCore:
+    """Commands, e-stop latch, link state and odometry of one chair.
+
+    Args:
+        odometry: The chair's odometry.
+    """
+
+    def __init__(self, odometry: WheelOdometry) -> None:
+        self.odometry = odometry
+        self.command = (0.0, 0.0)
+        self.action_s = -math.inf
+        self.status: Status | None = None
+        self.status_s = -math.inf
+        self.estop = False
+        self.estop_source = ""
+        self.clear_pending = False
+        self.line_ok = False
+
+    def on_action(self, left: float, right: float, now_s: float) -> None:
+        """The agent's command."""
+        self.command = (left, right)
+        self.action_s = now_s
+
+    def on_estop(self) -> None:
+        """The operator's e-stop."""
+        self.estop, self.estop_source = True, self.estop_source or "computer"
+
+    def on_clear(self) -> None:
+        """The operator clears the e-stop; the chair waits for a fresh action."""
+        self.estop, self.estop_source = False, ""
+        self.clear_pending = True
+        self.action_s = -math.inf
+
+    def on_status(self, status: Status, now_s: float) -> None:
+        """A good Status from the board."""
+        self.status, self.status_s = status, now_s
+        if status.flags & FLAG_ESTOP and not self.clear_pending and not self.estop:
+            self.estop = True
+            self.estop_source = "chair" if status.flags & FLAG_ESTOP_BOARD else "computer"
+        if not status.flags & FLAG_ESTOP:
+            self.clear_pending = False
+        self.odometry.update(status.encoders)
+
+    def on_line(self, ok: bool) -> None:
+        """The line opened (True) or failed (False)."""
+        if ok and not self.line_ok:
+            self.odometry.forget()
+        self.line_ok = ok
+
+    def link_up(self, now_s: float) -> bool:
+        """Whether the chair is heard."""
+        return self.line_ok and now_s - self.status_s <= LINK_TIMEOUT_S
+
+    def fresh(self, now_s: float) -> bool:
+        """Whether the agent's command is fresh."""
+        return now_s - self.action_s <= STALE_S
+
+    def outgoing(self, now_s: float) -> Message:
+        """What to send this cycle."""
+        if self.estop:
+            return EStop()
+        if self.clear_pending:
+            return Clear()
+        if not self.fresh(now_s):
+            return Motors(0, 0)
+        return Motors(power_to_units(self.command[0]), power_to_units(self.command[1]))
+
+    def snapshot(self, now_s: float) -> Snapshot:
+        """The chair now."""
+        return Snapshot(self.odometry.pose, self.status, self.link_up(now_s), self.estop, self.estop_source)
+
+
+def ranges_m(status: Status) -> tuple[list[int], list[float | None]]:
+    """A Status's proximity ranges as sensor ids and metres (None: nothing in range)."""
+    ids = list(range(len(status.ranges_mm)))
+    return ids, [None if r == NO_RANGE else r / 1000 for r in status.ranges_mm]
+
+
+def wheels(status: Status) -> tuple[float, float]:
+    """The powers the motors run at."""
+    return power_from_units(status.wheels[0]), power_from_units(status.wheels[1])
+
+
+def watchdog(status: Status) -> bool:
+    """Whether the board's watchdog holds the motors."""
+    return bool(status.flags & FLAG_WATCHDOG)

@@ -1,0 +1,286 @@
+"""``iwz bridge serial --port DEV --robot NAME``: a real chair on RS-232 joins the simulation.
+
+One process: registers the chair as a Real robot (through :class:`~iw_zenoh.agent.AgentHost`),
+answers every tick with the pose its odometry makes of the encoder counts (the world places the
+body there and computes its virtual sensors), publishes the chair's own readings on
+``robot/{id}/chair`` (the augmented wheelchair merges them with the virtual ones) and sends the
+actions an agent publishes for the robot to the chair. Safety rules: :mod:`.bridge` and
+``docs/serial.md``. ``--log FILE`` writes a CSV of every Status (``iwz calibrate`` reads it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import threading
+import time
+from collections.abc import Sequence
+from dataclasses import replace
+from typing import TextIO
+
+from iw_zenoh import keys
+from iw_zenoh.agent import AgentHost, Command, RegistrationRefused
+from iw_zenoh.bus import Bus, Inbox, ZenohBus
+from iw_zenoh.cliargs import add_common_arguments, net_from_args
+from iw_zenoh.core.spec import RobotSpec
+from iw_zenoh.errors import IwError
+from iw_zenoh.messages import Actions, ChairReading, Control, Heard, SensorReading
+from iw_zenoh.runtime import install_stop_signals, setup_logging
+
+from .board import chair_spec
+from .bridge import BridgeCore, WheelOdometry, ranges_m, watchdog, wheels
+from .line import Line, LinkLost, SerialLine
+from .protocol import FrameDecoder, Message, Status, encode_frame
+
+__all__ = ["CSV_HEADER", "SerialBridge", "main"]
+
+logger = logging.getLogger(__name__)
+
+SEND_PERIOD_S = 0.05  # a command (or zero, or EStop) goes out at least this often
+POLL_S = 0.005  # the longest an action waits before it goes out
+RETRY_S = 0.1  # how often a lost device is looked for again
+DOWN_REPORT_S = 0.2  # while the link is down, a 'down' reading this often
+CSV_HEADER = "t,left_ticks,right_ticks,left_cmd,right_cmd,left_wheel,right_wheel,battery_v,flags\n"
+
+
+class _Chair:
+    """The bridge's robot as the agent host sees it: answers each tick with the odometry pose."""
+
+    def __init__(self, bridge: SerialBridge) -> None:
+        self.bridge = bridge
+
+    def spec(self) -> RobotSpec:
+        """The chair, a Real robot."""
+        return self.bridge.spec
+
+    def on_sensors(self, reading: SensorReading, heard: list[Heard]) -> Command:
+        """The odometry pose, no actions (the chair's agent commands it)."""
+        with self.bridge.lock:
+            pose = self.bridge.core.odometry.pose
+        return Command(pose=pose, actions=False)
+
+
+class SerialBridge:
+    """A chair on a serial line, on the bus.
+
+    Args:
+        bus: The bus.
+        sim: Simulation name.
+        name: Process name (liveliness).
+        port: Device path or pyserial URL.
+        spec: The chair (start pose set).
+        baud: Bits a second.
+        log: CSV log of every Status, or None.
+    """
+
+    def __init__(
+        self,
+        bus: Bus,
+        sim: str,
+        name: str,
+        *,
+        port: str,
+        spec: RobotSpec,
+        baud: int = 115200,
+        log: TextIO | None = None,
+    ) -> None:
+        self.host = AgentHost(bus, sim, name)
+        self.sim, self.port, self.baud, self.spec, self.log = sim, port, baud, spec, log
+        start = (spec.x_m or 0.0, spec.y_m or 0.0, spec.dir_deg or 0.0)
+        self.core = BridgeCore(WheelOdometry(start, spec.wheel_base_m, spec.encoder.ticks_per_m))
+        self.lock = threading.Lock()
+        self.robot_id = 0
+        self.line: Line | None = None
+        self.decoder = FrameDecoder()
+        self.seq = 0
+        self._was_up = False
+        self._down_sent = -1e9
+        self._last_sent: Message | None = None
+        self.actions: Inbox | None = None  # once registered
+        self.control: Inbox | None = None
+        if log is not None:
+            log.write(CSV_HEADER)
+
+    def register(self) -> int:
+        """Registers the chair; returns its robot id."""
+        self.robot_id = self.host.add(_Chair(self))
+        io = self.host.io
+        self.actions = io.inbox(keys.actions(self.sim, self.robot_id))
+        self.control = io.inbox(keys.control(self.sim))
+        return self.robot_id
+
+    def _inputs(self, now: float) -> None:
+        io = self.host.io
+        if self.actions is None or self.control is None:
+            return  # not registered yet: the chair is held at zero
+        for d in self.actions.drain():
+            a = io.decode(d, Actions)
+            if a is not None and a.robot_id == self.robot_id:
+                self.core.on_action(a.left, a.right, now)
+        for d in self.control.drain():
+            c = io.decode(d, Control)
+            if c is not None and c.robot_id == self.robot_id and c.command in ("estop", "clear"):
+                (self.core.on_estop if c.command == "estop" else self.core.on_clear)()
+                io.event(f"serial-{c.command}", f"robot {self.robot_id}: operator {c.command}", robot_id=self.robot_id)
+
+    def _open(self, now: float) -> None:
+        try:
+            self.line = SerialLine(self.port, self.baud)
+        except LinkLost as e:
+            logger.debug("no device: %s", e)
+            self.host.io.stop.wait(RETRY_S)
+            return
+        self.decoder = FrameDecoder()
+        with self.lock:
+            self.core.on_line(True)
+        logger.info("opened %s", self.port)
+
+    def _lost(self, why: str) -> None:
+        if self.line is not None:
+            self.line.close()
+            self.line = None
+        with self.lock:
+            self.core.on_line(False)
+        logger.warning("link lost: %s", why)
+
+    def _on_status(self, st: Status, now: float) -> None:
+        with self.lock:
+            self.core.on_status(st, now)
+        if self.log is not None:
+            cmd = self.core.command if self.core.fresh(now) else (0.0, 0.0)
+            lw, rw = wheels(st)
+            self.log.write(
+                f"{now:.4f},{st.encoders[0]},{st.encoders[1]},{cmd[0]:.4f},{cmd[1]:.4f},"
+                f"{lw:.4f},{rw:.4f},{st.battery_mv / 1000:.3f},{st.flags}\n"
+            )
+        self._publish(now)
+
+    def _publish(self, now: float) -> None:
+        snap = self.core.snapshot(now)
+        st = snap.status
+        ids, dists = ranges_m(st) if st is not None else ([], [])
+        stats = self.decoder.stats
+        self.host.io.send(
+            keys.chair(self.sim, self.robot_id),
+            ChairReading(
+                robot_id=self.robot_id,
+                link="up" if snap.link_up else "down",
+                pose=snap.pose,
+                encoders=st.encoders if st else (0, 0),
+                wheels=wheels(st) if st else (0.0, 0.0),
+                proximity_ids=ids,
+                proximity_m=dists,
+                bumpers=[bool(st.bumpers & 1 << i) for i in range(8)] if st else [],
+                battery_v=st.battery_mv / 1000 if st else 0.0,
+                estop=snap.estop,
+                estop_source="chair" if snap.estop_source == "chair" else "computer" if snap.estop else "",
+                watchdog=watchdog(st) if st else False,
+                fault=st.fault if st else 0,
+                frames=stats.frames,
+                dropped=stats.dropped_total,
+            ),
+        )
+
+    def _link_events(self, now: float) -> None:
+        up = self.core.link_up(now)
+        if up != self._was_up:
+            self._was_up = up
+            kind = "serial-link" if up else "serial-link-lost"
+            why = f"robot {self.robot_id}: {'chair heard on' if up else 'nothing heard from the chair on'} {self.port}"
+            self.host.io.event(kind, why, robot_id=self.robot_id, port=self.port)
+        if not up and now - self._down_sent >= DOWN_REPORT_S:
+            self._down_sent = now
+            self._publish(now)
+
+    def serial_step(self, next_send: float) -> float:
+        """One pass of the serial loop; returns when to send next."""
+        now = time.monotonic()
+        self._inputs(now)
+        if self.line is None:
+            self._open(now)
+            self._link_events(time.monotonic())
+            return time.monotonic()
+        try:
+            data = self.line.read(min(POLL_S, max(0.0, next_send - now)))
+            now = time.monotonic()
+            for f in self.decoder.feed(data):
+                if isinstance(f.msg, Status):
+                    self._on_status(f.msg, now)
+            self._inputs(now)
+            with self.lock:
+                msg = self.core.outgoing(now)
+            if now >= next_send or msg != self._last_sent:  # a change goes out at once
+                self.line.write(encode_frame(msg, self.seq))
+                self.seq += 1
+                self._last_sent = msg
+                next_send = now + SEND_PERIOD_S
+        except LinkLost as e:
+            self._lost(str(e))
+        self._link_events(time.monotonic())
+        return next_send
+
+    def run_serial(self) -> None:
+        """The serial loop, until stopped (run it in a thread)."""
+        next_send = time.monotonic()
+        while not self.host.io.stop.is_set():
+            next_send = self.serial_step(next_send)
+        if self.line is not None:
+            self.line.close()
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="iwz bridge serial", description=(__doc__ or "").strip().splitlines()[0])
+    p.add_argument("--port", required=True, help="the chair's serial device or a pyserial URL")
+    p.add_argument("--robot", required=True, help="the chair's robot name")
+    p.add_argument("--baud", type=int, default=115200, help="bits a second (default 115200)")
+    p.add_argument("--spec", default="", help="chair.toml: [chair] width, height, com, max_speed, ...")
+    p.add_argument("--start", default="1,1,0", help="where the chair starts: x,y,dir_deg (its odometry's origin)")
+    p.add_argument("--id", type=int, default=0, help="robot id to ask for")
+    p.add_argument("--log", default="", help="CSV of every board status (iwz calibrate reads it)")
+    p.add_argument("--name", default="", help="process name (liveliness; default serial-PID)")
+    add_common_arguments(p)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Runs ``iwz bridge serial``."""
+    args = list(argv or [])
+    if args[:1] == ["serial"]:
+        args = args[1:]
+    a = _parser().parse_args(args)
+    setup_logging(a.verbose, "bridge serial")
+    try:
+        x, y, d = (float(v) for v in a.start.split(","))
+        spec = replace(chair_spec(a.robot, path=a.spec, start=(x, y, d)), id=a.id)
+        bus = ZenohBus(net_from_args(a))
+    except (IwError, ValueError) as e:
+        print(f"iwz bridge serial: {e}")
+        return 2
+    log = open(a.log, "a", buffering=1) if a.log else None  # noqa: SIM115 (open for the whole run)
+    bridge = SerialBridge(
+        bus,
+        keys.chunk(a.sim),
+        keys.chunk(a.name or f"serial-{os.getpid()}"),
+        port=a.port,
+        spec=spec,
+        baud=a.baud,
+        log=log,
+    )
+    install_stop_signals(bridge.host.io.stop, bridge.host.io.wake.set)
+    serial_thread = threading.Thread(target=bridge.run_serial, name="serial", daemon=True)
+    serial_thread.start()  # the chair is held at zero while the world is looked for
+    try:
+        rid = bridge.register()
+        print(f"chair {a.robot!r} is robot {rid}, on {a.port}", flush=True)
+        bridge.host.run()
+    except RegistrationRefused as e:
+        print(f"iwz bridge serial: registration refused: {e}")
+        return 3
+    finally:
+        bridge.host.io.stop.set()
+        serial_thread.join(2)
+        bus.close()
+        if log is not None:
+            log.close()
+    return 0

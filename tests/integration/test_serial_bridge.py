@@ -1,0 +1,127 @@
+"""The serial bridge with real processes: a chair emulator on a real pty, the bridge, the world.
+
+The test plays the agent (it publishes the robot's actions) and watches the chair's wheels in
+the emulator's wheel log (monotonic time, shared by every process on this machine).
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from iw_zenoh import keys
+from iw_zenoh.bus import ZenohBus
+from iw_zenoh.messages import Actions, ChairReading, WorldState, encode
+from tests.integration.harness import MAPS, Net, Proc, subscribe, wait_event, wait_msg
+
+pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(150)]
+
+STALE_S = 0.2
+SLACK_S = 0.15  # scheduling of three processes on a loaded 2-core machine
+
+
+def start_emulator(net: Net, *extra: str) -> tuple[Proc, str, Path]:
+    """``iwz chair emulate --pty`` with a stable link; waits until it prints it."""
+    link, wheels = str(net.tmp / "chair-link"), net.tmp / "wheels.log"
+    log = net.tmp / "emulator.log"
+    argv = [sys.executable, "-m", "iw_zenoh.cli", "chair", "emulate", "--pty", "--link", link]
+    argv += ["--map", str(MAPS / "liacc.xml"), "--start", "10,6.1,0", "--wheels-log", str(wheels), *extra]
+    with log.open("wb") as f:
+        p = subprocess.Popen(
+            argv,
+            stdout=f,
+            stderr=subprocess.STDOUT,
+            stdin=subprocess.DEVNULL,
+            env=dict(os.environ, PYTHONUNBUFFERED="1"),
+        )
+    proc = Proc("emulator", p, log)
+    net.procs.append(proc)
+    deadline = time.monotonic() + 30
+    while "chair board on" not in proc.output():
+        assert p.poll() is None, proc.output()
+        assert time.monotonic() < deadline, "the emulator made no pty in 30 s"
+        time.sleep(0.05)  # polling a log file: there is no event to wait on
+    return proc, link, wheels
+
+
+def start_sim(net: Net, link: str) -> ZenohBus:
+    """World, collision, sensors and the serial bridge for robot 1 on ``link``."""
+    net.spawn("world", str(MAPS / "liacc.xml"), "--grid", str(MAPS / "liacc-grid.xml"))
+    net.spawn("collision")
+    net.spawn("sensors")
+    net.spawn(
+        "bridge",
+        "serial",
+        "--port",
+        link,
+        "--robot",
+        "chair",
+        "--id",
+        "1",
+        "--start",
+        "10,6.1,0",
+        "--log",
+        str(net.tmp / "bridge.csv"),
+    )
+    return net.client()
+
+
+def drive(bus: ZenohBus, sim: str, power: float, seconds: float) -> int:
+    """Publishes actions for robot 1 at 20 Hz for ``seconds``; returns the last one's monotonic ns."""
+    last = 0
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        bus.publish(keys.actions(sim, 1), encode(Actions(robot_id=1, left=power, right=power)))
+        last = time.monotonic_ns()
+        time.sleep(0.05)  # an agent's pace, not synchronisation
+    return last
+
+
+def wheel_changes(path: Path) -> list[tuple[int, int, int]]:
+    """(monotonic ns, left, right) of every wheel change the emulator logged."""
+    if not path.exists():
+        return []
+    return [(int(a), int(b), int(c)) for a, b, c in (ln.split() for ln in path.read_text().splitlines())]
+
+
+def test_a_stale_agent_stops_the_chairs_wheels_within_200_ms(net: Net) -> None:
+    _, link, wheels = start_emulator(net)
+    bus = start_sim(net, link)
+    chair = subscribe(bus, keys.chair(net.sim, 1))
+    wait_msg(chair, ChairReading, lambda r: r.link == "up", timeout_s=60)
+    last_ns = drive(bus, net.sim, 0.1, 1.5)
+    moving = wait_msg(chair, ChairReading, lambda r: r.wheels == (0.1, 0.1) or r.wheels == (0.0, 0.0), 5)
+    stopped = wait_msg(chair, ChairReading, lambda r: r.wheels == (0.0, 0.0), 5)
+    assert stopped.pose[0] > 10.05  # it moved, by its own odometry
+    changes = wheel_changes(wheels)
+    assert (1000, 1000) in [(lw, rw) for _, lw, rw in changes], changes
+    zero_ns = next(t for t, lw, rw in changes if (lw, rw) == (0, 0) and t > last_ns - 10**8)
+    assert (zero_ns - last_ns) / 1e9 <= STALE_S + SLACK_S
+    assert moving is not None
+
+
+def test_unplug_and_replug_mid_run_and_the_run_goes_on(net: Net) -> None:
+    emu, link, wheels = start_emulator(net, "--fault", "unplug")
+    bus = start_sim(net, link)
+    events = subscribe(bus, keys.all_events(net.sim))
+    state = subscribe(bus, keys.state(net.sim), maxlen=1)
+    chair = subscribe(bus, keys.chair(net.sim, 1))
+    wait_msg(chair, ChairReading, lambda r: r.link == "up", timeout_s=60)
+    drive(bus, net.sim, 0.08, 0.5)
+    emu.popen.send_signal(signal.SIGUSR1)  # pull the cable
+    wait_event(events, "serial-link-lost", timeout_s=10)
+    held = wait_msg(state, WorldState, lambda s: 1 in s.ids, 5)
+    assert held.x[held.ids.index(1)] > 10.0  # the robot is held in the world
+    emu.popen.send_signal(signal.SIGUSR1)  # and plug it back
+    wait_event(events, "serial-link", timeout_s=10)
+    before = wait_msg(chair, ChairReading, lambda r: r.link == "up", 5).pose[0]
+    drive(bus, net.sim, 0.1, 1.0)
+    after = wait_msg(chair, ChairReading, lambda r: r.wheels == (0.0, 0.0), 5).pose[0]
+    assert after > before + 0.02  # commands reach the chair again, no restart
+    assert net.procs[-1].popen.poll() is None  # the bridge is still the same process
