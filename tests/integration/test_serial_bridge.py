@@ -125,3 +125,17 @@ def test_unplug_and_replug_mid_run_and_the_run_goes_on(net: Net) -> None:
     after = wait_msg(chair, ChairReading, lambda r: r.wheels == (0.0, 0.0), 5).pose[0]
     assert after > before + 0.02  # commands reach the chair again, no restart
     assert net.procs[-1].popen.poll() is None  # the bridge is still the same process
+
+
+def test_corrupted_bytes_are_dropped_and_never_move_the_chair(net: Net) -> None:
+    _, link, wheels = start_emulator(
+        net, "--fault", "flip", "--fault-rate", "0.02", "--fault-at", "0", "--fault-for", "1e9"
+    )
+    bus = start_sim(net, link)
+    chair = subscribe(bus, keys.chair(net.sim, 1))
+    wait_msg(chair, ChairReading, lambda r: r.link == "up", timeout_s=60)
+    drive(bus, net.sim, 0.0, 2.0)  # zero commands, mangled on the way: a flipped bit must not become a speed
+    last = wait_msg(chair, ChairReading, lambda r: r.dropped > 0, 5)
+    assert last.frames > 0
+    assert wheel_changes(wheels) == []
+    assert abs(last.pose[0] - 10.0) < 1e-9
