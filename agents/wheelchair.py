@@ -13,12 +13,13 @@ Doors (``--door ID,X,Y``): a negotiated door on the way. Within 4 m the chair as
 passage over the radio (``agents/passage.py``), and without a grant it stops 2.3 m from it.
 
 Chairs (``--chair``): ``simulated`` (virtual sensors only, the world moves the chair); ``augmented`` and ``real``
-drive a real chair that reports its own pose (odometry) to the world as a Real robot. This build
-has no serial link to hardware yet: ``--hardware emulated`` (the only choice) stands in a chair
-emulated on the core, in a room of its own (``--room``, the real obstacles), whose encoders slip so
-its odometry drifts. In ``augmented`` mode the virtual readings (at the reported pose) and the
-chair's own are merged conservatively: for each sensor the nearer reading wins. In ``real`` mode
-only the chair's own readings are used.
+drive a real chair that reports its own pose (odometry) to the world as a Real robot.
+``--hardware serial --id N`` drives the chair that ``iwz bridge serial`` registered as robot N
+(the bridge reports its pose and its own readings; see ``docs/serial.md``); ``--hardware
+emulated`` stands in a chair emulated in-process on the core, in a room of its own (``--room``,
+the real obstacles), whose encoders slip so its odometry drifts. In ``augmented`` mode the
+virtual readings (at the reported pose) and the chair's own are merged conservatively: for each
+sensor the nearer reading wins. In ``real`` mode only the chair's own readings are used.
 """
 
 from __future__ import annotations
@@ -41,9 +42,10 @@ from iw_zenoh.core.lab import Lab, Wall
 from iw_zenoh.core.motor import MAX_POWER
 from iw_zenoh.core.spec import NoiseSpec, RobotSpec, RobotType, SensorNoise
 from iw_zenoh.maps import load_lab
-from iw_zenoh.messages import Heard, SensorReading
+from iw_zenoh.messages import ChairReading, Heard, SensorReading
 
 from .autopilot import Autopilot, mapping_chair
+from .chairlink import SerialChair
 from .emulated import LocalWorld, Odometry
 from .passage import Client, parse_all
 from .waypoint import FINE_GPS
@@ -224,7 +226,7 @@ class Wheelchair:
         *,
         goal: tuple[float, float] | None,
         mode: str = "simulated",
-        hardware: EmulatedChair | None = None,
+        hardware: EmulatedChair | SerialChair | None = None,
         teleop: Teleop | None = None,
         doors: list[tuple[int, float, float]] | None = None,
         careful: bool = False,
@@ -246,6 +248,13 @@ class Wheelchair:
         self._last_status = ""
         self.doors = doors or []
         self.gates: list[Gate] = []
+        # a chair on a serial link: drive the robot its bridge registered (nodes/agents.py attaches)
+        self.attach_to = spec.id if isinstance(hardware, SerialChair) else 0
+
+    def on_chair(self, msg: ChairReading) -> None:
+        """The serial bridge's readings of the chair."""
+        if isinstance(self.hardware, SerialChair):
+            self.hardware.update(msg)
 
     def on_registered(self, robot_id: int, spec: RobotSpec) -> None:
         """Learns its id (the passage protocol names chairs by robot id)."""
@@ -316,10 +325,10 @@ class Wheelchair:
         if self.status != self._last_status:
             logger.info("t=%.1f s at (%.2f, %.2f): %s", reading.sim_time_ns / 1e9, pose[0], pose[1], self.status)
             self._last_status = self.status
-        if hw is not None:
+        if isinstance(hw, EmulatedChair):
             hw.drive(left, right)
             return Command(0.0, 0.0, pose=hw.pose, say=say)
-        return Command(left, right, say=say)
+        return Command(left, right, say=say)  # on a serial link the bridge reports the pose
 
 
 def _pose(text: str) -> tuple[float, float, float]:
@@ -363,7 +372,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="simulated (virtual sensors), augmented (a real chair, its sensors merged with the virtual ones) "
         "or real (a real chair, its own sensors); default simulated",
     )
-    p.add_argument("--hardware", choices=["emulated"], default="emulated", help="the real chair (augmented/real modes)")
+    p.add_argument(
+        "--hardware",
+        choices=["emulated", "serial"],
+        default="emulated",
+        help="the real chair (augmented/real modes): emulated in-process, or the robot --id that "
+        "`iwz bridge serial` registered",
+    )
     p.add_argument("--room", default="", help="emulated hardware: its real room's obstacles x0,y0,x1,y1;... on --map")
     p.add_argument(
         "--door",
@@ -391,8 +406,13 @@ def make(args: argparse.Namespace) -> list[Wheelchair]:
     x, y, d = _pose(args.start)
     known = load_lab(args.map)
     spec = mapping_chair(args.robot_name, id=args.id, x_m=x, y_m=y, dir_deg=d, noise=FINE_GPS)
-    hardware = None
-    if args.chair != "simulated":
+    hardware: EmulatedChair | SerialChair | None = None
+    if args.chair != "simulated" and args.hardware == "serial":
+        if args.id <= 0:
+            raise ValueError("--hardware serial drives the robot its bridge registered: give its --id")
+        hardware = SerialChair((x, y, d))
+        spec = replace(spec, type=RobotType.REAL, noise=SensorNoise())
+    elif args.chair != "simulated":
         hardware = EmulatedChair(spec, known.with_walls(_boxes(args.room)), seed=args.seed)
         spec = replace(spec, type=RobotType.REAL, noise=SensorNoise())
     teleop = None

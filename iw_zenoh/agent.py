@@ -36,6 +36,7 @@ from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import DecodeError, IwError, ProtocolError
 from iw_zenoh.hosting import Command, Outbox, WorldRegistration
 from iw_zenoh.messages import (
+    ChairReading,
     Event,
     EventKind,
     Heard,
@@ -121,6 +122,8 @@ class AgentHost:
         self._asked_at = 0.0
         self._orphans: list[Agent] = []  # robots removed, to register again
         self._retry_at = 0.0  # when to try the orphans again
+        self.chairs: Inbox | None = None  # real chairs' own readings, for agents that drive one (attach)
+        self._chair_keys: set[int] = set()  # the robots whose chair readings are subscribed
         bus.watch_alive(keys.all_alive(sim), self._on_alive)
         self.io.alive()
 
@@ -237,14 +240,54 @@ class AgentHost:
         orphans, self._orphans = self._orphans, []
         for agent in orphans:
             try:
-                rid = self.add(agent, timeout_s=2.0)
+                attach_to = getattr(agent, "attach_to", 0)  # a robot another process registers: wait for it
+                rid = self.attach(agent, attach_to, timeout_s=2.0) if attach_to else self.add(agent, timeout_s=2.0)
                 logger.warning("robot %d registered again for %s", rid, agent.spec().name)
             except RegistrationRefused as e:
                 logger.warning("registering %s again: %s; trying again later", agent.spec().name, e)
                 self._orphans.append(agent)
                 self._retry_at = now + SILENT_S
 
+    def attach(self, agent: Agent, robot_id: int, *, timeout_s: float = 30.0) -> int:
+        """Drives a robot that another process registered (a real chair's serial bridge).
+
+        Nothing is registered: waits until the world lists the robot, then hands the agent its
+        readings and publishes its actions, as for a robot it registered. An agent with
+        ``on_chair(ChairReading)`` also gets the chair's own readings (``robot/{id}/chair``).
+        The world does not wait for this agent in lock-step (the bridge answers for the robot).
+
+        Raises:
+            RegistrationRefused: The world did not list the robot within ``timeout_s``.
+        """
+        if robot_id not in self._subscribed:
+            self._subscribed[robot_id] = self.io.bus.subscribe(keys.sensors(self.sim, robot_id), self.readings)
+        deadline = time.monotonic() + timeout_s
+        spec: RobotSpec | None = None
+        while spec is None:
+            for data in self.io.bus.query(keys.info(self.sim), timeout_s=1.0):
+                info = decode(data, WorldInfo)
+                self.lockstep = info.mode == Mode.LOCKSTEP
+                spec = next((spec_from_msg(r) for r in info.robots if r.id == robot_id), spec)
+            if spec is None:
+                if time.monotonic() > deadline or self.io.stop.is_set():
+                    raise RegistrationRefused(f"no robot {robot_id} in the world within {timeout_s:g} s to attach to")
+                self.io.stop.wait(0.2)
+        self.hosted[robot_id] = _Hosted(agent, robot_id, spec)
+        if callable(getattr(agent, "on_chair", None)) and robot_id not in self._chair_keys:
+            self.chairs = self.chairs or Inbox(wake=self.io.wake)
+            self._chair_keys.add(robot_id)
+            self.io.bus.subscribe(keys.chair(self.sim, robot_id), self.chairs)
+        on_reg = getattr(agent, "on_registered", None)
+        if callable(on_reg):
+            on_reg(robot_id, spec)
+        return robot_id
+
     def _collect(self) -> None:
+        for d in self.chairs.drain() if self.chairs is not None else []:
+            c = self.io.decode(d, ChairReading)
+            h = self.hosted.get(c.robot_id) if c is not None else None
+            if c is not None and h is not None:
+                h.agent.on_chair(c)  # type: ignore[attr-defined]
         for d in self.radio.drain():
             b = self.io.decode(d, RadioBatch)
             if b is not None and self._in_window(d[0], b.tick):

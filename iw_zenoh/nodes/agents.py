@@ -79,7 +79,8 @@ def _host(proc: Process, agents: list[Agent]) -> int:
     host = AgentHost(proc.bus, proc.sim, keys.chunk(proc.name), batched=batched, io=proc.io)
     try:
         for a in agents:
-            rid = host.add(a)
+            attach_to = getattr(a, "attach_to", 0)  # a robot another process registered (a serial bridge)
+            rid = host.attach(a, attach_to) if attach_to else host.add(a)
             logger.info("robot %d registered for %s", rid, a.spec().name)
         host.run()
     except RegistrationRefused as e:

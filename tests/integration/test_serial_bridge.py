@@ -139,3 +139,21 @@ def test_corrupted_bytes_are_dropped_and_never_move_the_chair(net: Net) -> None:
     assert last.frames > 0
     assert wheel_changes(wheels) == []
     assert abs(last.pose[0] - 10.0) < 1e-9
+
+
+def test_an_augmented_wheelchair_drives_the_emulated_chair_through_the_serial_link(net: Net) -> None:
+    _, link, _ = start_emulator(net)
+    bus = start_sim(net, link)
+    state = subscribe(bus, keys.state(net.sim), maxlen=1)
+    chair = subscribe(bus, keys.chair(net.sim, 1))
+    wait_msg(chair, ChairReading, lambda r: r.link == "up", timeout_s=60)
+    net.spawn(
+        "agent", "wheelchair", "--chair", "augmented", "--hardware", "serial", "--id", "1",
+        "--map", str(MAPS / "liacc.xml"), "--start", "10,6.1,0", "--goal", "12,6.1",
+    )  # fmt: skip
+    there = wait_msg(state, WorldState, lambda s: 1 in s.ids and s.x[s.ids.index(1)] > 11.5, timeout_s=90)
+    assert abs(there.y[there.ids.index(1)] - 6.1) < 0.5
+    chair.drain()
+    own = wait_msg(chair, ChairReading, lambda r: r.link == "up", 5)
+    assert own.pose[0] > 11.0  # the world's pose is the chair's own odometry
+    assert any(d is not None for d in own.proximity_m)

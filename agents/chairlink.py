@@ -1,0 +1,46 @@
+"""A real chair on a serial link, as the wheelchair agent sees it: its serial bridge's readings.
+
+``iwz bridge serial`` registers the chair, reports its odometry pose and publishes its own
+readings (:class:`~iw_zenoh.messages.ChairReading`); the wheelchair agent attaches to that robot
+(``--hardware serial --id N``), merges those readings with the virtual ones and publishes the
+motor powers, which the bridge sends to the chair.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from iw_zenoh.messages import ChairReading
+
+__all__ = ["OwnReading", "SerialChair"]
+
+
+@dataclass(frozen=True)
+class OwnReading:
+    """The chair's own proximity readings and contact."""
+
+    proximity_ids: list[int] = field(default_factory=list)
+    proximity_m: list[float | None] = field(default_factory=list)
+    collision: bool = False
+
+
+class SerialChair:
+    """The latest of a serial bridge's readings of its chair.
+
+    Args:
+        start: Where the chair starts (x, y, heading deg): its pose until the bridge reports one.
+    """
+
+    def __init__(self, start: tuple[float, float, float]) -> None:
+        self.pose = start
+        self.reading = OwnReading()
+        self.link_up = False
+        self.estop = False
+
+    def update(self, msg: ChairReading) -> None:
+        """Takes a reading from the bridge."""
+        self.pose = msg.pose
+        self.link_up = msg.link == "up"
+        self.estop = msg.estop
+        if self.link_up:
+            self.reading = OwnReading(list(msg.proximity_ids), list(msg.proximity_m), any(msg.bumpers))
