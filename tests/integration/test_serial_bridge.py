@@ -17,7 +17,7 @@ import pytest
 
 from iw_zenoh import keys
 from iw_zenoh.bus import ZenohBus
-from iw_zenoh.messages import Actions, ChairReading, WorldState, encode
+from iw_zenoh.messages import Actions, ChairReading, Control, WorldState, encode
 from tests.integration.harness import MAPS, Net, Proc, subscribe, wait_event, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(150)]
@@ -157,3 +157,18 @@ def test_an_augmented_wheelchair_drives_the_emulated_chair_through_the_serial_li
     own = wait_msg(chair, ChairReading, lambda r: r.link == "up", 5)
     assert own.pose[0] > 11.0  # the world's pose is the chair's own odometry
     assert any(d is not None for d in own.proximity_m)
+
+
+def test_an_operator_estop_latches_until_cleared(net: Net) -> None:
+    _, link, wheels = start_emulator(net)
+    bus = start_sim(net, link)
+    chair = subscribe(bus, keys.chair(net.sim, 1))
+    wait_msg(chair, ChairReading, lambda r: r.link == "up", timeout_s=60)
+    bus.publish(keys.control(net.sim), encode(Control(command="estop", robot_id=1)))
+    wait_msg(chair, ChairReading, lambda r: r.estop, 5)
+    drive(bus, net.sim, 0.1, 1.0)  # commands while latched do nothing
+    assert wheel_changes(wheels) == []
+    bus.publish(keys.control(net.sim), encode(Control(command="clear", robot_id=1)))
+    wait_msg(chair, ChairReading, lambda r: not r.estop, 5)
+    drive(bus, net.sim, 0.1, 0.5)
+    assert (1000, 1000) in [(lw, rw) for _, lw, rw in wheel_changes(wheels)]
