@@ -56,6 +56,7 @@ __all__ = [
     "Say",
     "SensorBatch",
     "SensorReading",
+    "SerialLinkData",
     "TOPIC_TYPES",
     "Tick",
     "Verdict",
@@ -607,6 +608,10 @@ class EventKind(enum.StrEnum):
     RADIO_DROPPED = "radio-dropped"  # radio messages dropped this tick, counted (radio)
     LEGACY_REFUSED = "legacy-refused"  # a legacy client's datagram refused (legacy bridge)
     LEGACY_FINISHED = "legacy-finished"  # the legacy simulation reached SimTime (legacy bridge)
+    SERIAL_LINK = "serial-link"  # a real chair is heard on its serial line (serial bridge)
+    SERIAL_LINK_LOST = "serial-link-lost"  # ... and no longer: the robot is held (serial bridge)
+    SERIAL_ESTOP = "serial-estop"  # an operator's e-stop reached the chair's bridge: latched (serial bridge)
+    SERIAL_CLEAR = "serial-clear"  # an operator cleared the chair's e-stop (serial bridge)
 
 
 class Event(Message, frozen=True, kw_only=True):
@@ -694,6 +699,12 @@ class LegacyRefusedData(EventData, frozen=True, kw_only=True):
     dropped: int = 0
 
 
+class SerialLinkData(EventData, frozen=True, kw_only=True):
+    """The chair's serial device or pyserial URL."""
+
+    port: str
+
+
 EVENT_PAYLOADS: dict[EventKind, type[EventData]] = {
     EventKind.COLLISION: CollisionData,
     EventKind.WATCHDOG: NoData,
@@ -715,6 +726,10 @@ EVENT_PAYLOADS: dict[EventKind, type[EventData]] = {
     EventKind.RADIO_DROPPED: RadioDroppedData,
     EventKind.LEGACY_REFUSED: LegacyRefusedData,
     EventKind.LEGACY_FINISHED: NoData,
+    EventKind.SERIAL_LINK: SerialLinkData,
+    EventKind.SERIAL_LINK_LOST: SerialLinkData,
+    EventKind.SERIAL_ESTOP: NoData,
+    EventKind.SERIAL_CLEAR: NoData,
 }  # the payload type of each kind of event
 
 P = TypeVar("P", bound=EventData)

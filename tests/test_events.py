@@ -23,6 +23,7 @@ from iw_zenoh.messages import (
     RadioDroppedData,
     RefusedData,
     RegisteredData,
+    SerialLinkData,
     Tick,
     WorldInfo,
     decode,
@@ -42,6 +43,7 @@ EXAMPLES: dict[type[EventData], EventData] = {
     LaggardData: LaggardData(robots=[1, 3]),
     RadioDroppedData: RadioDroppedData(too_long=1, over_budget=3),
     LegacyRefusedData: LegacyRefusedData(peer="127.0.0.1:5000"),
+    SerialLinkData: SerialLinkData(port="/dev/ttyUSB0"),
 }
 
 

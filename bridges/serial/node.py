@@ -25,7 +25,7 @@ from iw_zenoh.bus import Bus, Inbox, ZenohBus
 from iw_zenoh.cliargs import add_common_arguments, net_from_args
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import IwError
-from iw_zenoh.messages import Actions, ChairReading, Control, Heard, SensorReading
+from iw_zenoh.messages import Actions, ChairReading, Control, EventKind, Heard, SensorReading, SerialLinkData
 from iw_zenoh.runtime import install_stop_signals, setup_logging
 
 from .board import chair_spec
@@ -122,7 +122,8 @@ class SerialBridge:
             c = io.decode(d, Control)
             if c is not None and c.robot_id == self.robot_id and c.command in ("estop", "clear"):
                 (self.core.on_estop if c.command == "estop" else self.core.on_clear)()
-                io.event(f"serial-{c.command}", f"robot {self.robot_id}: operator {c.command}", robot_id=self.robot_id)
+                kind = EventKind.SERIAL_ESTOP if c.command == "estop" else EventKind.SERIAL_CLEAR
+                io.event(kind, f"robot {self.robot_id}: operator {c.command}", robot_id=self.robot_id)
 
     def _open(self, now: float) -> None:
         try:
@@ -186,9 +187,9 @@ class SerialBridge:
         up = self.core.link_up(now)
         if up != self._was_up:
             self._was_up = up
-            kind = "serial-link" if up else "serial-link-lost"
+            kind = EventKind.SERIAL_LINK if up else EventKind.SERIAL_LINK_LOST
             why = f"robot {self.robot_id}: {'chair heard on' if up else 'nothing heard from the chair on'} {self.port}"
-            self.host.io.event(kind, why, robot_id=self.robot_id, port=self.port)
+            self.host.io.event(kind, why, SerialLinkData(port=self.port), robot_id=self.robot_id)
         if not up and now - self._down_sent >= DOWN_REPORT_S:
             self._down_sent = now
             self._publish(now)
