@@ -445,6 +445,7 @@ class ChairReading(Message, frozen=True, kw_only=True):
     fault: int = 0
     frames: NonNeg = 0  # good frames received so far
     dropped: NonNeg = 0  # corrupt, truncated or out-of-order frames dropped so far
+    sent: NonNeg = 0  # frames sent to the chair so far
 
 
 class SensorReading(Message, frozen=True, kw_only=True):

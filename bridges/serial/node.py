@@ -180,6 +180,7 @@ class SerialBridge:
                 fault=st.fault if st else 0,
                 frames=stats.frames,
                 dropped=stats.dropped_total,
+                sent=self.seq,
             ),
         )
 
