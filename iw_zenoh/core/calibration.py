@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["Fit", "fit_motor", "rise_time_of", "speeds_from_ticks"]
+__all__ = ["Fit", "fit_motor", "rise_time_of", "speeds_from_ticks", "step_window"]
 
 FloatArray = npt.NDArray[np.float64]
 PLATEAU_SHARE = 0.2  # the last fifth of the log is taken as the top speed
@@ -46,6 +46,35 @@ def speeds_from_ticks(t_s: FloatArray, left: FloatArray, right: FloatArray, tick
     dist = 0.5 * (np.asarray(left) + np.asarray(right)) / ticks_per_m
     v = np.gradient(dist, np.asarray(t_s))
     return np.asarray(v, dtype=np.float64)
+
+
+def step_window(left_cmd: FloatArray, right_cmd: FloatArray) -> tuple[int, int]:
+    """The rows of the step to full power in a log of commands (a serial bridge's log).
+
+    The step is the first run of rows commanded at the log's top forward power on both wheels;
+    the window starts one row before it (the chair still at rest) and ends where that command
+    changes.
+
+    Args:
+        left_cmd: Commanded left power per row.
+        right_cmd: Commanded right power per row.
+
+    Returns:
+        (first row, one past the last row).
+
+    Raises:
+        ValueError: The log never commands both wheels forward alike.
+    """
+    lc, rc = np.asarray(left_cmd, dtype=np.float64), np.asarray(right_cmd, dtype=np.float64)
+    both = np.minimum(lc, rc)
+    top = float(both.max()) if len(both) else 0.0
+    on = (np.abs(lc - top) < 1e-6) & (np.abs(rc - top) < 1e-6)
+    if top <= 0 or not on.any():
+        raise ValueError("the log never commands both wheels forward alike: no step to fit")
+    start = int(np.flatnonzero(on)[0])
+    off = np.flatnonzero(~on[start:])
+    end = start + int(off[0]) if len(off) else len(on)
+    return max(0, start - 1), end
 
 
 def rise_time_of(t_s: FloatArray, v: FloatArray, top: float, lo: float = 0.1, hi: float = 0.9) -> float:

@@ -1,7 +1,9 @@
 """``iwz calibrate LOG.csv``: MaxSpeed and AccelerationCurve from a real chair's log.
 
 The CSV has a header and either ``t,speed`` (seconds, m/s) or ``t,left_ticks,right_ticks``
-(cumulative encoder ticks; give ``--ticks-per-m``). The log starts with the step to full power.
+(cumulative encoder ticks; give ``--ticks-per-m``). The log starts with the step to full power,
+unless it also has ``left_cmd,right_cmd`` (the log ``iwz bridge serial --log`` writes of a real
+run): then the step is found in it, the first run commanded at its top power on both wheels.
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from iw_zenoh.core.calibration import fit_motor, rise_time_of, speeds_from_ticks
+from iw_zenoh.core.calibration import fit_motor, rise_time_of, speeds_from_ticks, step_window
 
 __all__ = ["main"]
 
@@ -33,6 +35,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         with Path(args.log).open(newline="") as f:
             rows = list(csv.DictReader(f))
         cols = set(rows[0]) if rows else set()
+        if {"left_cmd", "right_cmd"} <= cols:  # a serial bridge's log: find the step in it
+            a, b = step_window(
+                np.array([float(r["left_cmd"]) for r in rows]), np.array([float(r["right_cmd"]) for r in rows])
+            )
+            print(f"step to power {float(rows[a + 1]['left_cmd']):g} at t = {float(rows[a]['t']):.2f} s, {b - a} rows")
+            rows = rows[a:b]
         t = np.array([float(r["t"]) for r in rows])
         if {"t", "speed"} <= cols:
             v = np.array([float(r["speed"]) for r in rows])
