@@ -130,50 +130,43 @@ def _link_stops(bus: ZenohBus, wheels: Path, emulator: subprocess.Popen[bytes], 
     return out
 
 
+def _start(t: Path, procs: list[subprocess.Popen[bytes]]) -> tuple[str, subprocess.Popen[bytes], int, Path]:
+    """Router, world, emulator (stall on SIGUSR1), bridge; returns (endpoint, emulator, bridge pid, wheel log)."""
+    port = free_port()
+    ep = f"tcp/127.0.0.1:{port}"
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+
+    def spawn(*args: str, net: bool = True) -> subprocess.Popen[bytes]:
+        extra = ["--sim", SIM, "-e", ep] if net else []
+        with (t / f"{args[0]}-{len(procs)}.log").open("wb") as log:
+            p = subprocess.Popen(
+                [sys.executable, "-m", "iw_zenoh.cli", *args, *extra], stdout=log, stderr=subprocess.STDOUT, env=env
+            )
+        procs.append(p)
+        return p
+
+    wheels, link = t / "wheels.log", str(t / "chair")
+    spawn("router", "--listen", ep, net=False)
+    while not port_in_use(port):
+        time.sleep(0.05)
+    spawn("world", str(ROOT / "maps/liacc.xml"), "--grid", str(ROOT / "maps/liacc-grid.xml"))
+    emulator = spawn(
+        "chair", "emulate", "--pty", "--link", link, "--map", str(ROOT / "maps/liacc.xml"),
+        "--start", "10,6.1,0", "--wheels-log", str(wheels), "--fault", "stall", net=False,
+    )  # fmt: skip
+    while not os.path.exists(link):
+        time.sleep(0.05)
+    bridge = spawn("bridge", "serial", "--port", link, "--robot", "chair", "--id", "1", "--start", "10,6.1,0")
+    return ep, emulator, bridge.pid, wheels
+
+
 def run(n_commands: int, n_stops: int) -> dict[str, float]:
     """Starts the processes, measures, stops them; returns the figures."""
     exit_on_sigterm()
+    procs: list[subprocess.Popen[bytes]] = []
     with tempfile.TemporaryDirectory() as tmp:
-        t = Path(tmp)
-        port = free_port()
-        ep = f"tcp/127.0.0.1:{port}"
-        env = dict(os.environ, PYTHONUNBUFFERED="1")
-        procs: list[subprocess.Popen[bytes]] = []
-
-        def spawn(*args: str, net: bool = True) -> subprocess.Popen[bytes]:
-            extra = ["--sim", SIM, "-e", ep] if net else []
-            with (t / f"{args[0]}-{len(procs)}.log").open("wb") as log:
-                p = subprocess.Popen(
-                    [sys.executable, "-m", "iw_zenoh.cli", *args, *extra], stdout=log, stderr=subprocess.STDOUT, env=env
-                )
-            procs.append(p)
-            return p
-
-        wheels, link = t / "wheels.log", str(t / "chair")
         try:
-            spawn("router", "--listen", ep, net=False)
-            while not port_in_use(port):
-                time.sleep(0.05)
-            spawn("world", str(ROOT / "maps/liacc.xml"), "--grid", str(ROOT / "maps/liacc-grid.xml"))
-            emulator = spawn(
-                "chair",
-                "emulate",
-                "--pty",
-                "--link",
-                link,
-                "--map",
-                str(ROOT / "maps/liacc.xml"),
-                "--start",
-                "10,6.1,0",
-                "--wheels-log",
-                str(wheels),
-                "--fault",
-                "stall",
-                net=False,
-            )
-            while not os.path.exists(link):
-                time.sleep(0.05)
-            bridge = spawn("bridge", "serial", "--port", link, "--robot", "chair", "--id", "1", "--start", "10,6.1,0")
+            ep, emulator, bridge_pid, wheels = _start(Path(tmp), procs)
             bus = ZenohBus(NetConfig(connect=(ep,)))
             chair = Inbox()
             bus.subscribe(keys.chair(SIM, 1), chair)
@@ -181,9 +174,9 @@ def run(n_commands: int, n_stops: int) -> dict[str, float]:
             while time.monotonic() < end and not ((r := _latest(chair)) and r.link == "up"):
                 time.sleep(0.1)
             first = _latest(chair)
-            cpu0, t0 = _cpu_s(bridge.pid), time.monotonic()
+            cpu0, t0 = _cpu_s(bridge_pid), time.monotonic()
             lat = _command_latency(bus, wheels, n_commands)
-            cpu1, t1 = _cpu_s(bridge.pid), time.monotonic()
+            cpu1, t1 = _cpu_s(bridge_pid), time.monotonic()
             last = _latest(chair)
             stale = _stale_stops(bus, wheels, n_stops)
             lost = _link_stops(bus, wheels, emulator, chair, n_stops)
