@@ -302,7 +302,9 @@ class Wheelchair:
             own_by_id = dict(zip(own.proximity_ids, own.proximity_m, strict=True))
             mine = [own_by_id.get(i) for i in reading.proximity_ids]
             dists = mine if self.mode == "real" else merge_nearer(dists, mine)
-            pose = hw.pose
+            # on a serial link the virtual readings were taken where the world placed the chair
+            # (its exact GPS: the bridge's last pose report), the one pose both readings share
+            pose = hw.pose if isinstance(hw, EmulatedChair) else reading.gps
         collided = reading.collision or (hw is not None and hw.reading.collision)
         say: str | None = None
         if self.teleop is not None:

@@ -25,6 +25,7 @@ from iw_zenoh.messages import Obstacle
 __all__ = [
     "AgentEntry",
     "BridgeSection",
+    "ChairSection",
     "Criteria",
     "ObstacleEntry",
     "Reach",
@@ -104,6 +105,20 @@ class BridgeSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_
     scoring: Literal[0, 1, 2, 3] = 0
 
 
+class ChairSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """``[chair]``: a real chair on a serial link (``docs/serial.md``): ``iwz bridge serial``, and
+    without a ``port`` the chair emulator on a pseudo-terminal. The world must run in real time."""
+
+    hardware: Literal["serial"] = "serial"
+    port: str = ""  # the chair's device or pyserial URL; "": `iwz chair emulate --pty` stands in
+    robot: Annotated[int, msgspec.Meta(ge=1)] = 1  # the robot id the bridge registers
+    name: str = "chair"
+    start: Annotated[str, msgspec.Meta(pattern=r"^[^,]+,[^,]+,[^,]+$")] = "1,1,0"  # x,y,dir_deg
+    room: str = ""  # emulator: real obstacles not in the map, x0,y0,x1,y1;...
+    seed: int = 0  # emulator: noise seed
+    baud: Annotated[int, msgspec.Meta(gt=0)] = 115200
+
+
 class ScenarioFile(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """A scenario file's tables, as written (paths still relative to the file)."""
 
@@ -114,6 +129,7 @@ class ScenarioFile(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     obstacles: tuple[Obstacle, ...] = ()
     criteria: Criteria = msgspec.field(default_factory=Criteria)
     bridge: BridgeSection | None = None
+    chair: ChairSection | None = None
 
 
 class Scenario(ScenarioFile, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -200,6 +216,8 @@ def parse_scenario(text: str, base: Path, name: str = "scenario") -> Scenario:
     if bridge is not None and bridge.params is not None:
         bridge = msgspec.structs.replace(bridge, params=base / bridge.params)
         _exists(bridge.params, "bridge.params")
+    if sc.chair is not None and world.mode != Mode.REALTIME:
+        raise ConfigError("chair.hardware", "a chair on a serial link moves in real time: world.mode must be realtime")
     fields = {**msgspec.structs.asdict(sc), "world": world, "bridge": bridge, "name": sc.name or name}
     return Scenario(**fields, base=base)
 

@@ -59,3 +59,26 @@ def test_scenario_paths_are_relative_to_the_file() -> None:
     assert sc.world.map == MAPS / "ciberrato" / "C1-lab.xml"
     assert sc.bridge is not None
     assert sc.bridge.params is None or sc.bridge.params.is_file()
+
+
+def test_a_serial_chair_scenario_names_its_bridge_and_emulator() -> None:
+    sc = load_scenario(MAPS / "find-the-box-serial.toml")
+    assert sc.chair is not None
+    assert (sc.chair.hardware, sc.chair.port, sc.chair.robot) == ("serial", "", 1)
+    assert sc.chair.room == "8.2,3.4,8.8,5.0"
+
+
+@pytest.mark.parametrize(
+    ("toml", "field"),
+    [
+        ('[world]\nmap = "liacc.xml"\n[chair]\nhardware = "emulated"', "chair.hardware"),
+        ('[world]\nmap = "liacc.xml"\nmode = "lockstep"\n[chair]\nhardware = "serial"', "chair.hardware"),
+        ('[world]\nmap = "liacc.xml"\n[chair]\nrobot = 0', "chair.robot"),
+        ('[world]\nmap = "liacc.xml"\n[chair]\nstart = "1,2"', "chair.start"),
+        ('[world]\nmap = "liacc.xml"\n[chair]\nwheels = 4', "chair.wheels"),
+    ],
+)
+def test_bad_chair_tables_are_refused_naming_the_field(toml: str, field: str) -> None:
+    with pytest.raises(ConfigError) as e:
+        parse_scenario(toml, MAPS)
+    assert e.value.field == field

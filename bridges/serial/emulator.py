@@ -99,6 +99,7 @@ class Emulator:
         self.seq = 0
         self.stop = threading.Event()
         self._wheels = (0, 0)
+        self._touching = False
         self._t0 = time.monotonic()
 
     def _log_wheels(self, now: float) -> None:
@@ -142,6 +143,9 @@ class Emulator:
         if now < next_step:
             return next_step
         status = self.board.step(now)
+        if status.bumpers and not self._touching:
+            logger.warning("the real chair touched something at %s (true pose)", self.board.true_pose())
+        self._touching = bool(status.bumpers)
         if self.board.watchdog(now):
             self.decoder.resync()  # a bridge that restarted counts from 0 again
         if self.line is not None and not stalled:

@@ -23,7 +23,7 @@ from iw_zenoh import keys
 from iw_zenoh.agent import AgentHost, Command, RegistrationRefused
 from iw_zenoh.bus import Bus, Inbox, ZenohBus
 from iw_zenoh.cliargs import add_common_arguments, net_from_args
-from iw_zenoh.core.spec import RobotSpec
+from iw_zenoh.core.spec import NoiseSpec, RobotSpec, SensorNoise
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import Actions, ChairReading, Control, EventKind, Heard, SensorReading, SerialLinkData
 from iw_zenoh.runtime import install_stop_signals, setup_logging
@@ -41,6 +41,10 @@ SEND_PERIOD_S = 0.05  # a command (or zero, or EStop) goes out at least this oft
 POLL_S = 0.005  # the longest an action waits before it goes out
 RETRY_S = 0.1  # how often a lost device is looked for again
 DOWN_REPORT_S = 0.2  # while the link is down, a 'down' reading this often
+_EXACT = NoiseSpec(0.0, 0.0, enabled=False)
+# the virtual sensors of a Real robot as an in-process augmented chair registers them, but an exact
+# GPS: it reads back the pose the bridge reported, where the world took the virtual readings
+VIRTUAL_NOISE = SensorNoise(gps_m=_EXACT, gps_heading_deg=_EXACT)
 CSV_HEADER = "t,left_ticks,right_ticks,left_cmd,right_cmd,left_wheel,right_wheel,battery_v,flags\n"
 
 
@@ -254,7 +258,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     setup_logging(a.verbose, "bridge serial")
     try:
         x, y, d = (float(v) for v in a.start.split(","))
-        spec = replace(chair_spec(a.robot, path=a.spec, start=(x, y, d)), id=a.id)
+        spec = replace(chair_spec(a.robot, path=a.spec, start=(x, y, d)), id=a.id, noise=VIRTUAL_NOISE)
         bus = ZenohBus(net_from_args(a))
     except (IwError, ValueError) as e:
         print(f"iwz bridge serial: {e}")

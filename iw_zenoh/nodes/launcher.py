@@ -119,10 +119,33 @@ class Launcher:
             b = sc.bridge
             bridge = BridgeOptions(port=b.port, param=str(b.params) if b.params else "", scoring=b.scoring)
             self._child("bridge", "bridge", "ciberrato", options=bridge)
+        if sc.chair is not None:
+            self._plan_chair()
         for i, a in enumerate(sc.agents):
             name = a.name or f"agent-{i + 1}-{a.program}"
             c = self._child("agent", name, a.program, *a.argv, "--name", name)
             c.cwd, c.token = sc.base.resolve(), keys.chunk(name)
+
+    def _plan_chair(self) -> None:
+        """A real chair's serial bridge; without a port, the chair emulator on a pty (docs/serial.md)."""
+        ch, sc = self.sc.chair, self.sc
+        assert ch is not None
+        port = ch.port
+        if not port:
+            port = str(self.log_dir / "chair-pty")  # a stable link to the emulator's pty
+            emulate = ["emulate", "--pty", "--link", port, "--map", str(sc.world.map), "--start", ch.start]
+            emulate += [
+                "--room",
+                ch.room,
+                "--seed",
+                str(ch.seed),
+                "--wheels-log",
+                str(self.log_dir / "chair-wheels.log"),
+            ]
+            self.children.append(Child("chair", "chair", self._cmd("chair", *emulate), self.log_dir / "chair.log"))
+        bridge = ["serial", "--port", port, "--robot", ch.name, "--id", str(ch.robot), "--start", ch.start]
+        bridge += ["--baud", str(ch.baud), "--log", str(self.log_dir / "bridge-serial.csv")]
+        self._child("bridge", "bridge-serial", *bridge)
 
     def _wait_router(self, timeout_s: float = 15.0) -> bool:
         deadline = time.monotonic() + timeout_s

@@ -163,3 +163,16 @@ def test_hospital_five_chairs_do_their_tasks_through_two_negotiated_doors(tmp_pa
                 if abs(shut) > math.radians(45.0):
                     opened.add(door)
     assert opened == {1, 2}  # both doors let chairs through
+
+
+@pytest.mark.parametrize(
+    ("scenario", "goal"), [("slalom-serial.toml", "(20, 6.1)"), ("find-the-box-serial.toml", "(10.5, 3)")]
+)
+def test_the_augmented_scenarios_pass_through_a_serial_link(scenario: str, goal: str, tmp_path: Path) -> None:
+    r, _ = _run(scenario, tmp_path)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "PASS collisions 0" in r.stdout  # the virtual obstacles, at the pose the bridge reports
+    assert f"PASS robot 1 within 0.5 m of {goal}" in r.stdout
+    assert "serial-link" in r.stdout
+    assert "the real chair touched something" not in (tmp_path / "chair.log").read_text()
+    assert "0.0000" in (tmp_path / "bridge-serial.csv").read_text()  # the bridge logged the run
