@@ -81,6 +81,17 @@ def _latest(box: Inbox) -> ChairReading | None:
     return got[-1] if got else None
 
 
+def _next_up(box: Inbox, timeout_s: float = 60.0) -> ChairReading | None:
+    """The next reading with the link up (None if none comes)."""
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        r = _latest(box)
+        if r is not None and r.link == "up":
+            return r
+        time.sleep(0.02)
+    return None
+
+
 def _command_latency(bus: ZenohBus, wheels: Path, n: int) -> list[float]:
     sent: list[tuple[int, int]] = []
     for i in range(n):
@@ -124,9 +135,7 @@ def _link_stops(bus: ZenohBus, wheels: Path, emulator: subprocess.Popen[bytes], 
         zero = _zero_after(wheels, cut)
         out.append((zero - cut) / 1e6 - WATCHDOG_S * 1e3)
         emulator.send_signal(signal.SIGUSR1)
-        end = time.monotonic() + 5
-        while time.monotonic() < end and not ((r := _latest(chair)) and r.link == "up"):
-            time.sleep(0.05)
+        _next_up(chair, 5.0)
     return out
 
 
@@ -170,14 +179,11 @@ def run(n_commands: int, n_stops: int) -> dict[str, float]:
             bus = ZenohBus(NetConfig(connect=(ep,)))
             chair = Inbox()
             bus.subscribe(keys.chair(SIM, 1), chair)
-            end = time.monotonic() + 60
-            while time.monotonic() < end and not ((r := _latest(chair)) and r.link == "up"):
-                time.sleep(0.1)
-            first = _latest(chair)
+            first = _next_up(chair)
             cpu0, t0 = _cpu_s(bridge_pid), time.monotonic()
             lat = _command_latency(bus, wheels, n_commands)
             cpu1, t1 = _cpu_s(bridge_pid), time.monotonic()
-            last = _latest(chair)
+            last = _next_up(chair, 5.0)
             stale = _stale_stops(bus, wheels, n_stops)
             lost = _link_stops(bus, wheels, emulator, chair, n_stops)
             bus.close()
