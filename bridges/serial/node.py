@@ -21,12 +21,10 @@ from typing import TextIO
 
 from iw_zenoh import keys
 from iw_zenoh.agent import AgentHost, Command, RegistrationRefused
-from iw_zenoh.bus import Bus, Inbox, ZenohBus
-from iw_zenoh.cliargs import add_common_arguments, net_from_args
+from iw_zenoh.bus import Bus, Inbox
 from iw_zenoh.core.spec import NoiseSpec, RobotSpec, SensorNoise
-from iw_zenoh.errors import IwError
 from iw_zenoh.messages import Actions, ChairReading, Control, EventKind, Heard, SensorReading, SerialLinkData
-from iw_zenoh.runtime import install_stop_signals, setup_logging
+from iw_zenoh.runtime import Process, start_role
 
 from .board import chair_spec
 from .bridge import BridgeCore, WheelOdometry, ranges_m, watchdog, wheels
@@ -235,8 +233,7 @@ class SerialBridge:
             self.line.close()
 
 
-def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="iwz bridge serial", description=(__doc__ or "").strip().splitlines()[0])
+def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--port", required=True, help="the chair's serial device or a pyserial URL")
     p.add_argument("--robot", required=True, help="the chair's robot name")
     p.add_argument("--baud", type=int, default=115200, help="bits a second (default 115200)")
@@ -244,36 +241,19 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--start", default="1,1,0", help="where the chair starts: x,y,dir_deg (its odometry's origin)")
     p.add_argument("--id", type=int, default=0, help="robot id to ask for")
     p.add_argument("--log", default="", help="CSV of every board status (iwz calibrate reads it)")
-    p.add_argument("--name", default="", help="process name (liveliness; default serial-PID)")
-    add_common_arguments(p)
-    return p
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Runs ``iwz bridge serial``."""
-    args = list(argv or [])
-    if args[:1] == ["serial"]:
-        args = args[1:]
-    a = _parser().parse_args(args)
-    setup_logging(a.verbose, "bridge serial")
-    try:
-        x, y, d = (float(v) for v in a.start.split(","))
-        spec = replace(chair_spec(a.robot, path=a.spec, start=(x, y, d)), id=a.id, noise=VIRTUAL_NOISE)
-        bus = ZenohBus(net_from_args(a))
-    except (IwError, ValueError) as e:
-        print(f"iwz bridge serial: {e}")
-        return 2
+def _spec(a: argparse.Namespace) -> RobotSpec:
+    x, y, d = (float(v) for v in a.start.split(","))
+    return replace(chair_spec(a.robot, path=a.spec, start=(x, y, d)), id=a.id, noise=VIRTUAL_NOISE)
+
+
+def _run(proc: Process, spec: RobotSpec) -> int:
+    a = proc.args
     log = open(a.log, "a", buffering=1) if a.log else None  # noqa: SIM115 (open for the whole run)
-    bridge = SerialBridge(
-        bus,
-        keys.chunk(a.sim),
-        keys.chunk(a.name or f"serial-{os.getpid()}"),
-        port=a.port,
-        spec=spec,
-        baud=a.baud,
-        log=log,
-    )
-    install_stop_signals(bridge.host.io.stop, bridge.host.io.wake.set)
+    bridge = SerialBridge(proc.bus, proc.sim, proc.name, port=a.port, spec=spec, baud=a.baud, log=log)
+    proc.on_stop(bridge.host.io.stop.set)
+    proc.on_stop(bridge.host.io.wake.set)
     serial_thread = threading.Thread(target=bridge.run_serial, name="serial", daemon=True)
     serial_thread.start()  # the chair is held at zero while the world is looked for
     try:
@@ -286,7 +266,30 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         bridge.host.io.stop.set()
         serial_thread.join(2)
-        bus.close()
         if log is not None:
             log.close()
     return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Runs ``iwz bridge serial``."""
+    args = list(argv or [])
+    if args[:1] == ["serial"]:
+        args = args[1:]
+    return start_role(
+        args,
+        role="bridge",
+        prog="iwz bridge serial",
+        description=(__doc__ or "").strip().splitlines()[0],
+        epilog=(
+            "Examples:\n"
+            "  iwz bridge serial --port /dev/ttyUSB0 --robot chair --id 1 --start 10,6.1,0\n"
+            "  maps/slalom-serial.toml   the [chair] table, at work in a scenario\n"
+            "  docs/serial.md            the protocol, the safety rules, the emulator"
+        ),
+        arguments=_arguments,
+        prepare=_spec,
+        run=_run,
+        name=lambda _args: f"serial-{os.getpid()}",
+        name_help="serial-PID",
+    )
