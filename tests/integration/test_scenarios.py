@@ -169,7 +169,7 @@ def test_hospital_five_chairs_do_their_tasks_through_two_negotiated_doors(tmp_pa
     ("scenario", "goal"), [("slalom-serial.toml", "(20, 6.1)"), ("find-the-box-serial.toml", "(10.5, 3)")]
 )
 def test_the_augmented_scenarios_pass_through_a_serial_link(scenario: str, goal: str, tmp_path: Path) -> None:
-    r, _ = _run(scenario, tmp_path)
+    r, _ = _run(scenario, tmp_path, timeout_s=600)  # real time: as long as the chair takes
     assert r.returncode == 0, r.stdout + r.stderr
     assert "PASS collisions 0" in r.stdout  # the virtual obstacles, at the pose the bridge reports
     assert f"PASS robot 1 within 0.5 m of {goal}" in r.stdout
