@@ -433,16 +433,16 @@ class ChairReading(Message, frozen=True, kw_only=True):
     robot_id: RobotId
     link: Literal["up", "down"] = "up"
     pose: tuple[float, float, float]  # odometry: x m, y m, heading deg (drifts, as a real chair's)
-    encoders: tuple[int, int] = (0, 0)
+    encoders: tuple[Int64, Int64] = (0, 0)
     wheels: tuple[float, float] = (0.0, 0.0)  # the powers the motors run at now
-    proximity_ids: list[int] = []
+    proximity_ids: list[NonNeg] = []
     proximity_m: list[float | None] = []  # None: nothing in range
     bumpers: list[bool] = []
     battery_v: float = 0.0
     estop: bool = False
     estop_source: Literal["", "computer", "chair"] = ""
     watchdog: bool = False  # the board's own watchdog holds the motors
-    fault: int = 0
+    fault: NonNeg = 0
     frames: NonNeg = 0  # good frames received so far
     dropped: NonNeg = 0  # corrupt, truncated or out-of-order frames dropped so far
     sent: NonNeg = 0  # frames sent to the chair so far

@@ -20,6 +20,7 @@ from iw_zenoh.messages import (
     MESSAGE_TYPES,
     ActionBatch,
     Actions,
+    ChairReading,
     Control,
     Event,
     Hear,
@@ -109,6 +110,9 @@ SAMPLES: dict[type[Message], Message] = {
         tick=3, agent="a", actions=[Actions(tick=3, robot_id=1, left=0.1), Actions(tick=3, robot_id=2, right=0.1)]
     ),
     PoseReport: PoseReport(tick=3, robot_id=1, x=1.0, y=2.0, dir_deg=90.0),
+    ChairReading: ChairReading(
+        tick=3, robot_id=1, pose=(1.0, 2.0, 90.0), encoders=(10, -4), proximity_ids=[0, 1], proximity_m=[0.5, None]
+    ),
     SensorReading: _reading(1),
     SensorBatch: SensorBatch(tick=3, shard="1-1", readings=[_reading(1), _reading(2)], ids=[1, 2]),
     Say: Say(tick=3, robot_id=1, text="hello"),
