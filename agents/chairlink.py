@@ -8,11 +8,15 @@ motor powers, which the bridge sends to the chair.
 
 from __future__ import annotations
 
+import math
+from collections import deque
 from dataclasses import dataclass, field
 
 from iw_zenoh.messages import ChairReading
 
 __all__ = ["OwnReading", "SerialChair"]
+
+HISTORY = 20  # readings kept (one a 50 ms board cycle: a second), to pair with the world's tick
 
 
 @dataclass(frozen=True)
@@ -36,6 +40,7 @@ class SerialChair:
         self.reading = OwnReading()
         self.link_up = False
         self.estop = False
+        self._recent: deque[tuple[tuple[float, float, float], OwnReading]] = deque(maxlen=HISTORY)
 
     def update(self, msg: ChairReading) -> None:
         """Takes a reading from the bridge."""
@@ -44,3 +49,11 @@ class SerialChair:
         self.estop = msg.estop
         if self.link_up:
             self.reading = OwnReading(list(msg.proximity_ids), list(msg.proximity_m), any(msg.bumpers))
+            self._recent.append((msg.pose, self.reading))
+
+    def taken_at(self, pose: tuple[float, float, float]) -> OwnReading:
+        """The recent reading taken nearest ``pose`` (the world's pose of a tick is one the bridge
+        reported, so the chair's readings and the virtual ones then describe one instant)."""
+        if not self._recent:
+            return self.reading
+        return min(self._recent, key=lambda r: math.hypot(r[0][0] - pose[0], r[0][1] - pose[1]))[1]

@@ -298,7 +298,7 @@ class Wheelchair:
         pose = reading.gps
         hw = self.hardware
         if hw is not None:
-            own = hw.reading
+            own = hw.reading if isinstance(hw, EmulatedChair) else hw.taken_at(reading.gps)
             own_by_id = dict(zip(own.proximity_ids, own.proximity_m, strict=True))
             mine = [own_by_id.get(i) for i in reading.proximity_ids]
             dists = mine if self.mode == "real" else merge_nearer(dists, mine)
