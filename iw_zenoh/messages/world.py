@@ -1,0 +1,259 @@
+"""Messages of the world as a whole: registration, its description, and the tick's batches
+(proposal, verdict, committed state)."""
+
+from __future__ import annotations
+
+from typing import Annotated, ClassVar, Literal
+
+import msgspec
+
+from iw_zenoh.core.modes import Mode, Profile
+from iw_zenoh.messages.wire import INT64_MAX, Message, NonNeg, RobotId, _lengths, _magnitudes, _unique
+
+# --- registration and world description -----------------------------------------------------
+
+
+class IrSensorMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """A proximity sensor (Table 4.4)."""
+
+    id: NonNeg
+    x: float = 0.0
+    y: float = 0.0
+    angle_deg: float = 0.0
+    cone_deg: float = 60.0
+    range_m: float = 4.0
+
+
+class NoiseMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """Gaussian noise on one sensor."""
+
+    mean: float = 0.0
+    std: float = 0.0
+    enabled: bool = True
+
+
+class SensorNoiseMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """Noise of every sensor of a robot; a missing field keeps the default."""
+
+    proximity_m: NoiseMsg | None = None
+    proximity_legacy: NoiseMsg | None = None
+    compass_deg: NoiseMsg | None = None
+    beacon_deg: NoiseMsg | None = None
+    gps_m: NoiseMsg | None = None
+    gps_heading_deg: NoiseMsg | None = None
+    encoder_slip: NoiseMsg | None = None
+    motion: NoiseMsg | None = None
+
+
+class BumperMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """A contact sensor polygon in the robot frame."""
+
+    id: NonNeg
+    corners: list[tuple[float, float]]
+
+
+class RobotSpecMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """A robot registration (Tables 4.3-4.5); ranges are checked when it becomes a RobotSpec."""
+
+    name: str
+    id: NonNeg = 0
+    type: Literal["Simulated", "Real", "Door"] = "Simulated"
+    shape: Literal["rect", "circle"] = "rect"
+    width: float = 1.0
+    height: float = 1.0
+    com: float = 0.5
+    x: float | None = None
+    y: float | None = None
+    dir: float | None = None
+    max_speed: float = 0.5
+    acceleration_curve: float = 0.5
+    ir_sensors: list[IrSensorMsg] = []
+    bumpers: list[BumperMsg] = []
+    ticks_per_m: float = 2000.0
+    noise: SensorNoiseMsg | None = None
+    legacy: bool = False
+    beacon_height: float | None = None  # carries a beacon (Ciber-Rato RobotBeacon)
+
+
+class RegisterRequest(Message, frozen=True, kw_only=True):
+    """Asks the world for a robot (``world/register`` query payload)."""
+
+    schema: ClassVar[str] = "iw.RegisterRequest/1"
+    spec: RobotSpecMsg
+    agent: str = ""  # the liveliness name of the agent process that drives it
+    request_id: str = ""  # the same id asked again gets the same answer (retries are safe)
+
+
+class RegisterReply(Message, frozen=True, kw_only=True):
+    """The world's answer: the accepted spec with id and start pose, or a refusal and why."""
+
+    schema: ClassVar[str] = "iw.RegisterReply/1"
+    ok: bool
+    robot_id: RobotId = 0
+    spec: RobotSpecMsg | None = None
+    reason: str = ""
+
+
+class WallMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """A wall polygon."""
+
+    corners: list[tuple[float, float]]
+    height: float = 4.0
+
+    def __post_init__(self) -> None:
+        """Refuses a wall that is no polygon."""
+        if len(self.corners) < 3:
+            raise ValueError(f"a wall needs at least 3 corners, this one has {len(self.corners)}")
+
+
+class LabMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """A lab: size, walls, beacons (x, y, height) and targets (x, y, radius)."""
+
+    name: str
+    width: float
+    height: float
+    walls: list[WallMsg] = []
+    beacons: list[tuple[float, float, float]] = []
+    targets: list[tuple[float, float, float]] = []
+
+
+class Obstacle(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """A rectangular obstacle added at run time, by name."""
+
+    name: str
+    x0: float
+    y0: float
+    x1: float
+    y1: float
+    height: float = 1.0
+
+
+class WorldInfo(Message, frozen=True, kw_only=True):
+    """Everything a late joiner needs (the ``world/info`` queryable's answer)."""
+
+    schema: ClassVar[str] = "iw.WorldInfo/1"
+    revision: NonNeg
+    lab: LabMsg
+    grid: list[tuple[float, float, float]] = []
+    profile: Profile = Profile.NATIVE
+    mode: Mode = Mode.REALTIME
+    period_ns: NonNeg
+    seed: NonNeg = 0  # seeds numpy's generators, which take no negative seed
+    robots: list[RobotSpecMsg] = []
+    obstacles: list[Obstacle] = []
+    sim: str = "default"
+
+    def __post_init__(self) -> None:
+        """Refuses a roster that names a robot twice."""
+        if len(self.robots) > 1:
+            _unique([r.id for r in self.robots], "robots")
+
+
+# --- the tick ---------------------------------------------------------------------------------
+
+
+class Tick(Message, frozen=True, kw_only=True):
+    """The clock."""
+
+    schema: ClassVar[str] = "iw.Tick/1"
+    period_ns: NonNeg
+    mode: Mode = Mode.REALTIME
+    running: bool = True
+    revision: NonNeg = 0
+
+
+class Proposed(Message, frozen=True, kw_only=True):
+    """Current and proposed poses of every robot for tick n (world to collision)."""
+
+    schema: ClassVar[str] = "iw.Proposed/1"
+    revision: NonNeg
+    ids: list[RobotId]
+    x: list[float]
+    y: list[float]
+    heading: list[float]
+    next_x: list[float]
+    next_y: list[float]
+    next_heading: list[float]
+    linear: list[float]
+    active: list[bool]
+    # what the state will say if nothing collides (a sensors node computes ahead on it)
+    rolled_left: list[float] = []
+    rolled_right: list[float] = []
+    tick_wall_ns: NonNeg = 0
+
+    def __post_init__(self) -> None:
+        """Refuses arrays of different lengths (``rolled_*`` may both be empty: older worlds did
+        not send them), a robot named twice, a value beyond any lab."""
+        n = len(self.ids)
+        poses = {
+            "x": self.x,
+            "y": self.y,
+            "heading": self.heading,
+            "next_x": self.next_x,
+            "next_y": self.next_y,
+            "next_heading": self.next_heading,
+            "linear": self.linear,
+        }
+        rolled = {"rolled_left": self.rolled_left, "rolled_right": self.rolled_right}
+        _lengths(n, "robots", {**poses, "active": self.active})
+        _lengths(n if self.rolled_left or self.rolled_right else 0, "robots", rolled)
+        _unique(self.ids)
+        _magnitudes({**poses, **rolled})
+
+
+class Hit(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """One collision: a robot and a wall (index; the lab's wall count is the border) or robot."""
+
+    robot_id: RobotId
+    wall: Annotated[int, msgspec.Meta(ge=-1, le=INT64_MAX)] = -1
+    other: Annotated[int, msgspec.Meta(ge=-1, le=INT64_MAX)] = -1
+
+
+class Verdict(Message, frozen=True, kw_only=True):
+    """Collision verdict on tick n's proposal (collision to world)."""
+
+    schema: ClassVar[str] = "iw.Verdict/1"
+    revision: NonNeg
+    ids: list[RobotId]
+    collided: list[bool]
+    hits: list[Hit] = []
+
+    def __post_init__(self) -> None:
+        """Refuses a verdict whose flags are not one per robot, or whose hits name other robots."""
+        known = _unique(self.ids)
+        _lengths(len(self.ids), "robots", {"collided": self.collided})
+        for h in self.hits:
+            if h.robot_id not in known or (h.other >= 0 and h.other not in known):
+                raise ValueError(f"a hit names robot {h.robot_id} or {h.other}, not in ids")
+
+
+class WorldState(Message, frozen=True, kw_only=True):
+    """Committed state of every robot after tick n."""
+
+    schema: ClassVar[str] = "iw.WorldState/1"
+    revision: NonNeg
+    ids: list[RobotId]
+    x: list[float]
+    y: list[float]
+    heading: list[float]
+    collided: list[bool]
+    rolled_left: list[float]
+    rolled_right: list[float]
+    speed: list[float]
+    held: bool = False
+    held_reason: str = ""
+    tick_wall_ns: NonNeg = 0  # wall clock when the world began this tick (latency diagnostics)
+
+    def __post_init__(self) -> None:
+        """Refuses arrays of different lengths, a robot named twice, a value beyond any lab."""
+        arrays = {
+            "x": self.x,
+            "y": self.y,
+            "heading": self.heading,
+            "rolled_left": self.rolled_left,
+            "rolled_right": self.rolled_right,
+            "speed": self.speed,
+        }
+        _lengths(len(self.ids), "robots", {**arrays, "collided": self.collided})
+        _unique(self.ids)
+        _magnitudes(arrays)
