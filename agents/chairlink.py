@@ -17,6 +17,7 @@ from iw_zenoh.messages import ChairReading
 __all__ = ["OwnReading", "SerialChair"]
 
 HISTORY = 20  # readings kept (one a 50 ms board cycle: a second), to pair with the world's tick
+TURN_M = 1.0  # pairing: a radian of heading counts as this far off (a cone's reading a metre out moves so much)
 
 
 @dataclass(frozen=True)
@@ -53,7 +54,17 @@ class SerialChair:
 
     def taken_at(self, pose: tuple[float, float, float]) -> OwnReading:
         """The recent reading taken nearest ``pose`` (the world's pose of a tick is one the bridge
-        reported, so the chair's readings and the virtual ones then describe one instant)."""
+        reported, so the chair's readings and the virtual ones then describe one instant).
+
+        Heading counts as much as position: turning on the spot, every reading of the last second
+        has the same position, and one taken 20 degrees ago would map the walls it saw 20 degrees
+        round. Of equally near ones the newest wins.
+        """
         if not self._recent:
             return self.reading
-        return min(self._recent, key=lambda r: math.hypot(r[0][0] - pose[0], r[0][1] - pose[1]))[1]
+
+        def off(r: tuple[tuple[float, float, float], OwnReading]) -> float:
+            turn = math.remainder(math.radians(r[0][2] - pose[2]), 2 * math.pi)
+            return math.hypot(r[0][0] - pose[0], r[0][1] - pose[1], TURN_M * turn)
+
+        return min(reversed(self._recent), key=off)[1]

@@ -13,10 +13,12 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 from iw_zenoh.agents.autopilot import mapping_chair
+from iw_zenoh.agents.chairlink import SerialChair
 from iw_zenoh.agents.passage import Ask, parse_all
 from iw_zenoh.agents.wheelchair import EmulatedChair, KeyReader, Teleop, Wheelchair, merge_nearer
 
 from iw_zenoh.core.lab import Lab
+from iw_zenoh.messages import ChairReading
 
 
 def test_merging_keeps_the_nearer_reading_of_each_sensor() -> None:
@@ -139,3 +141,18 @@ def test_a_chair_that_has_asked_a_door_keeps_asking_while_it_plans_again() -> No
         say, _ = chair._negotiate((6.0, 3.0, 0.0), [], t)
         assert say is not None
         assert isinstance(parse_all(say)[0], Ask)
+
+
+def test_a_serial_chair_turning_on_the_spot_pairs_the_reading_taken_at_the_worlds_heading() -> None:
+    chair = SerialChair((10.0, 6.1, 0.0))
+    for k in range(20):  # a second of a turn on the spot: one position, the heading sweeping
+        chair.update(ChairReading(robot_id=1, pose=(10.0, 6.1, 2.0 * k), proximity_ids=[0], proximity_m=[1.0 + k]))
+    assert chair.taken_at((10.0, 6.1, 20.0)).proximity_m == [11.0]  # not the oldest reading, at 0 degrees
+    assert chair.taken_at((10.0, 6.1, 99.0)).proximity_m == [20.0]  # of the nearest, the newest
+
+
+def test_a_standing_serial_chair_pairs_its_newest_reading() -> None:
+    chair = SerialChair((10.0, 6.1, 0.0))
+    for d in (3.0, 2.0, 1.0):  # something came nearer while the chair stood still
+        chair.update(ChairReading(robot_id=1, pose=(10.0, 6.1, 0.0), proximity_ids=[0], proximity_m=[d]))
+    assert chair.taken_at((10.0, 6.1, 0.0)).proximity_m == [1.0]
