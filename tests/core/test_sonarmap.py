@@ -49,3 +49,12 @@ def test_known_walls_are_not_marked_again() -> None:
     known[:, 40:42] = True  # a wall at x = 2.0
     m = SonarMap(known, 0.05)
     assert len(m.update([Cone(1.0, 2.5, 0.0, math.radians(7.5), 3.0, 1.0)])) == 0
+
+
+def test_a_narrow_cone_near_a_mark_finds_it_though_no_cell_centre_lies_inside() -> None:
+    m = SonarMap(np.zeros((40, 40), dtype=bool), 0.05)
+    m.occupied[10, 14] = True  # the cell 0.70-0.75 x 0.50-0.55, centre (0.725, 0.525)
+    # a 5-degree cone 0.25 m away looking past the centre: it crosses the cell, not its centre
+    cone = Cone(0.45, 0.5, math.radians(2.0), math.radians(2.5), 3.0, 0.27)
+    assert 0.2 < m.nearest(cone) < 0.3
+    assert m.nearest(Cone(0.45, 0.5, math.radians(30.0), math.radians(2.5), 3.0, 0.27)) == math.inf
