@@ -165,11 +165,6 @@ def test_hospital_five_chairs_do_their_tasks_through_two_negotiated_doors(tmp_pa
     assert opened == {1, 2}  # both doors let chairs through
 
 
-@pytest.mark.xfail(
-    strict=False,
-    reason="in real time the autopilot sometimes stalls with no path in front of an obstacle "
-    "(3 runs of 13 here, at loads of 4 to 7); the link itself held in every run",
-)
 @pytest.mark.parametrize(
     ("scenario", "goal"), [("slalom-serial.toml", "(20, 6.1)"), ("find-the-box-serial.toml", "(10.5, 3)")]
 )
