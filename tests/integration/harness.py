@@ -68,7 +68,6 @@ class Net:
     ) -> Proc:
         """Starts ``iwz ROLE ARGS`` as a child process connected to the router."""
         name = name or f"{role}-{len(self.procs)}"
-        log = self.tmp / f"{name}.log"
         extra = ["--sim", self.sim, "-e", self.endpoint] if connect else ["--sim", self.sim]
         argv = [
             *(prefix if prefix is not None else self.prefix),
@@ -79,6 +78,11 @@ class Net:
             *args,
             *extra,
         ]
+        return self.launch(name, argv)
+
+    def launch(self, name: str, argv: list[str]) -> Proc:
+        """Starts ``argv`` as a child process logging to ``NAME.log``; stopped by :meth:`close`."""
+        log = self.tmp / f"{name}.log"
         with log.open("wb") as f:
             p = subprocess.Popen(
                 argv,
@@ -95,7 +99,6 @@ class Net:
         """Starts the router and waits until it accepts connections."""
         if not self.port:
             self.port = free_port()
-        log = self.tmp / "router.log"
         argv = [
             *(prefix or []),
             sys.executable,
@@ -107,20 +110,11 @@ class Net:
             "--listen",
             listen or self.endpoint,
         ]
-        with log.open("wb") as f:
-            p = subprocess.Popen(
-                argv,
-                stdout=f,
-                stderr=subprocess.STDOUT,
-                stdin=subprocess.DEVNULL,
-                env=dict(os.environ, PYTHONUNBUFFERED="1"),
-            )
-        proc = Proc("router", p, log)
-        self.procs.append(proc)
+        proc = self.launch("router", argv)
         if prefix is None:
             deadline = time.monotonic() + 20
             while not port_in_use(self.port):
-                assert p.poll() is None, f"router died:\n{proc.output()}"
+                assert proc.popen.poll() is None, f"router died:\n{proc.output()}"
                 assert time.monotonic() < deadline, "router did not listen in 20 s"
                 time.sleep(0.02)  # polling a port: there is no event to wait on
         return proc

@@ -6,9 +6,7 @@ the emulator's wheel log (monotonic time, shared by every process on this machin
 
 from __future__ import annotations
 
-import os
 import signal
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -29,22 +27,12 @@ SLACK_S = 0.15  # scheduling of three processes on a loaded 2-core machine
 def start_emulator(net: Net, *extra: str) -> tuple[Proc, str, Path]:
     """``iwz chair emulate --pty`` with a stable link; waits until it prints it."""
     link, wheels = str(net.tmp / "chair-link"), net.tmp / "wheels.log"
-    log = net.tmp / "emulator.log"
     argv = [sys.executable, "-m", "iw_zenoh.cli", "chair", "emulate", "--pty", "--link", link]
     argv += ["--map", str(MAPS / "liacc.xml"), "--start", "10,6.1,0", "--wheels-log", str(wheels), *extra]
-    with log.open("wb") as f:
-        p = subprocess.Popen(
-            argv,
-            stdout=f,
-            stderr=subprocess.STDOUT,
-            stdin=subprocess.DEVNULL,
-            env=dict(os.environ, PYTHONUNBUFFERED="1"),
-        )
-    proc = Proc("emulator", p, log)
-    net.procs.append(proc)
+    proc = net.launch("emulator", argv)
     deadline = time.monotonic() + 30
     while "chair board on" not in proc.output():
-        assert p.poll() is None, proc.output()
+        assert proc.popen.poll() is None, proc.output()
         assert time.monotonic() < deadline, "the emulator made no pty in 30 s"
         time.sleep(0.05)  # polling a log file: there is no event to wait on
     return proc, link, wheels
