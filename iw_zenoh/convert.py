@@ -15,19 +15,31 @@ from iw_zenoh.core.spec import (
     BumperSpec,
     EncoderSpec,
     IrSensorSpec,
+    LaserSpec,
     NoiseSpec,
     RobotSpec,
     RobotType,
     SensorNoise,
 )
 from iw_zenoh.errors import SpecError
-from iw_zenoh.messages import BumperMsg, IrSensorMsg, LabMsg, NoiseMsg, RobotSpecMsg, SensorNoiseMsg, WallMsg
+import msgspec
+
+from iw_zenoh.messages import (
+    BumperMsg,
+    IrSensorMsg,
+    LabMsg,
+    LaserMsg,
+    NoiseMsg,
+    RobotSpecMsg,
+    SensorNoiseMsg,
+    WallMsg,
+)
 
 __all__ = ["grid_from_msg", "grid_to_msg", "lab_from_msg", "lab_to_msg", "spec_from_msg", "spec_to_msg"]
 
 
-def _noise(m: NoiseMsg | None, default: NoiseSpec) -> NoiseSpec:
-    return default if m is None else NoiseSpec(m.mean, m.std, m.enabled)
+def _noise(m: NoiseMsg | None | msgspec.UnsetType, default: NoiseSpec) -> NoiseSpec:
+    return NoiseSpec(m.mean, m.std, m.enabled) if isinstance(m, NoiseMsg) else default
 
 
 def spec_from_msg(m: RobotSpecMsg) -> RobotSpec:
@@ -49,6 +61,7 @@ def spec_from_msg(m: RobotSpecMsg) -> RobotSpec:
             _noise(n.gps_heading_deg, d.gps_heading_deg),
             _noise(n.encoder_slip, d.encoder_slip),
             _noise(n.motion, d.motion),
+            _noise(n.laser_m, d.laser_m),
         )
     for name in ("width", "height", "com", "max_speed", "acceleration_curve", "ticks_per_m"):
         v = getattr(m, name)
@@ -69,6 +82,10 @@ def spec_from_msg(m: RobotSpecMsg) -> RobotSpec:
         acceleration_curve=m.acceleration_curve,
         ir_sensors=tuple(IrSensorSpec(s.id, s.x, s.y, s.angle_deg, s.cone_deg, s.range_m) for s in m.ir_sensors),
         bumpers=tuple(BumperSpec(b.id, tuple(b.corners)) for b in m.bumpers),
+        lasers=tuple(
+            LaserSpec(s.id, s.x, s.y, s.angle_deg, s.fov_deg, s.beams, s.range_m)
+            for s in (m.lasers if isinstance(m.lasers, list) else ())
+        ),
         encoder=EncoderSpec(m.ticks_per_m),
         noise=noise,
         legacy=m.legacy,
@@ -111,9 +128,18 @@ def spec_to_msg(s: RobotSpec) -> RobotSpecMsg:
             gps_heading_deg=_noise_msg(n.gps_heading_deg),
             encoder_slip=_noise_msg(n.encoder_slip),
             motion=_noise_msg(n.motion),
+            # written only when it matters, so a spec without a scanner reads as before it existed
+            laser_m=_noise_msg(n.laser_m) if s.lasers or n.laser_m != SensorNoise().laser_m else msgspec.UNSET,
         ),
         legacy=s.legacy,
         beacon_height=s.beacon_height_m,
+        lasers=[
+            LaserMsg(
+                id=a.id, x=a.x_m, y=a.y_m, angle_deg=a.angle_deg, fov_deg=a.fov_deg, beams=a.beams, range_m=a.range_m
+            )
+            for a in s.lasers
+        ]
+        or msgspec.UNSET,
     )
 
 

@@ -18,7 +18,7 @@ from iw_zenoh.core.geometry import body_outline, to_world
 from iw_zenoh.core.motor import DriveParams
 from iw_zenoh.core.spec import BodyShape, BumperSpec, NoiseSpec, RobotSpec, RobotType
 
-__all__ = ["Bodies", "polygons_at"]
+__all__ = ["Bodies", "Lasers", "polygons_at"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -42,6 +42,7 @@ def _noise_by_kind(specs: Sequence[RobotSpec]) -> tuple[dict[str, FloatArray], d
         "gps_heading_deg": [s.noise.gps_heading_deg for s in specs],
         "encoder_slip": [s.noise.encoder_slip for s in specs],
         "motion": [s.noise.motion for s in specs],
+        "laser_m": [s.noise.laser_m for s in specs],
     }
     means: dict[str, FloatArray] = {}
     stds: dict[str, FloatArray] = {}
@@ -59,6 +60,52 @@ def _bumper_outlines(bumpers: Sequence[BumperSpec]) -> FloatArray:
         out[j, : len(c)] = c
         out[j, len(c) :] = c[-1]
     return out
+
+
+@dataclass(frozen=True, eq=False)
+class Lasers:
+    """The laser scanners of N robots, flattened (S scanners, L beams in all), sorted by robot.
+
+    Attributes:
+        owner: (S,) index of the robot of each scanner.
+        id: (S,) scanner ids.
+        xy: (S, 2) mounting points in the robot frame, metres.
+        start_rad: (S,) first beam's direction relative to the heading.
+        step_rad: (S,) angle between neighbouring beams.
+        beams: (S,) beams per scanner.
+        range_m: (S,).
+        first: (S + 1,) where each scanner's beams start in the flat (L,) arrays.
+    """
+
+    owner: IntArray
+    id: IntArray
+    xy: FloatArray
+    start_rad: FloatArray
+    step_rad: FloatArray
+    beams: IntArray
+    range_m: FloatArray
+    first: IntArray
+
+    @staticmethod
+    def from_specs(specs: Sequence[RobotSpec]) -> Lasers:
+        """The scanners of these robots, in robot order then as each spec lists them."""
+        ls = [(i, a) for i, spec in enumerate(specs) for a in spec.lasers]
+        beams = np.asarray([a.beams for _, a in ls], dtype=np.int64)
+        return Lasers(
+            owner=np.asarray([i for i, _ in ls], dtype=np.int64),
+            id=np.asarray([a.id for _, a in ls], dtype=np.int64),
+            xy=np.asarray([(a.x_m, a.y_m) for _, a in ls], dtype=np.float64).reshape(-1, 2),
+            start_rad=np.radians([a.start_deg for _, a in ls]).astype(np.float64),
+            step_rad=np.radians([a.resolution_deg for _, a in ls]).astype(np.float64),
+            beams=beams,
+            range_m=np.asarray([a.range_m for _, a in ls], dtype=np.float64),
+            first=np.concatenate([[0], np.cumsum(beams)]).astype(np.int64),
+        )
+
+    @property
+    def beam_owner(self) -> IntArray:
+        """(L,) index of the robot of each beam."""
+        return np.repeat(self.owner, self.beams)
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,6 +132,7 @@ class Bodies:
         bumper_id: (B,).
         bumper_outline: (B, Kb, 2) bumper polygons in the robot frame (padded by repetition).
         ticks_per_m: Encoder resolution, (N,).
+        lasers: The laser scanners of every robot.
         noise_mean: Noise bias per robot and sensor kind, dict of (N,) arrays.
         noise_std: Noise deviation per robot and sensor kind (0 where switched off).
     """
@@ -107,6 +155,7 @@ class Bodies:
     bumper_id: IntArray
     bumper_outline: FloatArray
     ticks_per_m: FloatArray
+    lasers: Lasers
     noise_mean: dict[str, FloatArray]
     noise_std: dict[str, FloatArray]
 
@@ -157,6 +206,7 @@ class Bodies:
             bumper_id=np.asarray([b.id for _, b in bumpers], dtype=np.int64),
             bumper_outline=_bumper_outlines([b for _, b in bumpers]),
             ticks_per_m=np.asarray([s.encoder.ticks_per_m for s in specs], dtype=np.float64),
+            lasers=Lasers.from_specs(specs),
             noise_mean=means,
             noise_std=stds,
         )

@@ -2,7 +2,9 @@
 
 Each robot draws, every tick, one standard normal per slot from its own sensor stream
 (:data:`~iw_zenoh.core.noise.Stream.SENSORS`): one per proximity sensor in order, then compass,
-each beacon, GPS x, y and heading, left and right encoder. Switching one sensor's noise off
+each beacon, GPS x, y and heading, left and right encoder, then one per laser beam (scanner
+after scanner; a robot without a scanner draws none, so its noise is what it was before scanners
+existed). Switching one sensor's noise off
 leaves every other sensor's noise unchanged, and a robot's readings do not depend on the others.
 :func:`~iw_zenoh.core.sensors.read_sensors` reads them.
 """
@@ -34,7 +36,8 @@ def noise_layout(bodies: Bodies, n_beacons: int) -> tuple[IntArray, IntArray]:
         ``(counts, starts)``, both (N,): robot i's draws are ``z[starts[i]:starts[i]+counts[i]]``.
     """
     m = np.bincount(bodies.ir_owner, minlength=bodies.n).astype(np.int64)
-    counts = m + 1 + n_beacons + 3 + 2
+    beams = np.bincount(bodies.lasers.owner, weights=bodies.lasers.beams, minlength=bodies.n).astype(np.int64)
+    counts = m + 1 + n_beacons + 3 + 2 + beams
     starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
     return counts, starts
 
@@ -63,6 +66,7 @@ class TickNormals(NamedTuple):
     beacon: FloatArray  # (N, B)
     gps: FloatArray  # (N, 3) x, y and heading
     encoder: FloatArray  # (N, 2) left and right
+    laser: FloatArray  # (L,) one per laser beam
 
 
 def tick_normals(bodies: Bodies, z: FloatArray, n_beacons: int) -> TickNormals:
@@ -81,11 +85,16 @@ def tick_normals(bodies: Bodies, z: FloatArray, n_beacons: int) -> TickNormals:
     own = bodies.ir_owner
     first = np.searchsorted(own, np.arange(n))
     m_slot = starts[own] + (np.arange(len(own)) - first[own])
-    after = starts + counts - (1 + n_beacons + 3 + 2)  # first slot after the proximity ones
+    after = starts + np.bincount(own, minlength=n).astype(np.int64)  # first slot after the proximity ones
+    lz = bodies.lasers
+    b_own = lz.beam_owner
+    b_first = np.searchsorted(b_own, np.arange(n))
+    l_slot = (after + 6 + n_beacons)[b_own] + (np.arange(len(b_own)) - b_first[b_own])
     return TickNormals(
         proximity=z[m_slot],
         compass=z[after],
         beacon=z[after[:, None] + 1 + np.arange(n_beacons)[None, :]] if n_beacons else np.zeros((n, 0)),
         gps=z[after[:, None] + 1 + n_beacons + np.arange(3)[None, :]],
         encoder=z[after[:, None] + 4 + n_beacons + np.arange(2)[None, :]],
+        laser=z[l_slot],
     )

@@ -24,6 +24,7 @@ from iw_zenoh.core.bodies import Bodies, polygons_at
 from iw_zenoh.core.cones import cone_distances
 from iw_zenoh.core.geometry import to_world, wrap_deg
 from iw_zenoh.core.lab import Scene
+from iw_zenoh.core.laser import laser_distances, noisy_ranges
 from iw_zenoh.core.legacy_ir import ciberrato_ir_distances
 from iw_zenoh.core.sensor_noise import noise_bank, noise_layout, tick_normals
 
@@ -74,6 +75,8 @@ class Readings:
         collision: (N,) as given by the collision verdict.
         encoder_acc: (N, 2) accumulated encoder ticks (fractional), left and right.
         bumpers: (Bb,) True where a bumper touches a wall or another body.
+        laser_m: (L,) every laser beam's range (:mod:`iw_zenoh.core.laser`), ``inf`` for nothing
+            within range.
     """
 
     proximity_m: FloatArray
@@ -85,6 +88,7 @@ class Readings:
     collision: BoolArray
     encoder_acc: FloatArray
     bumpers: BoolArray
+    laser_m: FloatArray
 
     @property
     def encoder_ticks(self) -> IntArray:
@@ -375,4 +379,5 @@ def read_sensors(
         collision=np.asarray(collided, dtype=bool).copy(),
         encoder_acc=step_encoders(encoder_acc, rolled_m, bodies.ticks_per_m, slip),
         bumpers=_bumpers(scene, bodies, pose),
+        laser_m=noisy_ranges(bodies, laser_distances(scene, bodies, pose, only=only), z_of.laser),
     )

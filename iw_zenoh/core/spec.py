@@ -20,6 +20,7 @@ __all__ = [
     "BumperSpec",
     "EncoderSpec",
     "IrSensorSpec",
+    "LaserSpec",
     "NoiseSpec",
     "RobotSpec",
     "RobotType",
@@ -32,6 +33,8 @@ __all__ = [
 NAME_MAX_CHARS = 20  # Table 4.3
 LEGACY_MAX_IR = 8  # Intellwheels registers at most 8 proximity sensors (ids 0..7)
 DEFAULT_IR_RANGE_M = 4.0  # choice: a sonar's useful range; the seed gives none
+LASER_MAX_BEAMS = 4096  # a 0.1-degree scanner over 360 degrees is 3,600 beams
+LASER_MAX_RANGE_M = 100.0  # beyond any indoor scanner's (and any lab's diagonal here)
 
 
 class RobotType(enum.StrEnum):
@@ -105,6 +108,7 @@ class SensorNoise:
         gps_heading_deg: On the GPS heading.
         encoder_slip: Relative wheel slip per tick (a fraction of the distance the wheel rolled).
         motion: Relative noise on each wheel's speed (movement noise, off by default).
+        laser_m: On each laser beam's range, metres (a typical 2D scanner's 1 cm).
     """
 
     proximity_m: NoiseSpec = NoiseSpec(0.0, 0.01)
@@ -115,12 +119,13 @@ class SensorNoise:
     gps_heading_deg: NoiseSpec = NoiseSpec(0.0, 5.0)
     encoder_slip: NoiseSpec = NoiseSpec(0.0, 0.02)
     motion: NoiseSpec = NoiseSpec(0.0, 0.0, enabled=False)
+    laser_m: NoiseSpec = NoiseSpec(0.0, 0.01)
 
     @staticmethod
     def off() -> SensorNoise:
         """Every sensor exact and no movement noise."""
         z = NoiseSpec(0.0, 0.0, enabled=False)
-        return SensorNoise(z, z, z, z, z, z, z, z)
+        return SensorNoise(z, z, z, z, z, z, z, z, z)
 
 
 @dataclass(frozen=True)
@@ -152,6 +157,55 @@ class IrSensorSpec:
         _within(f"{p}.angle", self.angle_deg, -180.0, 180.0, lo_open=False, hi_open=False)
         _within(f"{p}.cone", self.cone_deg, 0.0, 180.0, lo_open=True, hi_open=True)
         _positive(f"{p}.range", self.range_m)
+
+
+@dataclass(frozen=True)
+class LaserSpec:
+    """A 2D laser range finder (a scanning lidar) on a robot: ``beams`` rays spread evenly over
+    ``fov_deg``, centred on ``angle_deg``, each reading the distance to the first wall, obstacle,
+    door or other body it meets within ``range_m``.
+
+    Attributes:
+        id: Scanner id, unique on the robot.
+        x_m: Mounting x relative to the centre of movement, along the heading.
+        y_m: Mounting y relative to the centre of movement, to the left.
+        angle_deg: Direction of the middle of the field of view relative to the heading, in
+            [-180, 180].
+        fov_deg: Field of view, in ]0, 360]; the first beam looks ``angle - fov/2``, the last
+            ``angle + fov/2`` (at 360 the first and last beams look the same way).
+        beams: Number of beams, 1 to 4,096 (one beam looks along ``angle_deg``).
+        range_m: Farthest distance a beam reports, in ]0, 100].
+    """
+
+    id: int
+    x_m: float = 0.0
+    y_m: float = 0.0
+    angle_deg: float = 0.0
+    fov_deg: float = 270.0
+    beams: int = 64
+    range_m: float = 10.0
+
+    def __post_init__(self) -> None:
+        if isinstance(self.id, bool) or not isinstance(self.id, int) or self.id < 0:
+            raise SpecError("laser.id", f"must be an integer >= 0, got {self.id!r}")
+        p = f"laser[{self.id}]"
+        _finite(f"{p}.x", self.x_m)
+        _finite(f"{p}.y", self.y_m)
+        _within(f"{p}.angle", self.angle_deg, -180.0, 180.0, lo_open=False, hi_open=False)
+        _within(f"{p}.fov", self.fov_deg, 0.0, 360.0, lo_open=True, hi_open=False)
+        if isinstance(self.beams, bool) or not isinstance(self.beams, int) or not 1 <= self.beams <= LASER_MAX_BEAMS:
+            raise SpecError(f"{p}.beams", f"must be an integer in [1;{LASER_MAX_BEAMS}], got {self.beams!r}")
+        _within(f"{p}.range", self.range_m, 0.0, LASER_MAX_RANGE_M, lo_open=True, hi_open=False)
+
+    @property
+    def resolution_deg(self) -> float:
+        """Angle between neighbouring beams (0 for a single beam)."""
+        return self.fov_deg / (self.beams - 1) if self.beams > 1 else 0.0
+
+    @property
+    def start_deg(self) -> float:
+        """Direction of the first beam relative to the heading."""
+        return self.angle_deg - 0.5 * self.fov_deg if self.beams > 1 else self.angle_deg
 
 
 @dataclass(frozen=True)
@@ -259,6 +313,7 @@ class RobotSpec:
         acceleration_curve: Motor inertia, in ]0;1].
         ir_sensors: Proximity sensors; empty means the four defaults of Table 4.5.
         bumpers: Contact sensors.
+        lasers: 2D laser range finders (none by default).
         encoder: Wheel encoder parameters.
         noise: Sensor and movement noise.
         legacy: A Ciber-Rato / Intellwheels registration: at most 8 sensors with ids 0..7.
@@ -280,6 +335,7 @@ class RobotSpec:
     acceleration_curve: float = 0.5
     ir_sensors: tuple[IrSensorSpec, ...] = ()
     bumpers: tuple[BumperSpec, ...] = ()
+    lasers: tuple[LaserSpec, ...] = ()
     encoder: EncoderSpec = field(default_factory=EncoderSpec)
     noise: SensorNoise = field(default_factory=SensorNoise)
     legacy: bool = False
@@ -333,6 +389,8 @@ class RobotSpec:
             _within("beacon_height", self.beacon_height_m, 0.0, 1e3, lo_open=False, hi_open=False)
         if len({b.id for b in self.bumpers}) != len(self.bumpers):
             raise SpecError("bumpers", "bumper ids must be unique")
+        if len({s.id for s in self.lasers}) != len(self.lasers):
+            raise SpecError("lasers", f"laser ids must be unique, got {[s.id for s in self.lasers]}")
 
     @property
     def sensors(self) -> tuple[IrSensorSpec, ...]:

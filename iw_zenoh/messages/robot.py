@@ -77,6 +77,14 @@ class ChairReading(Message, frozen=True, kw_only=True):
     sent: NonNeg = 0  # frames sent to the chair so far
 
 
+class LaserScan(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """One laser scanner's sweep: a range per beam, first beam first (``None``: nothing within
+    range); the beams' directions are the scanner's spec (``LaserSpec``)."""
+
+    id: NonNeg
+    ranges: list[float | None]
+
+
 class SensorReading(Message, frozen=True, kw_only=True):
     """Every reading of tick n for one robot. ``None`` proximity means nothing within range,
     ``None`` beacon means not visible."""
@@ -94,6 +102,8 @@ class SensorReading(Message, frozen=True, kw_only=True):
     encoders: tuple[Int64, Int64] = (0, 0)
     bumpers: list[bool] = []
     tick_wall_ns: NonNeg = 0  # the world's tick start, copied from the state
+    # added after /1 shipped: left out of the JSON when unset (no scanner), so it reads as before
+    lasers: list[LaserScan] | msgspec.UnsetType = msgspec.UNSET
 
     def __post_init__(self) -> None:
         """Refuses proximity arrays that are not one value per sensor (one comparison: these

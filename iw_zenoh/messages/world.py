@@ -24,6 +24,18 @@ class IrSensorMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_on
     range_m: float = 4.0
 
 
+class LaserMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """A 2D laser range finder: ``beams`` rays over ``fov_deg`` centred on ``angle_deg``."""
+
+    id: NonNeg
+    x: float = 0.0
+    y: float = 0.0
+    angle_deg: float = 0.0
+    fov_deg: float = 270.0
+    beams: Annotated[int, msgspec.Meta(ge=1, le=INT64_MAX)] = 64
+    range_m: float = 10.0
+
+
 class NoiseMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """Gaussian noise on one sensor."""
 
@@ -43,6 +55,8 @@ class SensorNoiseMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw
     gps_heading_deg: NoiseMsg | None = None
     encoder_slip: NoiseMsg | None = None
     motion: NoiseMsg | None = None
+    # added after /1 shipped: left out of the JSON when unset, so a spec without it reads as before
+    laser_m: NoiseMsg | msgspec.UnsetType = msgspec.UNSET
 
 
 class BumperMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -73,6 +87,8 @@ class RobotSpecMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     noise: SensorNoiseMsg | None = None
     legacy: bool = False
     beacon_height: float | None = None  # carries a beacon (Ciber-Rato RobotBeacon)
+    # added after /1 shipped: left out of the JSON when unset (no scanner), so it reads as before
+    lasers: list[LaserMsg] | msgspec.UnsetType = msgspec.UNSET
 
 
 class RegisterRequest(Message, frozen=True, kw_only=True):

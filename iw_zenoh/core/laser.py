@@ -1,0 +1,333 @@
+"""The laser scanners' ray cast, compiled: every beam of every scanner of one tick in one call.
+
+A beam reads the distance from its scanner's mounting point to the first wall edge (walls,
+obstacles added at run time and the lab's border are all walls of the scene) or edge of another
+robot's body (chairs, doors) that it meets, ``inf`` when that is beyond the scanner's range. A
+mounting point inside a wall or another body reads 0 on every beam, as a proximity cone does.
+
+How: walls and bodies are looked up in the cell grid of :mod:`iw_zenoh.core.cellgrid`, over the
+cells the scanner's range covers; each candidate edge within range is tested only against the
+beams whose directions fall in the angle it subtends from the scanner (plus one beam either
+side, so a beam through an end point is never lost to rounding), so the work grows with edges
+plus hits rather than edges times beams. Compiled with numba and cached next to this file
+(``cache=True``), as the cones' kernel (:mod:`iw_zenoh.core.cones`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+from numba import njit
+
+from iw_zenoh.core.bodies import Bodies
+from iw_zenoh.core.cellgrid import bin_boxes, cell_range, in_convex, in_wall, scene_walls
+from iw_zenoh.core.lab import Lab, Scene, Wall
+
+__all__ = ["laser_distances", "laser_ranges", "noisy_ranges", "warm_up"]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+END_SLACK = 1e-12  # a hit this close past an edge's end still counts (a beam through a corner)
+TWO_PI = 2.0 * math.pi
+
+
+def laser_distances(scene: Scene, bodies: Bodies, pose: FloatArray, *, only: npt.NDArray[np.bool_] | None = None) -> FloatArray:
+    """The true range every beam of every robot's laser scanners reads.
+
+    Args:
+        scene: The lab's geometry.
+        bodies: The robots (N).
+        pose: (N, 3) poses.
+        only: (N,) compute the scanners of these robots only (a sensor shard); every robot is still
+            an obstacle to them. The others read ``inf``.
+
+    Returns:
+        (L,) ranges in :attr:`~iw_zenoh.core.bodies.Lasers.first` order, ``inf`` beyond range.
+    """
+    lz = bodies.lasers
+    out = np.full(int(lz.first[-1]), np.inf)
+    sel = np.ones(len(lz.owner), dtype=bool) if only is None else np.asarray(only, dtype=bool)[lz.owner]
+    if not sel.any():
+        return out
+    own = lz.owner[sel]
+    c, s = np.cos(pose[own, 2]), np.sin(pose[own, 2])
+    lx, ly = lz.xy[sel, 0], lz.xy[sel, 1]
+    got = laser_ranges(
+        scene,
+        pose[own, 0] + c * lx - s * ly,
+        pose[own, 1] + s * lx + c * ly,
+        pose[own, 2] + lz.start_rad[sel],
+        lz.step_rad[sel],
+        lz.beams[sel],
+        lz.range_m[sel],
+        own,
+        bodies.world_outline(pose),
+    )
+    out[np.repeat(sel, lz.beams)] = got
+    return out
+
+
+def noisy_ranges(bodies: Bodies, true_m: FloatArray, z: FloatArray) -> FloatArray:
+    """Laser ranges with each robot's ``laser_m`` noise: ``true + mean + std * z``, never
+    negative, ``inf`` (nothing within range) kept as it is.
+
+    Args:
+        bodies: The robots.
+        true_m: (L,) true ranges.
+        z: (L,) standard normals, one per beam.
+
+    Returns:
+        (L,) the readings.
+    """
+    own = bodies.lasers.beam_owner
+    noisy = true_m + bodies.noise_mean["laser_m"][own] + bodies.noise_std["laser_m"][own] * z
+    return np.where(np.isfinite(true_m), np.maximum(noisy, 0.0), np.inf)
+
+
+def laser_ranges(
+    scene: Scene,
+    ox: FloatArray,
+    oy: FloatArray,
+    start_rad: FloatArray,
+    step_rad: FloatArray,
+    beams: IntArray,
+    range_m: FloatArray,
+    owner: IntArray,
+    body_xy: FloatArray,
+) -> FloatArray:
+    """The range every beam of every scanner reads.
+
+    Args:
+        scene: The lab.
+        ox: (S,) each scanner's mounting point x in the world, metres.
+        oy: (S,) mounting point y.
+        start_rad: (S,) world direction of each scanner's first beam.
+        step_rad: (S,) angle between neighbouring beams (beam j looks ``start + j * step``).
+        beams: (S,) beams of each scanner, >= 1.
+        range_m: (S,) ranges.
+        owner: (S,) the body each scanner is mounted on (it does not see itself).
+        body_xy: (N, K, 2) every body's outline in the world, counter-clockwise.
+
+    Returns:
+        (sum(beams),) the ranges, scanner after scanner, first beam first; ``inf`` where a beam
+        meets nothing within range.
+    """
+    w = scene_walls(scene)
+    g = w.grid
+    body_xy = np.ascontiguousarray(body_xy, dtype=np.float64)
+    bbox = np.concatenate([body_xy.min(axis=1), body_xy.max(axis=1)], axis=1) if len(body_xy) else np.zeros((0, 4))
+    b_start, b_items = bin_boxes(bbox, g.x0, g.y0, g.cell, g.nx, g.ny)
+    beams = np.ascontiguousarray(beams, dtype=np.int64)
+    first = np.concatenate([[0], np.cumsum(beams)]).astype(np.int64)
+    return np.asarray(
+        _scan(
+            np.ascontiguousarray(ox, dtype=np.float64),
+            np.ascontiguousarray(oy, dtype=np.float64),
+            np.ascontiguousarray(start_rad, dtype=np.float64),
+            np.ascontiguousarray(step_rad, dtype=np.float64),
+            first,
+            np.ascontiguousarray(range_m, dtype=np.float64),
+            np.ascontiguousarray(owner, dtype=np.int64),
+            w.segs,
+            w.seg_box,
+            w.seg_start,
+            w.seg_items,
+            w.wall_first,
+            w.wall_count,
+            w.wall_box,
+            w.wall_start,
+            w.wall_items,
+            body_xy,
+            bbox,
+            b_start,
+            b_items,
+            g.x0,
+            g.y0,
+            g.cell,
+            g.nx,
+            g.ny,
+        ),
+        dtype=np.float64,
+    )
+
+
+@njit(cache=True, nogil=True)
+def _seg_dist(ax: float, ay: float, bx: float, by: float) -> float:  # pragma: no cover
+    """Distance from the origin to segment a-b."""
+    dx = bx - ax
+    dy = by - ay
+    dd = dx * dx + dy * dy
+    t = 0.0
+    if dd > 0.0:
+        t = min(max(-(ax * dx + ay * dy) / dd, 0.0), 1.0)
+    qx = ax + t * dx
+    qy = ay + t * dy
+    return math.sqrt(qx * qx + qy * qy)
+
+
+@njit(cache=True, nogil=True)
+def _cast(
+    ax: float,
+    ay: float,
+    bx: float,
+    by: float,
+    rng: float,
+    start: float,
+    step: float,
+    cs: FloatArray,
+    sn: FloatArray,
+    out: FloatArray,
+    off: int,
+    nb: int,
+) -> None:  # pragma: no cover
+    """Lowers ``out[off:off+nb]`` where beams (unit directions ``cs``, ``sn``) meet segment a-b,
+    given relative to the scanner: only the beams within the angle the segment subtends."""
+    if _seg_dist(ax, ay, bx, by) > rng:
+        return
+    ex = bx - ax
+    ey = by - ay
+    if nb > 1 and step > 0.0:
+        ta = (math.atan2(ay, ax) - start) % TWO_PI
+        tb = (math.atan2(by, bx) - start) % TWO_PI
+        sweep = (tb - ta + math.pi) % TWO_PI - math.pi
+        lo = ta if sweep >= 0.0 else tb
+        width = abs(sweep)
+        for shift in (-TWO_PI, 0.0, TWO_PI):  # the arc may wrap past the first beam either way
+            a = int(math.ceil((lo - shift) / step)) - 1
+            b = int(math.floor((lo + width - shift) / step)) + 1
+            a = max(a, 0)
+            b = min(b, nb - 1)
+            for j in range(a, b + 1):
+                _hit(ax, ay, ex, ey, cs[j], sn[j], out, off + j)
+        return
+    for j in range(nb):
+        _hit(ax, ay, ex, ey, cs[j], sn[j], out, off + j)
+
+
+@njit(cache=True, nogil=True)
+def _hit(ax: float, ay: float, ex: float, ey: float, dx: float, dy: float, out: FloatArray, k: int) -> None:  # pragma: no cover
+    """Lowers ``out[k]`` to where the ray from the origin along (dx, dy) meets segment a + u e."""
+    den = dx * ey - dy * ex
+    if den == 0.0:
+        return  # parallel: the edges either side of it hold the hit
+    t = (ax * ey - ay * ex) / den
+    u = (ax * dy - ay * dx) / den
+    if t >= 0.0 and -END_SLACK <= u <= 1.0 + END_SLACK and t < out[k]:
+        out[k] = t
+
+
+@njit(cache=True, nogil=True)
+def _scan(
+    ox: FloatArray,
+    oy: FloatArray,
+    start: FloatArray,
+    step: FloatArray,
+    first: IntArray,
+    rng: FloatArray,
+    owner: IntArray,
+    segs: FloatArray,
+    seg_box: FloatArray,
+    seg_start: IntArray,
+    seg_items: IntArray,
+    wall_first: IntArray,
+    wall_count: IntArray,
+    wall_box: FloatArray,
+    wall_start: IntArray,
+    wall_items: IntArray,
+    body_xy: FloatArray,
+    bbox: FloatArray,
+    b_start: IntArray,
+    b_items: IntArray,
+    gx0: float,
+    gy0: float,
+    cell: float,
+    nx: int,
+    ny: int,
+) -> FloatArray:  # pragma: no cover
+    ns = ox.shape[0]
+    k = body_xy.shape[1]
+    out = np.full(first[ns], np.inf)
+    seen_seg = np.full(segs.shape[0], -1, dtype=np.int64)
+    seen_body = np.full(bbox.shape[0], -1, dtype=np.int64)
+    most = 0
+    for i in range(ns):
+        most = max(most, first[i + 1] - first[i])
+    cs = np.empty(most)
+    sn = np.empty(most)
+    for i in range(ns):
+        px, py, r = ox[i], oy[i], rng[i]
+        off, nb = first[i], first[i + 1] - first[i]
+        for j in range(nb):
+            cs[j] = math.cos(start[i] + j * step[i])
+            sn[j] = math.sin(start[i] + j * step[i])
+        x0, y0, x1, y1 = px - r, py - r, px + r, py + r
+        blind = False  # the mounting point is inside something
+        ca, cb = cell_range(x0, x1, gx0, cell, nx)
+        ra, rb = cell_range(y0, y1, gy0, cell, ny)
+        for row in range(ra, rb + 1):
+            for c in range(ca, cb + 1):
+                q = row * nx + c
+                for j in range(seg_start[q], seg_start[q + 1]):
+                    s = seg_items[j]
+                    if seen_seg[s] == i:
+                        continue
+                    seen_seg[s] = i
+                    if seg_box[s, 0] > x1 or seg_box[s, 2] < x0 or seg_box[s, 1] > y1 or seg_box[s, 3] < y0:
+                        continue
+                    _cast(
+                        segs[s, 0] - px, segs[s, 1] - py, segs[s, 2] - px, segs[s, 3] - py,
+                        r, start[i], step[i], cs, sn, out, off, nb,
+                    )  # fmt: skip
+                for j in range(b_start[q], b_start[q + 1]):
+                    b = b_items[j]
+                    if b == owner[i] or seen_body[b] == i:
+                        continue
+                    seen_body[b] = i
+                    if bbox[b, 0] > x1 or bbox[b, 2] < x0 or bbox[b, 1] > y1 or bbox[b, 3] < y0:
+                        continue
+                    if bbox[b, 0] <= px <= bbox[b, 2] and bbox[b, 1] <= py <= bbox[b, 3] and in_convex(px, py, body_xy[b], k):
+                        blind = True
+                    for e in range(k):
+                        f = (e + 1) % k
+                        ax, ay = body_xy[b, e, 0] - px, body_xy[b, e, 1] - py
+                        bx, by = body_xy[b, f, 0] - px, body_xy[b, f, 1] - py
+                        # only edges facing the scanner can hold a convex body's first hit
+                        if (bx - ax) * (-ay) - (by - ay) * (-ax) <= 0.0 and (ax != bx or ay != by):
+                            _cast(ax, ay, bx, by, r, start[i], step[i], cs, sn, out, off, nb)
+        if not blind and wall_box.shape[0]:
+            c0, _ = cell_range(px, px, gx0, cell, nx)
+            r0, _ = cell_range(py, py, gy0, cell, ny)
+            q = r0 * nx + c0
+            for j in range(wall_start[q], wall_start[q + 1]):
+                w = wall_items[j]
+                if not (wall_box[w, 0] <= px <= wall_box[w, 2] and wall_box[w, 1] <= py <= wall_box[w, 3]):
+                    continue
+                if in_wall(px, py, segs, wall_first[w], wall_count[w]):
+                    blind = True
+                    break
+        for j in range(off, off + nb):
+            if blind:
+                out[j] = 0.0
+            elif out[j] > r:
+                out[j] = math.inf
+    return out
+
+
+def warm_up() -> None:
+    """Compiles the kernel now (or loads it from the cache), so the first tick is not slow."""
+    scene = Scene(Lab("warm-up", 4.0, 4.0, (Wall(((1.0, 1.0), (2.0, 1.0), (2.0, 2.0)), 1.0),)))
+    one = np.zeros(1)
+    laser_ranges(
+        scene,
+        one + 0.5,
+        one + 0.5,
+        one,
+        one + 0.1,
+        np.asarray([4], dtype=np.int64),
+        one + 3.0,
+        np.zeros(1, dtype=np.int64),
+        np.asarray([[[0.1, 0.1], [0.3, 0.1], [0.3, 0.3], [0.1, 0.3]]]),
+    )
