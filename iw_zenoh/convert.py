@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import math
 
+import msgspec
+
 from iw_zenoh.core.lab import Beacon, Grid, GridPosition, Lab, Target, Wall
 from iw_zenoh.core.spec import (
     BodyShape,
@@ -22,8 +24,6 @@ from iw_zenoh.core.spec import (
     SensorNoise,
 )
 from iw_zenoh.errors import SpecError
-import msgspec
-
 from iw_zenoh.messages import (
     BumperMsg,
     IrSensorMsg,

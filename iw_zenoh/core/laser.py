@@ -22,7 +22,7 @@ import numpy.typing as npt
 from numba import njit
 
 from iw_zenoh.core.bodies import Bodies
-from iw_zenoh.core.cellgrid import bin_boxes, cell_range, in_convex, in_wall, scene_walls
+from iw_zenoh.core.cellgrid import SceneWalls, bin_boxes, cell_range, in_convex, in_wall, scene_walls
 from iw_zenoh.core.lab import Lab, Scene, Wall
 
 __all__ = ["laser_distances", "laser_ranges", "noisy_ranges", "warm_up"]
@@ -34,7 +34,9 @@ END_SLACK = 1e-12  # a hit this close past an edge's end still counts (a beam th
 TWO_PI = 2.0 * math.pi
 
 
-def laser_distances(scene: Scene, bodies: Bodies, pose: FloatArray, *, only: npt.NDArray[np.bool_] | None = None) -> FloatArray:
+def laser_distances(
+    scene: Scene, bodies: Bodies, pose: FloatArray, *, only: npt.NDArray[np.bool_] | None = None
+) -> FloatArray:
     """The true range every beam of every robot's laser scanners reads.
 
     Args:
@@ -131,15 +133,7 @@ def laser_ranges(
             first,
             np.ascontiguousarray(range_m, dtype=np.float64),
             np.ascontiguousarray(owner, dtype=np.int64),
-            w.segs,
-            w.seg_box,
-            w.seg_start,
-            w.seg_items,
-            w.wall_first,
-            w.wall_count,
-            w.wall_box,
-            w.wall_start,
-            w.wall_items,
+            *_wall_arrays(w),
             body_xy,
             bbox,
             b_start,
@@ -151,6 +145,23 @@ def laser_ranges(
             g.ny,
         ),
         dtype=np.float64,
+    )
+
+
+def _wall_arrays(
+    w: SceneWalls,
+) -> tuple[FloatArray, FloatArray, IntArray, IntArray, IntArray, IntArray, FloatArray, IntArray, IntArray]:
+    """The wall index's arrays, in the order the kernel takes them."""
+    return (
+        w.segs,
+        w.seg_box,
+        w.seg_start,
+        w.seg_items,
+        w.wall_first,
+        w.wall_count,
+        w.wall_box,
+        w.wall_start,
+        w.wall_items,
     )
 
 
@@ -208,7 +219,9 @@ def _cast(
 
 
 @njit(cache=True, nogil=True)
-def _hit(ax: float, ay: float, ex: float, ey: float, dx: float, dy: float, out: FloatArray, k: int) -> None:  # pragma: no cover
+def _hit(
+    ax: float, ay: float, ex: float, ey: float, dx: float, dy: float, out: FloatArray, k: int
+) -> None:  # pragma: no cover
     """Lowers ``out[k]`` to where the ray from the origin along (dx, dy) meets segment a + u e."""
     den = dx * ey - dy * ex
     if den == 0.0:
@@ -288,7 +301,11 @@ def _scan(
                     seen_body[b] = i
                     if bbox[b, 0] > x1 or bbox[b, 2] < x0 or bbox[b, 1] > y1 or bbox[b, 3] < y0:
                         continue
-                    if bbox[b, 0] <= px <= bbox[b, 2] and bbox[b, 1] <= py <= bbox[b, 3] and in_convex(px, py, body_xy[b], k):
+                    if (
+                        bbox[b, 0] <= px <= bbox[b, 2]
+                        and bbox[b, 1] <= py <= bbox[b, 3]
+                        and in_convex(px, py, body_xy[b], k)
+                    ):
                         blind = True
                     for e in range(k):
                         f = (e + 1) % k

@@ -14,7 +14,7 @@ from collections.abc import Sequence
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus, Delivery, Inbox
-from iw_zenoh.core.cones import warm_up
+from iw_zenoh.core import cones, laser
 from iw_zenoh.errors import ProtocolError
 from iw_zenoh.messages import Proposed, WorldState, encode_sensor_batch
 from iw_zenoh.nodes.info import InfoCache
@@ -140,7 +140,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         role="sensors",
         description=(
             "Computes every robot's sensors each tick (proximity cones, compass, beacons, GPS, "
-            "ground, collision, encoders, bumpers)."
+            "ground, collision, encoders, bumpers, laser scanners)."
         ),
         epilog=(
             "Split the robots between processes or hosts, one shard on each:\n"
@@ -149,7 +149,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             "  iwz sensors --options '{\"shard\": [2, 2]}'    (as iwz run starts it)"
         ),
         arguments=add_sensors_arguments,
-        warm_up=warm_up,  # before joining: the first tick must not wait for a compilation
+        warm_up=_warm_up,  # before joining: the first tick must not wait for a compilation
         prepare=_options,
         run=lambda proc, o: run(proc.bus, proc.sim, shard=o.shard, io=proc.io, ahead=o.ahead),
         name=lambda args: _options(args).process_name,
@@ -159,3 +159,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _options(args: argparse.Namespace) -> SensorsOptions:
     return options_from_args(args, SensorsOptions)
+
+
+def _warm_up() -> None:
+    """Compiles (or loads from the cache) the cones' and the laser scanners' kernels."""
+    cones.warm_up()
+    laser.warm_up()

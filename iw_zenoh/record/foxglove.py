@@ -1,5 +1,6 @@
-"""The Foxglove view of a simulation: a scene channel (walls, bodies, proximity cones, names)
-and frame transforms, derived from the world's own messages while recording, so a recording
+"""The Foxglove view of a simulation: a scene channel (walls, bodies, proximity cones, names),
+frame transforms and each laser scanner's scans (``foxglove.LaserScan``, one channel per
+scanner, in its robot's frame), derived from the world's own messages while recording, so a recording
 opens in Foxglove's 3D panel. The ``Fg*`` structs are the Foxglove schemas those channels carry:
 derived channels of a recording, never messages of the simulation's own wire."""
 
@@ -15,12 +16,14 @@ from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.messages import SensorReading, WorldInfo, WorldState
 
 __all__ = [
+    "LASER_TOPIC",
     "SCENE_TOPIC",
     "TF_TOPIC",
     "FgColor",
     "FgCube",
     "FgEntity",
     "FgFrameTransform",
+    "FgLaserScan",
     "FgLine",
     "FgPose",
     "FgQuaternion",
@@ -148,7 +151,25 @@ class FgFrameTransform(msgspec.Struct, frozen=True):
     rotation: FgQuaternion
 
 
+class FgLaserScan(msgspec.Struct, frozen=True):
+    """foxglove.LaserScan: ranges at equally spaced bearings from ``start_angle`` to ``end_angle``
+    (radians, about +z from the pose's +x). JSON has no infinity: a beam that met nothing within
+    range is written as range 0 with intensity 0; every hit has intensity 1."""
+
+    schema: ClassVar[str] = "foxglove.LaserScan"
+    timestamp: FgTime
+    frame_id: str
+    pose: FgPose
+    start_angle: float
+    end_angle: float
+    ranges: list[float]
+    intensities: list[float]
+
+
+Derived = tuple[str, FgSceneUpdate | FgFrameTransform | FgLaserScan]  # a derived channel's message
+
 SCENE_TOPIC = "/foxglove/scene"
+LASER_TOPIC = "/foxglove/laser"  # + /{robot id}/{scanner id}
 TF_TOPIC = "/foxglove/tf"
 FRAME = "world"
 WALL = FgColor(r=0.35, g=0.35, b=0.38, a=1.0)
@@ -175,7 +196,7 @@ class SceneBuilder:
         self.pose: dict[int, tuple[float, float, float]] = {}
         self._walls_sent_for: int = -1
 
-    def on_info(self, info: WorldInfo) -> list[tuple[str, FgSceneUpdate | FgFrameTransform]]:
+    def on_info(self, info: WorldInfo) -> list[Derived]:
         """Walls (once per revision) and the robots' bodies to come."""
         self.specs = {s.id: spec_from_msg(s) for s in info.robots}
         if info.revision == self._walls_sent_for:
@@ -196,13 +217,13 @@ class SceneBuilder:
         ent = FgEntity(timestamp=_time(info.sim_time_ns), frame_id=FRAME, id="walls", lines=lines)
         return [(SCENE_TOPIC, FgSceneUpdate(entities=[ent]))]
 
-    def on_state(self, st: WorldState) -> list[tuple[str, FgSceneUpdate | FgFrameTransform]]:
+    def on_state(self, st: WorldState) -> list[Derived]:
         """Every body at its committed pose, and a transform per robot."""
         if not self.specs:
             return []  # no world description yet: nothing to draw bodies with
         ts = _time(st.sim_time_ns)
         entities = []
-        out: list[tuple[str, FgSceneUpdate | FgFrameTransform]] = []
+        out: list[Derived] = []
         for rid, x, y, th, hit in zip(st.ids, st.x, st.y, st.heading, st.collided, strict=True):
             self.pose[rid] = (x, y, th)
             spec = self.specs.get(rid)
@@ -239,8 +260,8 @@ class SceneBuilder:
         out.insert(0, (SCENE_TOPIC, FgSceneUpdate(entities=entities)))
         return out
 
-    def on_sensors(self, r: SensorReading) -> list[tuple[str, FgSceneUpdate | FgFrameTransform]]:
-        """A robot's proximity cones, drawn to their readings."""
+    def on_sensors(self, r: SensorReading) -> list[Derived]:
+        """A robot's proximity cones, drawn to their readings, and its laser scans."""
         spec = self.specs.get(r.robot_id)
         pose = self.pose.get(r.robot_id)
         if spec is None or pose is None:
@@ -264,4 +285,28 @@ class SceneBuilder:
             color = CONE if dist is not None else FgColor(r=0.6, g=0.6, b=0.6, a=0.25)
             lines.append(FgLine(type=1, pose=FgPose(), thickness=0.02, scale_invariant=False, points=pts, color=color))
         ent = FgEntity(timestamp=_time(r.sim_time_ns), frame_id=FRAME, id=f"cones/{r.robot_id}", lines=lines)
-        return [(SCENE_TOPIC, FgSceneUpdate(entities=[ent]))]
+        return [(SCENE_TOPIC, FgSceneUpdate(entities=[ent])), *_scans(r, spec)]
+
+
+def _scans(r: SensorReading, spec: RobotSpec) -> list[Derived]:
+    """One ``foxglove.LaserScan`` per scanner the reading carries, in its robot's frame."""
+    if not isinstance(r.lasers, list):
+        return []
+    by_id = {a.id: a for a in spec.lasers}
+    out: list[Derived] = []
+    for scan in r.lasers:
+        a = by_id.get(scan.id)
+        if a is None or len(scan.ranges) != a.beams:
+            continue
+        start = math.radians(a.start_deg)
+        msg = FgLaserScan(
+            timestamp=_time(r.sim_time_ns),
+            frame_id=f"robot{r.robot_id}",
+            pose=FgPose(position=FgVector3(x=a.x_m, y=a.y_m, z=0.3)),
+            start_angle=start,
+            end_angle=start + math.radians(a.resolution_deg) * (a.beams - 1),
+            ranges=[0.0 if v is None else v for v in scan.ranges],
+            intensities=[0.0 if v is None else 1.0 for v in scan.ranges],
+        )
+        out.append((f"{LASER_TOPIC}/{r.robot_id}/{scan.id}", msg))
+    return out

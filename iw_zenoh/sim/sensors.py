@@ -8,8 +8,10 @@ shard computes them.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
+import msgspec
 import numpy as np
 
 from iw_zenoh import keys
@@ -17,7 +19,7 @@ from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.modes import Profile
 from iw_zenoh.core.noise import NoiseStreams, Stream
 from iw_zenoh.core.sensors import Readings, SensorParams, noise_layout, read_sensors
-from iw_zenoh.messages import Outgoing, Proposed, SensorReading, WorldState, encode
+from iw_zenoh.messages import LaserScan, Outgoing, Proposed, SensorReading, WorldState, encode
 from iw_zenoh.sim.view import WorldView
 
 __all__ = ["Computed", "SensorsNode", "state_from_proposal"]
@@ -210,6 +212,7 @@ class SensorsNode:
         collision = r.collision.tolist()
         ticks = r.encoder_ticks.tolist()
         bumpers = r.bumpers.tolist()
+        lasers = _scans(bodies, r, len(ids))
         for i in np.flatnonzero(only).tolist():
             rid = ids[i]
             lo, hi = m_first[i], m_last[i]
@@ -228,12 +231,30 @@ class SensorsNode:
                 encoders=(ticks[i][0], ticks[i][1]),
                 bumpers=bumpers[b_first[i] : b_last[i]],
                 tick_wall_ns=msg.tick_wall_ns,
+                lasers=lasers[i],
             )
             key = self._keys.get(rid)
             if key is None:
                 key = self._keys[rid] = keys.sensors(self.sim, rid)
             out.append((key, reading))
         return out
+
+
+def _scans(bodies: Bodies, r: Readings, n: int) -> list[list[LaserScan] | msgspec.UnsetType]:
+    """Each robot's laser scans (unset for a robot without a scanner: its reading's JSON stays as
+    it was before scanners existed)."""
+    out: list[list[LaserScan] | msgspec.UnsetType] = [msgspec.UNSET] * n
+    lz = bodies.lasers
+    if not len(lz.owner):
+        return out
+    ranges = [None if v == math.inf else v for v in r.laser_m.tolist()]
+    first = lz.first.tolist()
+    for s, (i, sid) in enumerate(zip(lz.owner.tolist(), lz.id.tolist(), strict=True)):
+        scans = out[i]
+        if not isinstance(scans, list):
+            scans = out[i] = []
+        scans.append(LaserScan(id=sid, ranges=ranges[first[s] : first[s + 1]]))
+    return out
 
 
 def _same_frame(a: WorldState, b: WorldState) -> bool:
@@ -257,11 +278,14 @@ def _touched(ahead: WorldState, msg: WorldState, view: WorldView) -> np.ndarray:
         return changed
     bodies = view.bodies_for(list(msg.ids))
     # how far a robot's readings reach from its centre of movement: its outline, its bumpers,
-    # its cones (mounting point plus range)
+    # its cones and laser scanners (mounting point plus range)
     reach = bodies.bound_radius_m.copy()
     if len(bodies.ir_owner):
         cone = np.hypot(bodies.ir_xy[:, 0], bodies.ir_xy[:, 1]) + bodies.ir_range_m
         np.maximum.at(reach, bodies.ir_owner, cone)
+    lz = bodies.lasers
+    if len(lz.owner):
+        np.maximum.at(reach, lz.owner, np.hypot(lz.xy[:, 0], lz.xy[:, 1]) + lz.range_m)
     if len(bodies.bumper_owner):
         bump = np.hypot(bodies.bumper_outline[..., 0], bodies.bumper_outline[..., 1]).max(axis=1)
         np.maximum.at(reach, bodies.bumper_owner, bump)

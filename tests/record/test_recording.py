@@ -148,3 +148,49 @@ def test_a_recording_carries_a_foxglove_scene_that_validates_against_its_schema(
         jsonschema.validate(json.loads(m.data), json.loads(s.data))
     body = next(e for _, m in scene for e in json.loads(m.data)["entities"] if e["id"] == "robot/1")
     assert body["cubes"][0]["size"]["x"] == 1.0
+
+
+def test_a_laser_scan_is_recorded_as_a_foxglove_laser_scan_in_its_robots_frame(tmp_path: Path) -> None:
+    import json
+    import math
+
+    import jsonschema
+
+    from iw_zenoh.convert import lab_to_msg, spec_to_msg
+    from iw_zenoh.core.lab import Lab
+    from iw_zenoh.core.spec import LaserSpec, RobotSpec
+    from iw_zenoh.messages import LaserScan, SensorReading, WorldInfo
+
+    path = tmp_path / "laser.mcap"
+    spec = RobotSpec("a", id=1, x_m=1.0, y_m=1.0, dir_deg=0.0, lasers=(LaserSpec(3, 0.2, 0.0, 0.0, 180.0, 3, 5.0),))
+    info = WorldInfo(
+        revision=1, lab=lab_to_msg(Lab("l", 10.0, 10.0)), period_ns=100_000_000, robots=[spec_to_msg(spec)]
+    )
+    with path.open("wb") as f:
+        rec = Recorder(f)
+        rec.add(keys.info("s"), encode(info), 1)
+        rec.add(keys.state("s"), _state(1), 2)
+        reading = SensorReading(
+            tick=1,
+            sim_time_ns=100_000_000,
+            robot_id=1,
+            proximity_ids=[],
+            proximity_m=[],
+            proximity_legacy=[],
+            compass_deg=0.0,
+            gps=(1.0, 2.0, 0.0),
+            lasers=[LaserScan(id=3, ranges=[1.5, None, 2.5])],
+        )
+        rec.add(keys.sensors("s", 1), encode(reading), 3)
+        rec.finish()
+    with path.open("rb") as f:
+        [(schema, channel, m)] = [x for x in make_reader(f).iter_messages() if x[1].topic.startswith("/foxglove/laser")]
+    assert channel.topic == "/foxglove/laser/1/3"
+    assert schema.name == "foxglove.LaserScan"
+    scan = json.loads(m.data)
+    jsonschema.validate(scan, json.loads(schema.data))
+    assert scan["frame_id"] == "robot1"
+    assert scan["ranges"] == [1.5, 0.0, 2.5]
+    assert scan["intensities"] == [1.0, 0.0, 1.0]
+    assert (scan["start_angle"], scan["end_angle"]) == (-math.pi / 2, math.pi / 2)
+    assert scan["pose"]["position"]["x"] == 0.2

@@ -6,7 +6,7 @@ import msgspec
 
 from iw_zenoh.convert import lab_to_msg, spec_to_msg
 from iw_zenoh.core.lab import Lab, Scene
-from iw_zenoh.core.spec import IrSensorSpec, RobotSpec
+from iw_zenoh.core.spec import IrSensorSpec, LaserSpec, RobotSpec
 from iw_zenoh.messages import Proposed, SensorReading, WorldInfo, WorldState, encode
 from iw_zenoh.sim.sensors import SensorsNode
 from iw_zenoh.sim.view import WorldView
@@ -147,3 +147,25 @@ def test_a_proposal_of_an_older_world_that_does_not_say_how_far_the_wheels_rolle
     old = msgspec.structs.replace(_proposal(st), rolled_left=[], rolled_right=[])
     assert node.ahead(old, _view([1, 2], 1)) is None
     assert node.ahead(_proposal(st), _view([1, 2], 1)) is not None
+
+
+def test_a_robot_with_a_laser_scanner_gets_its_scan_and_one_without_reads_as_before() -> None:
+    specs = {
+        1: RobotSpec("r1", id=1, ir_sensors=CONES, lasers=(LaserSpec(0, 0.3, 0.0, 0.0, 90.0, 5, 12.0),)),
+        2: RobotSpec("r2", id=2, ir_sensors=CONES),
+    }
+    info = WorldInfo(
+        revision=1, lab=lab_to_msg(LAB), period_ns=100_000_000, robots=[spec_to_msg(s) for s in specs.values()]
+    )
+    out = dict(SensorsNode("t", seed=5).on_state(_state(1, [1, 2], 1), WorldView(info, Scene(LAB), specs)))
+    with_laser, without = out["iw/t/robot/1/sensors"], out["iw/t/robot/2/sensors"]
+    assert isinstance(with_laser, SensorReading)
+    assert isinstance(without, SensorReading)
+    assert isinstance(with_laser.lasers, list)
+    [scan] = with_laser.lasers
+    assert scan.id == 0
+    assert len(scan.ranges) == 5
+    assert scan.ranges[2] is not None
+    assert 0.4 < scan.ranges[2] < 1.0
+    assert without.lasers is msgspec.UNSET
+    assert b"lasers" not in encode(without)
