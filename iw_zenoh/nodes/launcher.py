@@ -102,6 +102,8 @@ class Launcher:
         self._child("router", "router", client=False)
         if self.record is not None:
             meta = {"scenario": sc.name, "seed": str(sc.world.seed), "map": str(sc.world.map)}
+            if sc.criteria.reach:  # iwz report's time to goal (record/metrics.py parse_goals reads it)
+                meta["goals"] = ";".join(f"{r.robot}={r.x!r},{r.y!r},{r.within!r}" for r in sc.criteria.reach)
             # restarted with these same options, it continues this run's recording in its next part
             rec = RecorderOptions(output=str(self.record), meta=meta, quiet=True, continue_run=uuid.uuid4().hex)
             self._child("record", "recorder", options=rec)
