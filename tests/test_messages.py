@@ -1,11 +1,13 @@
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
 from iw_zenoh.convert import spec_from_msg, spec_to_msg
-from iw_zenoh.core.spec import IrSensorSpec, RobotSpec
+from iw_zenoh.core.spec import IrSensorSpec, LaserSpec, NoiseSpec, RobotSpec, SensorNoise
 from iw_zenoh.errors import DecodeError, SpecError
 from iw_zenoh.messages import (
     MESSAGE_TYPES,
@@ -13,6 +15,7 @@ from iw_zenoh.messages import (
     Event,
     Hear,
     Heard,
+    LaserMsg,
     RobotSpecMsg,
     SensorBatch,
     SensorReading,
@@ -148,6 +151,19 @@ def test_specs_convert_both_ways() -> None:
     )
     back = spec_from_msg(spec_to_msg(spec))
     assert back == spec
+
+
+def test_a_laser_scanner_round_trips_and_a_spec_without_one_reads_as_before_scanners() -> None:
+    laser = LaserSpec(2, 0.6, -0.1, 10.0, 240.0, 128, 8.0)
+    noise = replace(SensorNoise(), laser_m=NoiseSpec(0.0, 0.03))
+    spec = RobotSpec("chair", id=3, ir_sensors=(IrSensorSpec(0),), lasers=(laser,), noise=noise)
+    data = encode(spec_to_msg(spec))
+    assert spec_from_msg(decode(data, RobotSpecMsg)) == spec
+    plain = encode(spec_to_msg(RobotSpec("chair", id=3)))
+    assert b"laser" not in plain  # an older reader (unknown fields refused) still reads it
+    with pytest.raises(SpecError) as e:
+        spec_from_msg(RobotSpecMsg(name="x", lasers=[LaserMsg(id=1, fov_deg=400.0)]))
+    assert e.value.field == "laser[1].fov"
 
 
 def test_a_wire_spec_out_of_range_is_refused_naming_the_field() -> None:

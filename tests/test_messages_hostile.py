@@ -14,6 +14,7 @@ import msgspec
 import pytest
 from hypothesis import example, given
 from hypothesis import strategies as st
+from msgspec.structs import replace
 
 from iw_zenoh.errors import DecodeError
 from iw_zenoh.messages import (
@@ -27,6 +28,8 @@ from iw_zenoh.messages import (
     Heard,
     Hit,
     LabMsg,
+    LaserMsg,
+    LaserScan,
     Message,
     PoseReport,
     Proposed,
@@ -66,7 +69,9 @@ def _reading(rid: int, tick: int = 3) -> SensorReading:
 
 
 SAMPLES: dict[type[Message], Message] = {
-    RegisterRequest: RegisterRequest(spec=RobotSpecMsg(name="chair", id=2, x=1.0, y=1.0), agent="a", request_id="1"),
+    RegisterRequest: RegisterRequest(
+        spec=RobotSpecMsg(name="chair", id=2, x=1.0, y=1.0, lasers=[LaserMsg(id=0, beams=3)]), agent="a", request_id="1"
+    ),
     RegisterReply: RegisterReply(ok=True, robot_id=2, spec=RobotSpecMsg(name="chair", id=2)),
     WorldInfo: WorldInfo(
         revision=1,
@@ -113,7 +118,7 @@ SAMPLES: dict[type[Message], Message] = {
     ChairReading: ChairReading(
         tick=3, robot_id=1, pose=(1.0, 2.0, 90.0), encoders=(10, -4), proximity_ids=[0, 1], proximity_m=[0.5, None]
     ),
-    SensorReading: _reading(1),
+    SensorReading: replace(_reading(1), lasers=[LaserScan(id=0, ranges=[1.5, None, 2.0])]),
     SensorBatch: SensorBatch(tick=3, shard="1-1", readings=[_reading(1), _reading(2)], ids=[1, 2]),
     Say: Say(tick=3, robot_id=1, text="hello"),
     Hear: Hear(tick=3, robot_id=1, messages=[Heard(sender=2, distance_m=1.5, text="hi")]),
