@@ -45,8 +45,8 @@ def test_a_chair_with_a_scanner_gets_scans_and_the_recording_draws_them(net: Net
     assert scan.ranges[0] == pytest.approx(5.0)  # the border at y = 0, to the right
     assert scan.ranges[8] == pytest.approx(5.0)  # and at y = 10, to the left
     wait_msg(readings, SensorReading, lambda r: r.tick > got.tick + 5, timeout_s=30)  # the recorder has them too
-    rec.kill(signal.SIGTERM)  # it finishes its file
-    assert rec.popen.returncode == 0, rec.output()
+    rec.popen.send_signal(signal.SIGINT)  # it finishes its file (what it still holds first)
+    assert rec.popen.wait(60) == 0, rec.output()
     with out.open("rb") as f:
         scans = [(s, c, m) for s, c, m in make_reader(f).iter_messages() if c.topic.startswith("/foxglove/laser")]
     assert scans, "no foxglove.LaserScan in the recording"
