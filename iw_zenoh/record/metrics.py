@@ -197,14 +197,10 @@ class RunMeter:
         polys = _bodies(specs, pose)
         door = np.asarray([s.type == RobotType.DOOR for s in specs])
         wall_d = shapely.distance(polys, self.walls)
-        doors = polys[door]
-        door_d = np.min(shapely.distance(polys[:, None], doors[None, :]), axis=1) if len(doors) else None
+        door_d = _nearest(polys, polys[door]) if door.any() else None
         if door_d is not None:
             wall_d = np.minimum(wall_d, np.where(door, NO_CLEARANCE, door_d))
-        people = polys[~door]
-        d = shapely.distance(polys[:, None], people[None, :]) if len(people) else np.zeros((len(polys), 0))
-        d[np.arange(len(polys))[~door], np.arange(len(people))] = NO_CLEARANCE  # not oneself
-        people_d = d.min(axis=1) if d.shape[1] else np.full(len(polys), NO_CLEARANCE)
+        people_d = _nearest(polys, polys[~door], exclusive=True)
         t_s = (st.sim_time_ns - self._t0) / 1e9
         for k, rid in enumerate(ids):
             if door[k]:
@@ -263,6 +259,17 @@ class RunMeter:
             peak_jerk_mps3=_peak(k.j),
             door_wait_s=float(np.sum(k.dt[waiting])),
         )
+
+
+def _nearest(polys: npt.NDArray[np.object_], others: npt.NDArray[np.object_], *, exclusive: bool = False) -> FloatArray:
+    """(N,) each body's distance to the nearest of ``others`` (an R-tree: not N x M distances);
+    ``exclusive``: not to itself (``others`` a subset of ``polys``); inf when there is none."""
+    out = np.full(len(polys), NO_CLEARANCE)
+    if len(others) == 0:
+        return out
+    (i, _), d = shapely.STRtree(others).query_nearest(polys, return_distance=True, exclusive=exclusive)
+    np.minimum.at(out, i, d)
+    return out
 
 
 def _bodies(specs: list[RobotSpec], pose: FloatArray) -> npt.NDArray[np.object_]:
