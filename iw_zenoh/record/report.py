@@ -153,7 +153,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             reports.append((f, report_of(f, goals, near_m=args.near)))
         except (IwError, OSError, ValueError) as e:
-            print(f"iwz report: {file_error(f, e)}; check it with iwz doctor (and iwz recover)", file=sys.stderr)
+            hint = "; check it with iwz doctor (and iwz recover)" if Path(f).is_file() else ""
+            print(f"iwz report: {file_error(f, e)}{hint}", file=sys.stderr)
             return 2
     if args.html:
         from iw_zenoh.record.report_page import write_page  # matplotlib only when a page is asked for
