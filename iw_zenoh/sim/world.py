@@ -232,6 +232,8 @@ class WorldCore:
             self.stopped = True
             return [self._event(EventKind.STOPPED, "stop requested")]
         if c == "remove":
+            if msg.robot_id not in self.registry.entries:  # say so: an operator waits for an answer
+                return [self._event(EventKind.BAD_CONTROL, f"no robot {msg.robot_id} to remove", msg.robot_id)]
             return self.remove(msg.robot_id, f"robot {msg.robot_id} removed by control")
         if c == "seek":
             return [self._event(EventKind.BAD_CONTROL, "seek is for replays; a live world cannot go back in time")]

@@ -315,3 +315,14 @@ def test_robots_registered_between_ticks_are_built_once_and_placed_apart(monkeyp
     assert builds == [2]  # once, when the tick began
     assert sorted(zip(st.ids, st.x, st.y, strict=True)) == [(3, 4.0, 8.0), (4, 7.0, 8.0)]
     assert core.info().revision == st.revision
+
+
+def test_removing_a_robot_the_world_does_not_have_is_refused_with_its_id() -> None:
+    core = _core()
+    core.register(RegisterRequest(spec=RobotSpecMsg(name="a")), 0)
+    out = core.on_control(Control(command="remove", robot_id=7))
+    assert _kinds(out) == ["bad-control"]
+    ev = next(m for _, m in out if isinstance(m, Event))
+    assert ev.robot_id == 7
+    assert "no robot 7" in ev.reason
+    assert _kinds(core.on_control(Control(command="remove", robot_id=1))) == ["removed"]
