@@ -32,6 +32,7 @@ COMMANDS: dict[str, tuple[str, str] | tuple[str, str, str]] = {
     ),
     "chair": ("iw_zenoh.bridges.serial.emulator", "`iwz chair emulate`: a chair board on a pseudo-terminal"),
     "ctl": ("iw_zenoh.nodes.ctl", "steer a running simulation: pause, resume, step, stop, remove, obstacles"),
+    "foxglove": ("iw_zenoh.nodes.foxglove_live", "serve a running simulation to Foxglove / Lichtblick (WebSocket)"),
     "record": ("iw_zenoh.nodes.recorder", "record every key of a simulation to MCAP"),
     "replay": ("iw_zenoh.nodes.replay", "play a recording back into Zenoh (rate, window, loop, seek)"),
     "incidents": ("iw_zenoh.record.incidents", "list a recording's collisions, near misses, stops and losses"),

@@ -9,16 +9,14 @@ most that much; :meth:`Recorder.finish` writes the indexes and a sim-time index 
 
 from __future__ import annotations
 
-import json
 import logging
 from typing import IO
 
 from mcap.writer import CompressionType, Writer
 
 from iw_zenoh import __version__, keys
-from iw_zenoh.errors import IwError
-from iw_zenoh.messages import TOPIC_TYPES, SensorReading, WorldInfo, WorldState, decode, encode, json_schema, stamp_of
-from iw_zenoh.record.foxglove import SceneBuilder
+from iw_zenoh.messages import encode, stamp_of
+from iw_zenoh.record.channels import ENCODING, SCHEMA_ENCODING, ChannelSpec, Derivation, key_channel
 
 __all__ = ["PROFILE", "SIM_INDEX", "Recorder"]
 
@@ -56,31 +54,27 @@ class Recorder:
         self.bytes = 0
         self._sim_index: list[tuple[int, int]] = []
         self._finished = False
-        self._scene = SceneBuilder() if scene else None
+        self._scene = Derivation() if scene else None
         base = {"iw-zenoh": __version__}
         self._w.add_metadata("iw.versions", base)
         for name, data in (metadata or {}).items():
             self._w.add_metadata(name, {k: str(v) for k, v in data.items()})
 
+    def _register(self, spec: ChannelSpec) -> int:
+        """Declares a channel (and its schema, once per schema name) in the file."""
+        sid = self._schemas.get(spec.schema_name, 0) if spec.schema_name else 0
+        if spec.schema_name and not sid:
+            sid = self._w.register_schema(name=spec.schema_name, encoding=SCHEMA_ENCODING, data=spec.schema)
+            self._schemas[spec.schema_name] = sid
+        cid = self._w.register_channel(
+            topic=spec.topic, message_encoding=ENCODING, schema_id=sid, metadata=spec.metadata
+        )
+        self._channels[spec.topic] = cid
+        return cid
+
     def _channel(self, key: str) -> int:
         cid = self._channels.get(key)
-        if cid is not None:
-            return cid
-        kind = keys.topic_kind(key)
-        cls = TOPIC_TYPES.get(kind) if kind else None
-        sid = 0
-        meta = {"zenoh_key": key}
-        if cls is not None:
-            sid = self._schemas.get(cls.schema, 0)
-            if not sid:
-                sid = self._w.register_schema(
-                    name=cls.schema, encoding="jsonschema", data=json.dumps(json_schema(cls)).encode()
-                )
-                self._schemas[cls.schema] = sid
-            meta["kind"] = kind or ""
-        cid = self._w.register_channel(topic=key, message_encoding="json", schema_id=sid, metadata=meta)
-        self._channels[key] = cid
-        return cid
+        return cid if cid is not None else self._register(key_channel(key))
 
     def add(self, key: str, data: bytes, log_time_ns: int) -> None:
         """Records one delivery.
@@ -106,32 +100,11 @@ class Recorder:
 
     def _derive(self, key: str, data: bytes, log_time_ns: int, sim_ns: int) -> None:
         """Adds the Foxglove scene messages a world message implies (never fails the recording)."""
-        kind = keys.topic_kind(key)
         assert self._scene is not None
-        try:
-            if kind == "info":
-                derived = self._scene.on_info(decode(data, WorldInfo))
-            elif kind == "state":
-                derived = self._scene.on_state(decode(data, WorldState))
-            elif kind == "sensors":
-                derived = self._scene.on_sensors(decode(data, SensorReading))
-            else:
-                return
-        except IwError:
-            return  # a malformed message is recorded as received; it just has no picture
-        for topic, msg in derived:
-            cid = self._channels.get(topic)
+        for spec, msg in self._scene.derive(key, data):
+            cid = self._channels.get(spec.topic)
             if cid is None:
-                sid = self._schemas.get(msg.schema, 0)
-                if not sid:
-                    sid = self._w.register_schema(
-                        name=msg.schema, encoding="jsonschema", data=json.dumps(json_schema(type(msg))).encode()
-                    )
-                    self._schemas[msg.schema] = sid
-                cid = self._w.register_channel(
-                    topic=topic, message_encoding="json", schema_id=sid, metadata={"derived": "foxglove"}
-                )
-                self._channels[topic] = cid
+                cid = self._register(spec)
             self._w.add_message(channel_id=cid, log_time=log_time_ns, data=encode(msg), publish_time=sim_ns, sequence=0)
 
     def flush(self) -> None:

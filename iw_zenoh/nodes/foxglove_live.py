@@ -1,0 +1,228 @@
+"""Foxglove live: a running simulation served over the Foxglove WebSocket protocol.
+
+Through the ``foxglove-sdk`` package: its server speaks the protocol (subprotocol
+``foxglove.sdk.v1``, the ``foxglove.websocket.v1`` protocol renamed), and this module offers it the
+same channels a recording has (:mod:`iw_zenoh.record.channels`: one per Zenoh key with its JSON
+Schema, and the derived ``/foxglove/scene`` and ``/foxglove/tf``), each declared when its first
+message arrives. Foxglove or Lichtblick, connected to ``ws://HOST:PORT``, sees the scene and the
+state and gets a scene update every tick. Loopback only unless another host is given.
+
+:func:`start_foxglove_live` is self-contained (a process that has a bus starts it: ``iwz
+foxglove``, the viewer); ``iwz foxglove`` is the role command.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import threading
+import time
+from collections.abc import Sequence
+
+import foxglove
+from foxglove.websocket import ChannelView, Client, ServerListener
+
+from iw_zenoh import keys
+from iw_zenoh.bus import Asked, Delivery, Handle, Inbox
+from iw_zenoh.errors import IwError
+from iw_zenoh.messages import WorldState, decode, encode
+from iw_zenoh.record.channels import ENCODING, SCHEMA_ENCODING, ChannelSpec, Derivation, key_channel
+from iw_zenoh.runtime import NodeIO, Process, start_role
+
+__all__ = ["DEFAULT_PORT", "FoxgloveLive", "main", "start_foxglove_live"]
+
+logger = logging.getLogger(__name__)
+
+DEFAULT_HOST = "127.0.0.1"  # loopback only: a viewer on another machine is asked for with --host
+DEFAULT_PORT = 8765  # Foxglove's own default for a WebSocket data source
+BACKLOG = 20_000  # deliveries kept when the server falls behind (the newest; a viewer may skip)
+POLL_S = 0.1  # the loop looks at its stop flag at least this often
+INFO_TIMEOUT_S = 2.0
+
+
+class _Listener(ServerListener):
+    """Notes that a client subscribed, so the latched messages are sent again (foxglove-sdk calls
+    this from its own thread: it only sets a flag)."""
+
+    def __init__(self, wake: threading.Event) -> None:
+        self.subscribed = threading.Event()
+        self._wake = wake
+
+    def on_subscribe(self, client: Client, channel: ChannelView) -> None:
+        """A client subscribed to a channel."""
+        self.subscribed.set()
+        self._wake.set()
+
+
+class FoxgloveLive:
+    """A Foxglove WebSocket server fed from the bus (see :func:`start_foxglove_live`).
+
+    Attributes:
+        port: The port it listens on (the one asked for, or the one given for port 0).
+        host: The address it listens on.
+    """
+
+    def __init__(self, io: NodeIO, host: str, port: int) -> None:
+        self.io = io
+        self.host = host
+        self._ctx = foxglove.Context()
+        self._wake = threading.Event()
+        self._listener = _Listener(self._wake)
+        self._server = foxglove.start_server(
+            name=f"iw-zenoh {io.sim}", host=host, port=port, context=self._ctx, server_listener=self._listener
+        )
+        self.port: int = self._server.port
+        self._channels: dict[str, foxglove.Channel] = {}
+        self._derivation = Derivation()
+        self._latched: dict[str, bytes] = {}  # topic -> last message a late subscriber needs (info, walls)
+        self._info_revision = -1
+        self._asked: Asked | None = None
+        self._taken = 0  # answers to it served so far
+        self._stop = threading.Event()
+        self._inbox = Inbox(maxlen=BACKLOG, wake=self._wake)
+        self._sub: Handle = io.bus.subscribe(keys.everything(io.sim), self._inbox)
+        self._thread = threading.Thread(target=self._loop, name="foxglove-live", daemon=True)
+        self._thread.start()
+
+    def _channel(self, spec: ChannelSpec) -> foxglove.Channel:
+        ch = self._channels.get(spec.topic)
+        if ch is None:
+            schema = (
+                foxglove.Schema(name=spec.schema_name, encoding=SCHEMA_ENCODING, data=spec.schema)
+                if spec.schema_name
+                else None
+            )
+            ch = foxglove.Channel(
+                spec.topic, schema=schema, message_encoding=ENCODING, context=self._ctx, metadata=spec.metadata
+            )
+            self._channels[spec.topic] = ch
+        return ch
+
+    def _publish(self, delivery: Delivery) -> None:
+        key, data, t = delivery
+        self._channel(key_channel(key)).log(data, log_time=t)
+        kind = keys.topic_kind(key)
+        if kind == "info":
+            self._latched[key] = data
+        for spec, msg in self._derivation.derive(key, data):
+            payload = encode(msg)
+            self._channel(spec).log(payload, log_time=t)
+            if kind == "info":
+                self._latched[spec.topic] = payload  # the walls, drawn once per revision
+        if kind == "state":
+            self._want_info(data)
+
+    def _want_info(self, data: bytes) -> None:
+        """Asks the world for its description when a state's revision is newer than the last one
+        seen (a server started after the world has heard no ``world/info`` yet)."""
+        try:
+            rev = decode(data, WorldState).revision
+        except IwError:
+            return
+        if rev != self._info_revision and (self._asked is None or self._asked.answered()):
+            self._info_revision = rev
+            self._ask_info()
+
+    def _ask_info(self) -> None:
+        self._asked, self._taken = self.io.bus.ask(keys.info(self.io.sim), timeout_s=INFO_TIMEOUT_S), 0
+
+    def _take_info_answer(self) -> None:
+        """Serves the world's answers to the last info query as if they came on ``world/info``."""
+        if self._asked is None:
+            return
+        replies = self._asked.replies[self._taken :]  # appended by the network's thread
+        self._taken += len(replies)
+        for data in replies:
+            self._publish((keys.info(self.io.sim), data, time.time_ns()))
+
+    def _loop(self) -> None:
+        self._ask_info()
+        while not self._stop.is_set():
+            self._wake.wait(POLL_S)
+            self._wake.clear()
+            self._take_info_answer()
+            for d in self._inbox.drain():
+                try:
+                    self._publish(d)
+                except Exception:  # one bad message never stops the server
+                    logger.exception("could not serve a message on %s", d[0])
+            if self._listener.subscribed.is_set():
+                self._listener.subscribed.clear()
+                now = time.time_ns()
+                for topic, data in list(self._latched.items()):
+                    self._channels[topic].log(data, log_time=now)
+
+    def close(self) -> None:
+        """Stops serving: the loop, the subscription, the server (idempotent)."""
+        if self._stop.is_set():
+            return
+        self._stop.set()
+        self._wake.set()
+        self._thread.join(5)
+        try:
+            self._sub.undeclare()
+        except Exception:  # the session may be closing already
+            logger.debug("undeclare failed", exc_info=True)
+        self._server.stop()
+
+
+def start_foxglove_live(io: NodeIO, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT) -> FoxgloveLive:
+    """Serves the simulation ``io`` belongs to over the Foxglove WebSocket protocol.
+
+    Args:
+        io: The process's handle on the bus (its simulation is the one served).
+        host: The address to listen on (default loopback only; ``0.0.0.0`` for every interface).
+        port: The TCP port (0: any free one, then read ``.port``).
+
+    Returns:
+        The running server; ``close()`` stops it.
+
+    Raises:
+        RuntimeError: The port cannot be bound (foxglove-sdk's error, with its reason).
+    """
+    return FoxgloveLive(io, host, port)
+
+
+def _arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--host", default=DEFAULT_HOST, help=f"address to listen on (default {DEFAULT_HOST}: this machine only)"
+    )
+    p.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"TCP port (default {DEFAULT_PORT}; 0: any free)")
+
+
+def _run(proc: Process) -> int:
+    args = proc.args
+    try:
+        live = start_foxglove_live(proc.io, args.host, args.port)
+    except RuntimeError as e:
+        print(f"iwz foxglove: cannot listen on {args.host}:{args.port}: {e}. Is the port taken? Try --port", flush=True)
+        return 2
+    print(f"iwz foxglove: serving iw/{proc.sim}/** on ws://{args.host}:{live.port}", flush=True)
+    try:
+        while not proc.io.stop.is_set():
+            proc.io.stop.wait(0.5)
+    finally:
+        live.close()
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Runs ``iwz foxglove``."""
+    return start_role(
+        argv,
+        role="viewer",
+        prog="iwz foxglove",
+        name=lambda _args: "foxglove",
+        description=(
+            "Serve a running simulation to Foxglove or Lichtblick over the Foxglove WebSocket protocol: "
+            "the same channels and schemas as a recording (every key, /foxglove/scene, /foxglove/tf)."
+        ),
+        epilog=(
+            "Examples (then open ws://127.0.0.1:8765 in Foxglove: Open connection, Foxglove WebSocket):\n"
+            "  iwz foxglove\n"
+            "  iwz foxglove --sim demo --port 8766\n"
+            "  iwz foxglove --host 0.0.0.0 --connect tcp/10.0.0.5:7447    (a viewer on another machine)"
+        ),
+        arguments=_arguments,
+        run=_run,
+    )
