@@ -20,13 +20,14 @@ import time
 from collections.abc import Sequence
 
 import foxglove
+import msgspec
 from foxglove.websocket import ChannelView, Client, ServerListener
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Asked, Delivery, Handle, Inbox
-from iw_zenoh.errors import IwError
-from iw_zenoh.messages import WorldState, decode, encode
+from iw_zenoh.messages import encode
 from iw_zenoh.record.channels import ENCODING, SCHEMA_ENCODING, ChannelSpec, Derivation, key_channel
+from iw_zenoh.record.foxglove import SCENE_TOPIC, TF_TOPIC
 from iw_zenoh.runtime import NodeIO, Process, start_role
 
 __all__ = ["DEFAULT_PORT", "FoxgloveLive", "main", "start_foxglove_live"]
@@ -38,6 +39,13 @@ DEFAULT_PORT = 8765  # Foxglove's own default for a WebSocket data source
 BACKLOG = 20_000  # deliveries kept when the server falls behind (the newest; a viewer may skip)
 POLL_S = 0.1  # the loop looks at its stop flag at least this often
 INFO_TIMEOUT_S = 2.0
+
+
+class _Revision(msgspec.Struct):
+    revision: int = -1
+
+
+_REVISION = msgspec.json.Decoder(_Revision)  # a state's revision alone, without decoding its arrays
 
 
 class _Listener(ServerListener):
@@ -98,17 +106,25 @@ class FoxgloveLive:
             self._channels[spec.topic] = ch
         return ch
 
+    def _drawing(self) -> bool:
+        """Whether a client watches the scene (drawing every state costs; the world's description
+        is always taken, so the first scene a client gets is whole)."""
+        scene, tf = self._channels.get(SCENE_TOPIC), self._channels.get(TF_TOPIC)
+        return scene is None or tf is None or scene.has_sinks() or tf.has_sinks()  # offered once, then on demand
+
     def _publish(self, delivery: Delivery) -> None:
         key, data, t = delivery
-        self._channel(key_channel(key)).log(data, log_time=t)
+        ch = self._channels.get(key)
+        (ch or self._channel(key_channel(key))).log(data, log_time=t)
         kind = keys.topic_kind(key)
         if kind == "info":
             self._latched[key] = data
-        for spec, msg in self._derivation.derive(key, data):
-            payload = encode(msg)
-            self._channel(spec).log(payload, log_time=t)
-            if kind == "info":
-                self._latched[spec.topic] = payload  # the walls, drawn once per revision
+        if kind == "info" or (kind in ("state", "sensors") and self._drawing()):
+            for spec, msg in self._derivation.derive(key, data):
+                payload = encode(msg)
+                self._channel(spec).log(payload, log_time=t)
+                if kind == "info":
+                    self._latched[spec.topic] = payload  # the walls, drawn once per revision
         if kind == "state":
             self._want_info(data)
 
@@ -116,8 +132,8 @@ class FoxgloveLive:
         """Asks the world for its description when a state's revision is newer than the last one
         seen (a server started after the world has heard no ``world/info`` yet)."""
         try:
-            rev = decode(data, WorldState).revision
-        except IwError:
+            rev = _REVISION.decode(data).revision
+        except msgspec.DecodeError:
             return
         if rev != self._info_revision and (self._asked is None or self._asked.answered()):
             self._info_revision = rev

@@ -14,7 +14,7 @@ import pytest
 from iw_zenoh import keys
 from iw_zenoh.messages import RobotSpecMsg, SensorReading, Tick, WorldInfo, WorldState, decode
 from iw_zenoh.net import free_port
-from tests.integration.harness import Net, register, subscribe, wait_alive, wait_msg
+from tests.integration.harness import Net, Proc, register, subscribe, wait_alive, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(180)]
 
@@ -25,11 +25,12 @@ GRID = """<Grid><Position X="2" Y="5" Dir="0"/><Position X="5" Y="8" Dir="0"/></
 CTL_TIMEOUT_S = 20  # the world answers in a tick; a loaded machine may take seconds to start a process
 
 
-def _world(net: Net, *extra: str) -> None:
+def _world(net: Net, *extra: str) -> Proc:
     (net.tmp / "lab.xml").write_text(LAB)
     (net.tmp / "grid.xml").write_text(GRID)
-    net.spawn("world", str(net.tmp / "lab.xml"), "--grid", str(net.tmp / "grid.xml"), *extra)
+    world = net.spawn("world", str(net.tmp / "lab.xml"), "--grid", str(net.tmp / "grid.xml"), *extra)
     net.spawn("collision")
+    return world
 
 
 def ctl(net: Net, *args: str, timeout_s: float = CTL_TIMEOUT_S) -> tuple[int, dict[str, Any]]:
@@ -167,3 +168,13 @@ def test_no_router_is_a_clear_error_within_the_timeout(tmp_path: Path) -> None:
     assert p.returncode == 2
     assert "iwz ctl: cannot join the bus" in p.stdout
     assert time.monotonic() - t0 < 2 + 15
+
+
+def test_stop_ends_the_worlds_run(net: Net) -> None:
+    world = _world(net)
+    ticks = subscribe(net.client(), keys.tick(net.sim))
+    wait_msg(ticks, Tick, lambda t: t.tick >= 1)
+    rc, out = ctl(net, "stop", "--timeout", str(CTL_TIMEOUT_S))
+    assert rc == 0, out
+    assert out["event"] == "stopped"
+    assert world.popen.wait(30) == 0
