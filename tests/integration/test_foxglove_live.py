@@ -127,3 +127,13 @@ def test_a_foxglove_client_is_offered_the_scene_and_state_and_sees_every_tick_dr
     assert ticks == list(range(ticks[0], ticks[0] + len(ticks)))  # every tick, in order, advancing
     assert all(len(s.ids) == 2 for s in states)
     assert walls  # sent again to a client that subscribes after the world described itself
+    # a client that comes later still gets the walls (drawn once per world revision) when it subscribes
+    with connect(f"ws://127.0.0.1:{port}", subprotocols=SUBPROTOCOLS, open_timeout=30) as late:  # type: ignore[arg-type]
+        scene = _advertised(late, {SCENE_TOPIC})[SCENE_TOPIC]
+        late.send(json.dumps({"op": "subscribe", "subscriptions": [{"id": 7, "channelId": scene["id"]}]}))
+        ids: set[str] = set()
+        for _ in range(50):
+            ids |= {e["id"] for e in json.loads(_message(late)[1])["entities"]}
+            if "walls" in ids:
+                break
+        assert "walls" in ids, ids
