@@ -18,7 +18,7 @@ import msgspec
 from iw_zenoh import keys
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import TOPIC_TYPES, SensorReading, WorldInfo, WorldState, decode, json_schema
-from iw_zenoh.record.foxglove import FgFrameTransform, FgSceneUpdate, SceneBuilder
+from iw_zenoh.record.foxglove import FgFrameTransform, FgLaserScan, FgSceneUpdate, SceneBuilder
 
 __all__ = ["DERIVED_META", "ENCODING", "SCHEMA_ENCODING", "ChannelSpec", "Derived", "Derivation", "key_channel"]
 
@@ -26,7 +26,7 @@ ENCODING = "json"  # every message, the simulation's and the derived ones
 SCHEMA_ENCODING = "jsonschema"
 DERIVED_META = {"derived": "foxglove"}  # what marks a channel that is no Zenoh key
 
-Derived = FgSceneUpdate | FgFrameTransform  # a derived channel's message
+Derived = FgSceneUpdate | FgFrameTransform | FgLaserScan  # a derived channel's message
 
 
 @dataclass(frozen=True)
