@@ -33,6 +33,10 @@ COMMANDS: dict[str, tuple[str, str] | tuple[str, str, str]] = {
     "chair": ("iw_zenoh.bridges.serial.emulator", "`iwz chair emulate`: a chair board on a pseudo-terminal"),
     "ctl": ("iw_zenoh.nodes.ctl", "steer a running simulation: pause, resume, step, stop, remove, obstacles"),
     "foxglove": ("iw_zenoh.nodes.foxglove_live", "serve a running simulation to Foxglove / Lichtblick (WebSocket)"),
+    "view": (
+        "iw_zenoh.nodes.viewer",
+        "the web viewer: 2D and 3D of a live run, steered from the page, or a recording with a timeline",
+    ),
     "record": ("iw_zenoh.nodes.recorder", "record every key of a simulation to MCAP"),
     "replay": ("iw_zenoh.nodes.replay", "play a recording back into Zenoh (rate, window, loop, seek)"),
     "incidents": ("iw_zenoh.record.incidents", "list a recording's collisions, near misses, stops and losses"),

@@ -43,6 +43,7 @@ class ReplayOptions:
         exclude: Key expressions not to play.
         as_sim: Play into this simulation name instead of the recorded one.
         paused: Start paused (a ``start`` control plays).
+        hold: At the end, wait paused for a seek (or a stop) instead of returning (a viewer's timeline).
     """
 
     rate: float = 1.0
@@ -53,6 +54,7 @@ class ReplayOptions:
     exclude: list[str] = field(default_factory=list)
     as_sim: str | None = None
     paused: bool = False
+    hold: bool = False
 
 
 def sim_index(f: IO[bytes] | RecordingReader) -> tuple[list[int], list[int], str | None]:
@@ -118,6 +120,8 @@ class Player:
         self.position_ns = 0  # sim time of the last state played
         self.progress: Callable[[float, str], None] | None = None  # told how far, at each state played
         self._seek: int | None = None
+        self._rate: float | None = None  # a new rate asked from another thread, taken by the player's
+        self.at_end = False  # held at the end of the recording (``hold``)
         self._keys = KeyFilter(tuple(opts.include), tuple(opts.exclude))
         self._wanted_by_topic: dict[str, bool] = {}
         self._last_info: bytes | None = None
@@ -134,6 +138,18 @@ class Player:
         i = bisect.bisect_right(self.sims, sim_ns) - 1
         return self.logs[max(0, i)]
 
+    @property
+    def last_info(self) -> bytes | None:
+        """The last world description played or passed over (what a late joiner is told)."""
+        return self._last_info
+
+    def set_rate(self, rate: float) -> None:
+        """Plays at ``rate`` from now on (0: as fast as possible); safe from another thread."""
+        if rate < 0:
+            raise ValueError("a rate must be >= 0")
+        self._rate = rate
+        self.wake.set()
+
     def _wanted(self, key: str) -> bool:
         got = self._wanted_by_topic.get(key)
         if got is None:
@@ -143,6 +159,9 @@ class Player:
         return got
 
     def _commands(self) -> None:
+        if self._rate is not None:
+            self.opts.rate, self._rate = self._rate, None
+            self._base = None  # time from here at the new rate
         for _, data, _ in self.control.drain():
             try:
                 c = decode(data, Control)
@@ -175,10 +194,23 @@ class Player:
             if self._seek is not None:
                 origin, self._seek = self._seek, None
                 continue
-            if not (self.opts.loop and played) or self.stop.is_set():
+            if self.opts.loop and played and not self.stop.is_set():
+                origin = self.opts.start_ns
+                continue
+            if not self.opts.hold or self._hold() is None:
                 break
-            origin = self.opts.start_ns
+            origin, self._seek = self._seek, None
         return self.sent
+
+    def _hold(self) -> int | None:
+        """At the end: paused until a seek (its time) or a stop (``None``)."""
+        self.paused, self.at_end = True, True
+        while not self.stop.is_set() and self._seek is None:
+            self.wake.wait(0.2)
+            self.wake.clear()
+            self._commands()
+        self.at_end = False
+        return self._seek
 
     def _pace(self, log_ns: int) -> bool:
         """Waits until ``log_ns`` is due (honouring pause and steps); False to abandon the pass."""
@@ -200,7 +232,7 @@ class Player:
                 if self.wake.wait(min(left / 1e9, 0.2)):
                     self.wake.clear()
                     self._commands()
-                    if self.paused or self._seek is not None:
+                    if self.paused or self._seek is not None or self._base is None:
                         interrupted = True
                         break
             if not interrupted:

@@ -1,0 +1,232 @@
+"""The viewer's WebSocket messages (``iwz view``): what its server sends the page, and the
+commands the page sends back.
+
+Every server message is a JSON object tagged by ``type``. Static things (walls, obstacles,
+robots' outlines and sensors) travel in a :class:`PageScene`, sent again only when the world's
+revision changes; each tick a :class:`PageFrame` carries the poses (the robot ids only when the
+roster changed), :class:`PageReadings` the proximity readings that changed, :class:`PageHeard` the
+radio messages heard and :class:`PageEvent` each event. ``docs/viewer.md`` draws the whole exchange.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+import msgspec
+
+from iw_zenoh.messages.world import Obstacle
+
+__all__ = [
+    "PAGE_COMMANDS",
+    "PageCommand",
+    "PageError",
+    "PageEvent",
+    "PageFrame",
+    "PageHeard",
+    "PageHello",
+    "PageMessage",
+    "PageReading",
+    "PageReadings",
+    "PageRobot",
+    "PageScene",
+    "PageSensor",
+    "PageStatus",
+    "PageTimeline",
+    "PageWall",
+    "TimelineMark",
+]
+
+Xy = tuple[float, float]
+
+
+class _Out(msgspec.Struct, frozen=True, kw_only=True, tag_field="type"):
+    """Base of what the server sends (tagged by ``type``)."""
+
+
+class PageHello(_Out, frozen=True, kw_only=True, tag="hello"):
+    """The first message on a connection: live or replay, which simulation."""
+
+    live: bool
+    sim: str
+    version: str = ""
+
+
+class PageSensor(msgspec.Struct, frozen=True, kw_only=True):
+    """A proximity cone in the robot's frame (metres, degrees)."""
+
+    id: int
+    x: float
+    y: float
+    angle_deg: float
+    cone_deg: float
+    range_m: float
+
+
+class PageRobot(msgspec.Struct, frozen=True, kw_only=True):
+    """A robot as drawn: its outline in its own frame (origin at the centre of movement, x along
+    the heading), its sensors, its spec, and the agent that drives it (empty: not known)."""
+
+    id: int
+    name: str
+    type: str
+    outline: list[Xy]
+    sensors: list[PageSensor]
+    spec: dict[str, Any]
+    agent: str = ""
+
+
+class PageWall(msgspec.Struct, frozen=True, kw_only=True):
+    """A wall polygon and its height (m)."""
+
+    corners: list[Xy]
+    height: float
+
+
+class PageScene(_Out, frozen=True, kw_only=True, tag="scene"):
+    """Everything static of one revision of the world."""
+
+    revision: int
+    name: str
+    width: float
+    height: float
+    walls: list[PageWall]
+    obstacles: list[Obstacle]
+    beacons: list[tuple[float, float, float]]
+    targets: list[tuple[float, float, float]]
+    robots: list[PageRobot]
+    period_ns: int
+
+
+class PageFrame(_Out, frozen=True, kw_only=True, tag="frame"):
+    """One tick's poses: ``x``, ``y`` (m), ``heading`` (rad) in the order of ``ids`` (sent only
+    when the roster changed: ``None`` means the last ids sent); ``state`` one letter per robot:
+    ``d`` driving, ``h`` held, ``w`` stopped by the watchdog, ``c`` collided."""
+
+    tick: int
+    t_ns: int
+    ids: list[int] | None = None
+    x: list[float]
+    y: list[float]
+    heading: list[float]
+    state: str
+    held_reason: str = ""
+    sent_ms: float = 0.0  # the server's wall clock when it sent this (ms since the epoch)
+    tick_wall_ms: float = 0.0  # the world's wall clock when it began this tick (ms since the epoch; 0: not said)
+
+
+class PageStatus(_Out, frozen=True, kw_only=True, tag="status"):
+    """The clock: tick, simulation time, real-time factor (simulation seconds per wall second)."""
+
+    tick: int
+    t_ns: int
+    mode: str
+    running: bool
+    rtf: float
+    period_ns: int
+
+
+class PageReadings(_Out, frozen=True, kw_only=True, tag="readings"):
+    """Proximity readings that changed this tick: robot id (as text, a JSON key) to one distance
+    per sensor of its :class:`PageSensor` list (``None``: nothing in range)."""
+
+    tick: int
+    prox: dict[str, list[float | None]]
+
+
+class PageReading(_Out, frozen=True, kw_only=True, tag="reading"):
+    """Everything known of one robot now (the answer to a ``reading`` command)."""
+
+    robot_id: int
+    reading: dict[str, Any] | None
+    speed: float | None
+    motors: tuple[float, float] | None
+    pose: tuple[float, float, float] | None
+    events: list[dict[str, Any]]
+
+
+class PageHeard(_Out, frozen=True, kw_only=True, tag="heard"):
+    """Radio messages heard this tick: ``[to, from, distance m, text]``."""
+
+    tick: int
+    messages: list[tuple[int, int, float, str]]
+
+
+class PageEvent(_Out, frozen=True, kw_only=True, tag="event"):
+    """An event, with where it happened when known (a collision's point, else the robot's pose)."""
+
+    tick: int
+    t_ns: int
+    kind: str
+    reason: str
+    robot_id: int
+    where: Xy | None = None
+
+
+class TimelineMark(msgspec.Struct, frozen=True, kw_only=True):
+    """An incident on the replay's timeline."""
+
+    t_ns: int
+    kind: str
+    what: str
+    robots: list[int] = []
+
+
+class PageTimeline(_Out, frozen=True, kw_only=True, tag="timeline"):
+    """A replay's timeline: its span, where it is, whether it plays, how fast, its incidents
+    (``None``: the ones sent before)."""
+
+    start_ns: int
+    end_ns: int
+    position_ns: int
+    playing: bool
+    rate: float
+    marks: list[TimelineMark] | None = None
+
+
+class PageError(_Out, frozen=True, kw_only=True, tag="error"):
+    """A command the server refused, and why."""
+
+    error: str
+
+
+PageMessage = (
+    PageHello | PageScene | PageFrame | PageStatus | PageReadings | PageReading | PageHeard | PageEvent | PageTimeline
+) | PageError
+
+PAGE_COMMANDS = (
+    "start",
+    "pause",
+    "step",
+    "stop",
+    "remove",
+    "add_obstacle",
+    "move_obstacle",
+    "remove_obstacle",
+    "reading",
+    "seek",
+    "rate",
+)
+
+
+class PageCommand(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """What the page asks: a world control (``start`` ... ``remove_obstacle``), a robot's
+    ``reading``, or, in a replay, ``seek`` (``at_ns``) and ``rate``."""
+
+    cmd: Literal[
+        "start",
+        "pause",
+        "step",
+        "stop",
+        "remove",
+        "add_obstacle",
+        "move_obstacle",
+        "remove_obstacle",
+        "reading",
+        "seek",
+        "rate",
+    ]
+    robot_id: Annotated[int, msgspec.Meta(ge=0)] = 0
+    obstacle: Obstacle | None = None
+    steps: Annotated[int, msgspec.Meta(ge=1, le=10_000)] = 1
+    at_ns: Annotated[int, msgspec.Meta(ge=0)] = 0
+    rate: Annotated[float, msgspec.Meta(ge=0.0, le=1000.0)] = 1.0

@@ -1,0 +1,115 @@
+"""``iwz view [RECORDING.mcap]``: the web viewer, live or replaying a recording (the page and its
+server: :mod:`iw_zenoh.viewer`)."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import logging
+import threading
+from collections.abc import Sequence
+from pathlib import Path
+
+from aiohttp import web
+
+from iw_zenoh.errors import IwError
+from iw_zenoh.record.reader import file_error
+from iw_zenoh.runtime import Process, start_role
+from iw_zenoh.viewer.feed import Feed
+from iw_zenoh.viewer.server import make_app
+from iw_zenoh.viewer.sources import LiveSource, ReplaySource, Source
+
+__all__ = ["main"]
+
+logger = logging.getLogger(__name__)
+
+EPILOG = """Examples:
+  iwz run maps/demo.toml &  iwz view            then open http://127.0.0.1:8080/
+  iwz view --port 9000 --sim hospital          a simulation named hospital, on port 9000
+  iwz view --host 0.0.0.0 -e tcp/10.0.0.5:7447  a run on another laptop; the page open to the LAN
+  iwz view recordings/demo-sample.mcap         replay a recording with a timeline (no router needed)
+  iwz view --port 0                            any free port (the address is printed)
+
+On the page: drag to pan, wheel to zoom, click a robot for its panel; the buttons start, pause,
+step, stop; docs/viewer.md explains every control and the WebSocket messages."""
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Runs ``iwz view``."""
+    args = list(argv) if argv is not None else None
+    replay = any(a.endswith(".mcap") for a in (args or []))
+    return start_role(
+        args,
+        role="viewer",
+        prog="iwz view",
+        description=(
+            "The web viewer: a page (2D and 3D) of a live simulation, steered from the page, or of a "
+            "recording with a timeline. Works offline: everything is served from the package."
+        ),
+        epilog=EPILOG,
+        arguments=_arguments,
+        prepare=_check,
+        run=_run,
+        default_mode="peer" if replay else "client",  # a replay needs no router
+    )
+
+
+def _arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("recording", nargs="?", help="an MCAP recording to replay (default: the live simulation)")
+    p.add_argument("--port", type=int, default=8080, help="HTTP port of the page (default 8080; 0: any free port)")
+    p.add_argument(
+        "--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1: this machine only; 0.0.0.0: all)"
+    )
+    p.add_argument("--rate", type=float, default=1.0, help="replay: the speed to start at (default 1)")
+
+
+def _check(args: argparse.Namespace) -> argparse.Namespace:
+    if not 0 <= args.port <= 65535:
+        raise IwError(f"--port {args.port} is no TCP port: give 0..65535 (0: any free port)")
+    if args.rate < 0:
+        raise IwError("--rate must be >= 0 (0: as fast as possible)")
+    if args.recording is not None and not Path(args.recording).exists():
+        raise IwError(f"{args.recording}: no such file (give an MCAP recording, e.g. recordings/demo-sample.mcap)")
+    return args
+
+
+def _run(proc: Process, args: argparse.Namespace) -> int:
+    wake = threading.Event()
+    source: Source
+    if args.recording is not None:
+        try:
+            source = ReplaySource(Path(args.recording), wake, rate=args.rate)
+        except (OSError, IwError) as e:
+            print(f"iwz view: {file_error(args.recording, e)}; check it with iwz doctor", flush=True)
+            return 2
+    else:
+        source = LiveSource(proc.bus, proc.sim, wake)
+        proc.io.alive()
+    try:
+        return asyncio.run(_serve(proc, source, Feed(source.sim), wake))
+    finally:
+        source.close()
+
+
+async def _serve(proc: Process, source: Source, feed: Feed, wake: threading.Event) -> int:
+    runner = web.AppRunner(make_app(source, feed, wake), access_log=None)
+    await runner.setup()
+    site = web.TCPSite(runner, proc.args.host, proc.args.port)
+    try:
+        await site.start()
+    except OSError as e:
+        await runner.cleanup()
+        print(
+            f"iwz view: cannot serve on {proc.args.host}:{proc.args.port}: {e.strerror or e}; "
+            "is another viewer there? Use --port N (or --port 0 for any free port)",
+            flush=True,
+        )
+        return 2
+    port = runner.addresses[0][1] if runner.addresses else proc.args.port
+    what = f"replay of {proc.args.recording}" if not source.live else f"live simulation {proc.sim!r}"
+    print(f"iwz view: http://{proc.args.host}:{port}/ ({what}); Ctrl-C stops", flush=True)
+    try:
+        await asyncio.get_running_loop().run_in_executor(None, proc.io.stop.wait)
+    finally:
+        await runner.cleanup()
+    return 0

@@ -1,0 +1,190 @@
+"""The viewer's web server: the page's static files (shipped in the package, nothing from a CDN)
+and one WebSocket per page (aiohttp serves both from one asyncio loop).
+
+A pump thread drains the source into the :class:`~iw_zenoh.viewer.feed.Feed` and encodes each
+page message once; the loop hands it to every page. A page that joins, or falls too far behind
+(:data:`MAX_BACKLOG` messages unsent), is given the feed's snapshot and goes on from there.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import collections
+import logging
+import queue
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import msgspec
+from aiohttp import WSMsgType, web
+
+from iw_zenoh import __version__
+from iw_zenoh.messages.page import PageCommand, PageError, PageHello, PageMessage
+from iw_zenoh.viewer.feed import Feed
+from iw_zenoh.viewer.sources import Source
+
+__all__ = ["STATIC", "Client", "Pump", "make_app"]
+
+logger = logging.getLogger(__name__)
+
+STATIC = Path(__file__).resolve().parent / "static"
+MAX_BACKLOG = 64  # messages waiting for one page; past that it is resynchronised from a snapshot
+MAX_COMMAND_BYTES = 64 * 1024  # a page's command is a small JSON object
+_ENCODER = msgspec.json.Encoder()
+_COMMAND = msgspec.json.Decoder(PageCommand)
+
+
+@dataclass(eq=False)
+class Client:
+    """One page: its socket, what waits to be sent to it, whether it has its snapshot."""
+
+    ws: web.WebSocketResponse
+    waiting: collections.deque[str] = field(default_factory=collections.deque)
+    ready: asyncio.Event = field(default_factory=asyncio.Event)
+    joined: bool = False
+    closed: bool = False
+
+
+class Pump(threading.Thread):
+    """Drains the source into the feed and hands the pages what to show (its own thread).
+
+    Args:
+        source: Live or replay.
+        feed: The page's view of the world.
+        wake: Set by the source when something arrives.
+        deliver: Called with ``(client or None for every page, encoded messages, is a snapshot)``.
+    """
+
+    def __init__(
+        self,
+        source: Source,
+        feed: Feed,
+        wake: threading.Event,
+        deliver: collections.abc.Callable[[Client | None, list[str], bool], None],
+    ) -> None:
+        super().__init__(name="viewer-pump", daemon=True)
+        self.source = source
+        self.feed = feed
+        self.wake = wake
+        self.deliver = deliver
+        self.stop = threading.Event()
+        self.requests: queue.SimpleQueue[tuple[Client, PageCommand | None]] = queue.SimpleQueue()
+
+    def ask(self, client: Client, cmd: PageCommand | None) -> None:
+        """Queues a page's command (``None``: it joins and needs a snapshot)."""
+        self.requests.put((client, cmd))
+        self.wake.set()
+
+    def run(self) -> None:
+        """Until stopped: what came in to every page, and each page's requests answered."""
+        while not self.stop.is_set():
+            self.wake.wait(0.1)
+            self.wake.clear()
+            now = time.time_ns()
+            try:
+                out = self.source.poll(self.feed, now)
+            except Exception:  # a source's fault must not stop the page
+                logger.exception("the viewer's source failed")
+                out = []
+            if out:
+                self.deliver(None, [_ENCODER.encode(m).decode() for m in out], False)
+            while not self.requests.empty():
+                client, cmd = self.requests.get()
+                self.deliver(client, [_ENCODER.encode(m).decode() for m in self._answer(cmd, now)], cmd is None)
+
+    def _answer(self, cmd: PageCommand | None, now: int) -> list[PageMessage]:
+        if cmd is None:
+            hello = PageHello(live=self.source.live, sim=self.source.sim, version=__version__)
+            return [hello, *self.feed.snapshot(now), *self.source.extra()]
+        if cmd.cmd == "reading":
+            return [self.feed.reading(cmd.robot_id)]
+        why = self.source.command(cmd)
+        return [PageError(error=why)] if why else []
+
+
+def make_app(source: Source, feed: Feed, wake: threading.Event) -> web.Application:
+    """The web application: ``/`` the page, ``/static/`` its files, ``/ws`` its WebSocket.
+
+    The pump starts with the application and stops with it.
+    """
+    app = web.Application()
+    clients: set[Client] = set()
+    pump_box: list[Pump] = []
+
+    def on_loop(target: Client | None, data: list[str], snapshot: bool) -> None:
+        for c in [target] if target is not None else list(clients):
+            if c.closed or not (c.joined or snapshot):
+                continue
+            if len(c.waiting) > MAX_BACKLOG and not snapshot:  # too far behind: start it afresh
+                c.waiting.clear()
+                c.joined = False
+                pump_box[0].ask(c, None)
+                continue
+            c.joined = True
+            c.waiting.extend(data)
+            c.ready.set()
+
+    async def start(app: web.Application) -> None:
+        loop = asyncio.get_running_loop()
+
+        def deliver(c: Client | None, d: list[str], s: bool) -> None:
+            loop.call_soon_threadsafe(on_loop, c, d, s)
+
+        pump = Pump(source, feed, wake, deliver)
+        pump_box.append(pump)
+        pump.start()
+
+    async def cleanup(app: web.Application) -> None:
+        for pump in pump_box:
+            pump.stop.set()
+            wake.set()
+            pump.join(5)
+        for c in list(clients):
+            await c.ws.close()
+
+    async def index(request: web.Request) -> web.FileResponse:
+        return web.FileResponse(STATIC / "index.html", headers={"Cache-Control": "no-cache"})
+
+    async def socket(request: web.Request) -> web.WebSocketResponse:
+        ws = web.WebSocketResponse(max_msg_size=MAX_COMMAND_BYTES, heartbeat=30.0)
+        await ws.prepare(request)
+        client = Client(ws)
+        clients.add(client)
+        sender = asyncio.create_task(_send(client))
+        pump_box[0].ask(client, None)
+        try:
+            async for msg in ws:
+                if msg.type != WSMsgType.TEXT:
+                    continue
+                try:
+                    pump_box[0].ask(client, _COMMAND.decode(msg.data))
+                except msgspec.DecodeError as e:  # ValidationError is one
+                    client.waiting.append(_ENCODER.encode(PageError(error=f"command refused: {e}")).decode())
+                    client.ready.set()
+        finally:
+            client.closed = True
+            clients.discard(client)
+            client.ready.set()
+            await sender
+        return ws
+
+    app.on_startup.append(start)
+    app.on_cleanup.append(cleanup)
+    app.router.add_get("/", index)
+    app.router.add_get("/ws", socket)
+    app.router.add_static("/static/", STATIC)
+    return app
+
+
+async def _send(client: Client) -> None:
+    """Sends a page what waits for it, in order, until it closes."""
+    while not client.closed:
+        await client.ready.wait()
+        client.ready.clear()
+        while client.waiting and not client.closed:
+            try:
+                await client.ws.send_str(client.waiting.popleft())
+            except (ConnectionError, RuntimeError):  # the page went away
+                client.closed = True

@@ -1,0 +1,313 @@
+// The 2D top view: walls, targets, beacons, obstacles, robots as their true outlines coloured by
+// state, cones with their readings, trails, flashing incidents. Drag to pan, wheel to zoom, click
+// to select; in obstacle mode drag draws an obstacle; a selected obstacle is dragged to move it.
+// It draws only when something changed (a message, the view, a flash).
+
+export const COLOURS = { d: "#2e9e44", h: "#e0a000", w: "#9c4dcc", c: "#e53935" };
+const DOOR = "#8d6e63";
+const LABEL_MIN_PX = 14;      // a robot smaller than this on screen gets no label
+const CONES_MAX = 400;        // beyond this many robots the cones are drawn only for the selected one
+const TRAILS_MAX = 200;       // likewise for trails
+const LATENCIES_KEPT = 2000;
+
+export class View2D {
+  constructor(canvas, world, hooks) {
+    this.canvas = canvas;
+    this.ctx = canvas.getContext("2d");
+    this.world = world;
+    this.hooks = hooks;
+    this.scale = 40; this.ox = 20; this.oy = 400;   // px per m; screen position of the map's origin
+    this.fitted = false;
+    this.drawn = 0;
+    this.latencies = [];      // ms from the world's tick start to its drawing
+    this.seenVersion = -1;
+    this.drawing = false;     // drawing an obstacle
+    this.drag = null;
+    this.obstacleCount = 0;
+    this.dpr = window.devicePixelRatio || 1;
+    this.listen();
+  }
+
+  toScreen(x, y) { return [this.ox + x * this.scale, this.oy - y * this.scale]; }
+  toWorld(sx, sy) { return [(sx - this.ox) / this.scale, (this.oy - sy) / this.scale]; }
+
+  fit() {
+    const s = this.world.scene;
+    const r = this.canvas.getBoundingClientRect();
+    if (!s || r.width === 0) return;
+    this.scale = Math.min((r.width - 20) / s.width, (r.height - 20) / s.height);
+    this.ox = (r.width - s.width * this.scale) / 2;
+    this.oy = r.height - (r.height - s.height * this.scale) / 2;
+    this.fitted = true;
+    this.dirty();
+  }
+
+  dirty() { this.seenVersion = -1; }
+
+  toggleDrawing() {
+    this.drawing = !this.drawing;
+    this.canvas.classList.toggle("drawing", this.drawing);
+    (this.drawing ? this.hooks.drawingStarted : this.hooks.drawingDone)();
+  }
+
+  listen() {
+    const c = this.canvas;
+    const pos = (e) => { const r = c.getBoundingClientRect(); return [e.clientX - r.left, e.clientY - r.top]; };
+    c.addEventListener("wheel", (e) => {
+      e.preventDefault();
+      const [sx, sy] = pos(e);
+      const k = Math.exp(-e.deltaY * 0.0015);
+      this.ox = sx - (sx - this.ox) * k; this.oy = sy - (sy - this.oy) * k; this.scale *= k;
+      this.dirty();
+    }, { passive: false });
+    c.addEventListener("mousedown", (e) => {
+      const [sx, sy] = pos(e);
+      const [wx, wy] = this.toWorld(sx, sy);
+      const ob = this.obstacleAt(wx, wy);
+      if (this.drawing) this.drag = { kind: "draw", x0: wx, y0: wy, x1: wx, y1: wy };
+      else if (ob && this.world.live) this.drag = { kind: "move", ob, wx, wy, dx: 0, dy: 0, moved: false };
+      else this.drag = { kind: "pan", sx, sy, moved: false };
+    });
+    window.addEventListener("mousemove", (e) => {
+      const d = this.drag;
+      if (!d) return;
+      const [sx, sy] = pos(e);
+      const [wx, wy] = this.toWorld(sx, sy);
+      if (d.kind === "draw") { d.x1 = wx; d.y1 = wy; }
+      else if (d.kind === "move") { d.dx = wx - d.wx; d.dy = wy - d.wy; d.moved = d.moved || Math.hypot(d.dx, d.dy) > 0.02; }
+      else {
+        this.ox += sx - d.sx; this.oy += sy - d.sy;
+        d.moved = d.moved || Math.hypot(sx - d.sx, sy - d.sy) > 3;
+        d.sx = sx; d.sy = sy;
+      }
+      this.dirty();
+    });
+    window.addEventListener("mouseup", (e) => {
+      const d = this.drag;
+      this.drag = null;
+      if (!d) return;
+      const [sx, sy] = pos(e);
+      if (d.kind === "draw") this.finishDrawing(d);
+      else if (d.kind === "move" && d.moved) {
+        const o = d.ob;
+        this.hooks.send({ cmd: "move_obstacle", obstacle: { ...o, x0: o.x0 + d.dx, x1: o.x1 + d.dx, y0: o.y0 + d.dy, y1: o.y1 + d.dy } });
+      } else if (!d.moved) this.click(sx, sy);
+      this.dirty();
+    });
+    window.addEventListener("resize", () => this.dirty());
+  }
+
+  finishDrawing(d) {
+    this.toggleDrawing();
+    if (Math.abs(d.x1 - d.x0) < 0.05 || Math.abs(d.y1 - d.y0) < 0.05) return;  // a click, not a box
+    const names = new Set((this.world.scene ? this.world.scene.obstacles : []).map((o) => o.name));
+    let n = names.size + 1;
+    while (names.has(`page-${n}`)) n += 1;
+    const ob = { name: `page-${n}`, x0: Math.min(d.x0, d.x1), y0: Math.min(d.y0, d.y1), x1: Math.max(d.x0, d.x1), y1: Math.max(d.y0, d.y1), height: 1.0 };
+    this.hooks.send({ cmd: "add_obstacle", obstacle: ob });
+  }
+
+  obstacleAt(x, y) {
+    const s = this.world.scene;
+    if (!s) return null;
+    return s.obstacles.find((o) => x >= o.x0 && x <= o.x1 && y >= o.y0 && y <= o.y1) || null;
+  }
+
+  robotAt(x, y) {
+    const w = this.world;
+    let best = null;
+    let bestD = Infinity;
+    for (let i = 0; i < w.ids.length; i++) {
+      const r = w.robots.get(w.ids[i]);
+      const reach = r ? Math.max(r.spec.width, r.spec.height) * 0.75 : 0.5;
+      const d = Math.hypot(w.x[i] - x, w.y[i] - y);
+      if (d < reach && d < bestD) { best = w.ids[i]; bestD = d; }
+    }
+    return best;
+  }
+
+  click(sx, sy) {
+    const [x, y] = this.toWorld(sx, sy);
+    const id = this.robotAt(x, y);
+    if (id !== null) { this.hooks.select({ kind: "robot", id }); return; }
+    const ob = this.obstacleAt(x, y);
+    this.hooks.select(ob ? { kind: "obstacle", name: ob.name } : null);
+  }
+
+  resize() {
+    const c = this.canvas;
+    const r = c.getBoundingClientRect();
+    const w = Math.round(r.width * this.dpr);
+    const h = Math.round(r.height * this.dpr);
+    if (c.width !== w || c.height !== h) { c.width = w; c.height = h; if (!this.fitted) this.fit(); return true; }
+    return false;
+  }
+
+  draw(now) {
+    const w = this.world;
+    const resized = this.resize();
+    if (!resized && w.version === this.seenVersion && !w.flashes.length && !this.drag) return;
+    const newFrame = this.lastFrames !== w.frames;
+    this.seenVersion = w.version;
+    this.lastFrames = w.frames;
+    const g = this.ctx;
+    g.setTransform(this.dpr, 0, 0, this.dpr, 0, 0);
+    g.fillStyle = "#15181d";
+    g.fillRect(0, 0, this.canvas.width, this.canvas.height);
+    if (w.scene) this.drawMap(g, w.scene);
+    const opts = this.hooks.options();
+    if (opts.trails) this.drawTrails(g);
+    if (opts.cones) this.drawCones(g);
+    this.drawRobots(g, opts.labels);
+    this.drawFlashes(g, now);
+    if (this.drag && this.drag.kind === "draw") this.drawBox(g, this.drag, "rgba(255,255,255,.35)");
+    this.drawn += 1;
+    if (newFrame && w.tickWallMs > 0 && w.live) {
+      this.latencies.push(Date.now() - w.tickWallMs);
+      if (this.latencies.length > LATENCIES_KEPT) this.latencies.shift();
+    }
+  }
+
+  poly(g, pts) {
+    g.moveTo(...this.toScreen(pts[0][0], pts[0][1]));
+    for (let i = 1; i < pts.length; i++) g.lineTo(...this.toScreen(pts[i][0], pts[i][1]));
+    g.closePath();
+  }
+
+  drawBox(g, b, fill) {
+    const [ax, ay] = this.toScreen(Math.min(b.x0, b.x1), Math.max(b.y0, b.y1));
+    const [bx, by] = this.toScreen(Math.max(b.x0, b.x1), Math.min(b.y0, b.y1));
+    g.fillStyle = fill;
+    g.fillRect(ax, ay, bx - ax, by - ay);
+  }
+
+  drawMap(g, s) {
+    const [x0, y0] = this.toScreen(0, s.height);
+    g.fillStyle = "#23272e";
+    g.fillRect(x0, y0, s.width * this.scale, s.height * this.scale);
+    g.strokeStyle = "#555"; g.lineWidth = 1;
+    g.strokeRect(x0, y0, s.width * this.scale, s.height * this.scale);
+    for (const wall of s.walls) {
+      const shade = Math.max(60, Math.min(200, 60 + wall.height * 30));
+      g.fillStyle = `rgb(${shade},${shade},${shade + 10})`;
+      g.beginPath(); this.poly(g, wall.corners); g.fill();
+    }
+    g.strokeStyle = "#4fc3f7"; g.lineWidth = 1.5;
+    for (const [x, y, r] of s.targets) {
+      const [sx, sy] = this.toScreen(x, y);
+      g.beginPath(); g.arc(sx, sy, Math.max(2, r * this.scale), 0, 2 * Math.PI); g.stroke();
+    }
+    g.fillStyle = "#ffd54f";
+    for (const [x, y] of s.beacons) {
+      const [sx, sy] = this.toScreen(x, y);
+      g.beginPath(); g.arc(sx, sy, 5, 0, 2 * Math.PI); g.fill();
+    }
+    const d = this.drag;
+    for (const o of s.obstacles) {
+      const moving = d && d.kind === "move" && d.ob.name === o.name;
+      const b = moving ? { x0: o.x0 + d.dx, x1: o.x1 + d.dx, y0: o.y0 + d.dy, y1: o.y1 + d.dy } : o;
+      const sel = this.world.selected && this.world.selected.kind === "obstacle" && this.world.selected.name === o.name;
+      this.drawBox(g, b, sel ? "#ff7043" : "#a1887f");
+    }
+  }
+
+  drawTrails(g) {
+    const w = this.world;
+    const sel = w.selected && w.selected.kind === "robot" ? w.selected.id : null;
+    g.strokeStyle = "rgba(120,170,255,.45)"; g.lineWidth = 1;
+    g.beginPath();
+    for (const [id, t] of w.trails) {
+      if (w.ids.length > TRAILS_MAX && id !== sel) continue;
+      if (t.length < 4) continue;
+      g.moveTo(...this.toScreen(t[0], t[1]));
+      for (let i = 2; i < t.length; i += 2) g.lineTo(...this.toScreen(t[i], t[i + 1]));
+    }
+    g.stroke();
+  }
+
+  drawCones(g) {
+    const w = this.world;
+    const sel = w.selected && w.selected.kind === "robot" ? w.selected.id : null;
+    const hit = new Path2D();
+    const free = new Path2D();
+    for (let i = 0; i < w.ids.length; i++) {
+      const id = w.ids[i];
+      if (w.ids.length > CONES_MAX && id !== sel) continue;
+      const r = w.robots.get(id);
+      if (!r) continue;
+      const prox = w.prox.get(id) || [];
+      const c = Math.cos(w.heading[i]);
+      const s = Math.sin(w.heading[i]);
+      for (let k = 0; k < r.sensors.length; k++) {
+        const sn = r.sensors[k];
+        const d = prox[k];
+        const reach = d === null || d === undefined ? sn.range_m : d;
+        const px = w.x[i] + c * sn.x - s * sn.y;
+        const py = w.y[i] + s * sn.x + c * sn.y;
+        const a = w.heading[i] + sn.angle_deg * Math.PI / 180;
+        const half = sn.cone_deg * Math.PI / 360;
+        const [sx, sy] = this.toScreen(px, py);
+        const path = d === null || d === undefined ? free : hit;
+        path.moveTo(sx, sy);
+        path.arc(sx, sy, Math.max(1, reach * this.scale), -(a + half), -(a - half));  // screen y is flipped
+        path.closePath();
+      }
+    }
+    g.fillStyle = "rgba(255,255,255,.05)"; g.fill(free);
+    g.fillStyle = "rgba(255,152,0,.22)"; g.fill(hit);
+  }
+
+  drawRobots(g, labels) {
+    const w = this.world;
+    const paths = { d: new Path2D(), h: new Path2D(), w: new Path2D(), c: new Path2D(), door: new Path2D() };
+    const noses = new Path2D();
+    for (let i = 0; i < w.ids.length; i++) {
+      const r = w.robots.get(w.ids[i]);
+      const out = r && r.outline.length ? r.outline : [[0.3, -0.3], [0.3, 0.3], [-0.3, 0.3], [-0.3, -0.3]];
+      const c = Math.cos(w.heading[i]);
+      const s = Math.sin(w.heading[i]);
+      const st = w.state[i] || "d";
+      const p = r && r.type === "Door" && st === "d" ? paths.door : paths[st] || paths.d;
+      for (let k = 0; k < out.length; k++) {
+        const [sx, sy] = this.toScreen(w.x[i] + c * out[k][0] - s * out[k][1], w.y[i] + s * out[k][0] + c * out[k][1]);
+        if (k === 0) p.moveTo(sx, sy); else p.lineTo(sx, sy);
+      }
+      p.closePath();
+      const front = r ? r.spec.width * r.spec.com : 0.3;
+      const [ax, ay] = this.toScreen(w.x[i], w.y[i]);
+      noses.moveTo(ax, ay);
+      noses.lineTo(...this.toScreen(w.x[i] + c * front * 1.2, w.y[i] + s * front * 1.2));
+    }
+    for (const [k, p] of Object.entries(paths)) { g.fillStyle = k === "door" ? DOOR : COLOURS[k]; g.fill(p); }
+    g.strokeStyle = "#fff"; g.lineWidth = 1.5; g.stroke(noses);
+    const sel = w.selected && w.selected.kind === "robot" ? w.ids.indexOf(w.selected.id) : -1;
+    if (sel >= 0) {
+      const [sx, sy] = this.toScreen(w.x[sel], w.y[sel]);
+      g.strokeStyle = "#fff"; g.lineWidth = 2;
+      g.beginPath(); g.arc(sx, sy, Math.max(10, this.scale * 0.8), 0, 2 * Math.PI); g.stroke();
+    }
+    if (labels) this.drawLabels(g);
+  }
+
+  drawLabels(g) {
+    const w = this.world;
+    g.fillStyle = "#fff"; g.font = "11px system-ui"; g.textAlign = "center";
+    for (let i = 0; i < w.ids.length; i++) {
+      const r = w.robots.get(w.ids[i]);
+      const size = (r ? Math.max(r.spec.width, r.spec.height) : 0.6) * this.scale;
+      if (size < LABEL_MIN_PX) continue;
+      const [sx, sy] = this.toScreen(w.x[i], w.y[i]);
+      g.fillText(`${w.ids[i]} ${r ? r.name : ""}`, sx, sy - size * 0.6 - 3);
+    }
+  }
+
+  drawFlashes(g, now) {
+    for (const f of this.world.flashes) {
+      const on = Math.floor(now / 200) % 2 === 0;
+      if (!on) continue;
+      const [sx, sy] = this.toScreen(f.x, f.y);
+      g.strokeStyle = f.kind === "collision" ? "#ff1744" : "#ffea00"; g.lineWidth = 3;
+      g.beginPath(); g.arc(sx, sy, 16, 0, 2 * Math.PI); g.stroke();
+    }
+  }
+}

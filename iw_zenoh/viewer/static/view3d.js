@@ -1,0 +1,1 @@
+export class View3D { constructor() { this.drawn = 0; } setCamera() {} sceneChanged() {} draw() {} }
