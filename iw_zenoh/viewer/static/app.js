@@ -29,8 +29,12 @@ let view2d = null;
 let view3d = null;
 let timeline = null;
 
+const sent = [];  // the last commands sent (for tests and scripts: window.iwz.sent)
+
 export function send(cmd) {
   if (ws && ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify(cmd));
+  sent.push(cmd);
+  if (sent.length > 50) sent.shift();
 }
 
 function toast(text) {
@@ -277,6 +281,8 @@ function main() {
     toScreen: (x, y) => view2d.toScreen(x, y),
     stats: () => ({ drawn: view2d.drawn + (view3d ? view3d.drawn : 0), latencies: view2d.latencies.slice() }),
     view3d: () => view3d,
+    timeline: () => timeline,
+    sent,
   };
 }
 
