@@ -109,73 +109,91 @@ def make_app(source: Source, feed: Feed, wake: threading.Event) -> web.Applicati
 
     The pump starts with the application and stops with it.
     """
+    pages = _Pages(source, feed, wake)
     app = web.Application()
-    clients: set[Client] = set()
-    pump_box: list[Pump] = []
+    app.on_startup.append(pages.start)
+    app.on_cleanup.append(pages.cleanup)
+    app.router.add_get("/", _index)
+    app.router.add_get("/ws", pages.socket)
+    app.router.add_static("/static/", STATIC)
+    return app
 
-    def on_loop(target: Client | None, data: list[str], snapshot: bool) -> None:
-        for c in [target] if target is not None else list(clients):
+
+async def _index(request: web.Request) -> web.FileResponse:
+    return web.FileResponse(STATIC / "index.html", headers={"Cache-Control": "no-cache"})
+
+
+class _Pages:
+    """The open pages and the pump that feeds them (everything here runs on the server's loop,
+    but what the pump hands over through ``call_soon_threadsafe``)."""
+
+    def __init__(self, source: Source, feed: Feed, wake: threading.Event) -> None:
+        self.source = source
+        self.feed = feed
+        self.wake = wake
+        self.clients: set[Client] = set()
+        self.pump: Pump | None = None
+
+    def _ask(self, client: Client, cmd: PageCommand | None) -> None:
+        assert self.pump is not None
+        self.pump.ask(client, cmd)
+
+    def on_loop(self, target: Client | None, data: list[str], snapshot: bool) -> None:
+        """Queues what the pump encoded for one page, or for every page that has its snapshot."""
+        for c in [target] if target is not None else list(self.clients):
             if c.closed or not (c.joined or snapshot):
                 continue
             if len(c.waiting) > MAX_BACKLOG and not snapshot:  # too far behind: start it afresh
                 c.waiting.clear()
                 c.joined = False
-                pump_box[0].ask(c, None)
+                self._ask(c, None)
                 continue
             c.joined = True
             c.waiting.extend(data)
             c.ready.set()
 
-    async def start(app: web.Application) -> None:
+    async def start(self, app: web.Application) -> None:
+        """Starts the pump."""
         loop = asyncio.get_running_loop()
 
         def deliver(c: Client | None, d: list[str], s: bool) -> None:
-            loop.call_soon_threadsafe(on_loop, c, d, s)
+            loop.call_soon_threadsafe(self.on_loop, c, d, s)
 
-        pump = Pump(source, feed, wake, deliver)
-        pump_box.append(pump)
-        pump.start()
+        self.pump = Pump(self.source, self.feed, self.wake, deliver)
+        self.pump.start()
 
-    async def cleanup(app: web.Application) -> None:
-        for pump in pump_box:
-            pump.stop.set()
-            wake.set()
-            pump.join(5)
-        for c in list(clients):
+    async def cleanup(self, app: web.Application) -> None:
+        """Stops the pump and closes every page's socket."""
+        if self.pump is not None:
+            self.pump.stop.set()
+            self.wake.set()
+            self.pump.join(5)
+        for c in list(self.clients):
             await c.ws.close()
 
-    async def index(request: web.Request) -> web.FileResponse:
-        return web.FileResponse(STATIC / "index.html", headers={"Cache-Control": "no-cache"})
-
-    async def socket(request: web.Request) -> web.WebSocketResponse:
+    async def socket(self, request: web.Request) -> web.WebSocketResponse:
+        """One page's WebSocket: its snapshot, then what happens; its commands to the pump."""
         ws = web.WebSocketResponse(max_msg_size=MAX_COMMAND_BYTES, heartbeat=30.0)
         await ws.prepare(request)
         client = Client(ws)
-        clients.add(client)
+        self.clients.add(client)
         sender = asyncio.create_task(_send(client))
-        pump_box[0].ask(client, None)
+        self._ask(client, None)
         try:
             async for msg in ws:
                 if msg.type != WSMsgType.TEXT:
                     continue
                 try:
-                    pump_box[0].ask(client, _COMMAND.decode(msg.data))
+                    self._ask(client, _COMMAND.decode(msg.data))
                 except msgspec.DecodeError as e:  # ValidationError is one
                     client.waiting.append(_ENCODER.encode(PageError(error=f"command refused: {e}")).decode())
                     client.ready.set()
         finally:
             client.closed = True
-            clients.discard(client)
+            self.clients.discard(client)
             client.ready.set()
             await sender
         return ws
-
-    app.on_startup.append(start)
-    app.on_cleanup.append(cleanup)
-    app.router.add_get("/", index)
-    app.router.add_get("/ws", socket)
-    app.router.add_static("/static/", STATIC)
-    return app
 
 
 async def _send(client: Client) -> None:

@@ -196,7 +196,8 @@ class LocalBus:
 
     def publish(self, key: str, data: bytes) -> None:
         """Delivers to the subscriber of ``key``, or into ``out``."""
-        (self._subs.get(key) or self.out).put((key, data, time.time_ns()))
+        sub = self._subs.get(key)  # (an empty inbox is falsy: no `or` here)
+        (self.out if sub is None else sub).put((key, data, time.time_ns()))
 
     def subscribe(self, key_expr: str, inbox: Inbox) -> Handle:
         """Subscribes one exact key."""

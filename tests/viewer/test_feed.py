@@ -1,0 +1,173 @@
+"""The viewer's feed: the world's batched messages as page messages, only what changed."""
+
+from __future__ import annotations
+
+import pytest
+
+from iw_zenoh.messages import (
+    CollisionData,
+    Event,
+    EventKind,
+    LabMsg,
+    Obstacle,
+    RobotSpecMsg,
+    SensorBatch,
+    SensorReading,
+    Tick,
+    WallMsg,
+    WorldInfo,
+    WorldState,
+    make_event,
+)
+from iw_zenoh.messages.page import PageEvent, PageFrame, PageReadings, PageScene, PageStatus
+from iw_zenoh.viewer.feed import Feed
+
+WALL = WallMsg(corners=[(1.0, 1.0), (2.0, 1.0), (2.0, 2.0)], height=2.0)
+OB = Obstacle(name="box", x0=5.0, y0=5.0, x1=6.0, y1=6.0)
+
+
+def _info(revision: int, ids: list[int], obstacles: list[Obstacle] = []) -> WorldInfo:  # noqa: B006 - never mutated
+    walls = [WALL] + [WallMsg(corners=[(o.x0, o.y0), (o.x1, o.y0), (o.x1, o.y1), (o.x0, o.y1)]) for o in obstacles]
+    return WorldInfo(
+        revision=revision,
+        lab=LabMsg(name="lab", width=20.0, height=10.0, walls=walls),
+        period_ns=100_000_000,
+        robots=[RobotSpecMsg(name=f"r{i}", id=i, width=1.0, height=0.6, com=0.8) for i in ids],
+        obstacles=obstacles,
+    )
+
+
+def _state(tick: int, ids: list[int], collided: list[bool] | None = None, **kw: object) -> WorldState:
+    n = len(ids)
+    return WorldState(
+        tick=tick,
+        sim_time_ns=tick * 100_000_000,
+        revision=0,
+        ids=ids,
+        x=[float(i) for i in ids],
+        y=[1.0] * n,
+        heading=[0.123456789] * n,
+        collided=collided or [False] * n,
+        rolled_left=[0.1] * n,
+        rolled_right=[0.1] * n,
+        speed=[0.3] * n,
+        **kw,  # type: ignore[arg-type]
+    )
+
+
+def _reading(rid: int, front: float | None, tick: int = 1) -> SensorReading:
+    return SensorReading(
+        tick=tick,
+        robot_id=rid,
+        proximity_ids=[0, 1, 2, 3],
+        proximity_m=[front, None, None, 2.0],
+        proximity_legacy=[0.0] * 4,
+        compass_deg=0.0,
+        gps=(0.0, 0.0, 0.0),
+    )
+
+
+def test_a_scene_keeps_the_obstacles_apart_from_the_walls_and_gives_each_robot_its_outline() -> None:
+    feed = Feed("t")
+    [scene] = feed.on_info(_info(1, [1, 2], [OB]))
+    assert isinstance(scene, PageScene)
+    assert len(scene.walls) == 1
+    assert scene.obstacles == [OB]
+    r = scene.robots[0]
+    assert r.outline[0] == pytest.approx((0.8, -0.3))  # the front right corner, 0.8 m ahead of the wheel axis
+    assert [s.id for s in r.sensors] == [0, 1, 2, 3]
+    assert feed.on_info(_info(1, [1, 2], [OB])) == []  # the same revision again: nothing new
+
+
+def test_a_frame_names_the_robots_only_when_the_roster_changes() -> None:
+    feed = Feed("t")
+    [first] = feed.on_state(_state(1, [1, 2]), wall_ns=0)
+    [second] = feed.on_state(_state(2, [1, 2]), wall_ns=1)
+    [third] = feed.on_state(_state(3, [1]), wall_ns=2)
+    assert isinstance(first, PageFrame)
+    assert isinstance(second, PageFrame)
+    assert isinstance(third, PageFrame)
+    assert first.ids == [1, 2]
+    assert second.ids is None
+    assert third.ids == [1]
+    assert first.heading == [0.1235, 0.1235]
+
+
+def test_a_frame_colours_collided_watchdog_and_held_robots() -> None:
+    feed = Feed("t")
+    feed.on_event(make_event(EventKind.WATCHDOG, robot_id=2, reason="silent"))
+    [f] = feed.on_state(_state(1, [1, 2, 3], collided=[True, False, False]), wall_ns=0)
+    assert isinstance(f, PageFrame)
+    assert f.state == "cwd"
+    feed.on_event(make_event(EventKind.WATCHDOG_CLEARED, robot_id=2))
+    [f] = feed.on_state(_state(2, [1, 2, 3], held=True, held_reason="no verdict"), wall_ns=1)
+    assert isinstance(f, PageFrame)
+    assert (f.state, f.held_reason) == ("hhh", "no verdict")
+    [f] = feed.on_state(_state(3, [1, 2, 3]), wall_ns=2)
+    assert isinstance(f, PageFrame)
+    assert f.state == "ddd"
+
+
+def test_readings_are_sent_only_when_they_move_by_a_centimetre_or_more() -> None:
+    feed = Feed("t")
+    feed.on_info(_info(1, [1, 2]))
+    [r] = feed.on_sensors(SensorBatch(tick=1, shard="1-1", readings=[_reading(1, 1.0), _reading(2, None)]))
+    assert isinstance(r, PageReadings)
+    assert r.prox == {"1": [1.0, None, None, 2.0], "2": [None, None, None, 2.0]}
+    assert feed.on_sensors(SensorBatch(tick=2, shard="1-1", readings=[_reading(1, 1.004), _reading(2, None)])) == []
+    [r] = feed.on_sensors(SensorBatch(tick=3, shard="1-1", readings=[_reading(1, 1.004), _reading(2, 3.0)]))
+    assert isinstance(r, PageReadings)
+    assert r.prox == {"2": [3.0, None, None, 2.0]}
+
+
+def test_an_event_is_placed_at_its_collision_point_or_at_its_robot() -> None:
+    feed = Feed("t")
+    feed.on_state(_state(1, [4]), wall_ns=0)
+    [hit] = feed.on_event(make_event(EventKind.COLLISION, CollisionData(x=3.5, y=2.5), robot_id=4))
+    [gone] = feed.on_event(make_event(EventKind.WATCHDOG, robot_id=4))
+    [nowhere] = feed.on_event(Event(kind=EventKind.PAUSED))
+    assert isinstance(hit, PageEvent)
+    assert isinstance(gone, PageEvent)
+    assert isinstance(nowhere, PageEvent)
+    assert (hit.where, gone.where, nowhere.where) == ((3.5, 2.5), (4.0, 1.0), None)
+    assert [e["kind"] for e in feed.reading(4).events] == ["collision", "watchdog"]
+
+
+def test_a_robots_reading_has_its_agent_motors_speed_and_pose() -> None:
+    feed = Feed("t")
+    feed.on_info(_info(1, [1]))
+    feed.on_event(Event(kind=EventKind.REGISTERED, robot_id=1, data={"agent": "host-1"}))
+    feed.on_state(_state(5, [1]), wall_ns=0)
+    feed.on_sensors(SensorBatch(tick=5, shard="1-1", readings=[_reading(1, 0.5, tick=5)]))
+    got = feed.reading(1)
+    assert got.reading is not None
+    assert got.reading["agent"] == "host-1"
+    assert got.reading["proximity_m"][0] == 0.5
+    assert (got.speed, got.motors, got.pose) == (0.3, (0.1, 0.1), (1.0, 1.0, 0.123456789))
+    assert feed.reading(99).reading is None
+
+
+def test_the_clock_is_sent_when_it_pauses_and_then_not_again_until_it_changes() -> None:
+    feed = Feed("t")
+    [s] = feed.on_tick(Tick(tick=1, period_ns=100, running=True), wall_ns=0)
+    assert isinstance(s, PageStatus)
+    assert s.running
+    assert feed.on_tick(Tick(tick=2, period_ns=100, running=True), wall_ns=1_000) == []
+    [s] = feed.on_tick(Tick(tick=2, period_ns=100, running=False), wall_ns=2_000)
+    assert isinstance(s, PageStatus)
+    assert not s.running
+    assert feed.on_tick(Tick(tick=2, period_ns=100, running=False), wall_ns=3_000) == []
+
+
+def test_a_snapshot_gives_a_joining_page_the_scene_clock_frame_with_ids_and_readings() -> None:
+    feed = Feed("t")
+    feed.on_info(_info(1, [1]))
+    feed.on_tick(Tick(tick=1, period_ns=100), wall_ns=0)
+    feed.on_state(_state(1, [1]), wall_ns=0)
+    feed.on_state(_state(2, [1]), wall_ns=1)
+    feed.on_sensors(SensorBatch(tick=2, shard="1-1", readings=[_reading(1, 0.5)]))
+    kinds = [type(m).__name__ for m in feed.snapshot(wall_ns=2)]
+    assert kinds == ["PageScene", "PageStatus", "PageFrame", "PageReadings"]
+    frame = feed.snapshot(wall_ns=2)[2]
+    assert isinstance(frame, PageFrame)
+    assert frame.ids == [1]
