@@ -282,6 +282,8 @@ function main() {
     stats: () => ({ drawn: view2d.drawn + (view3d ? view3d.drawn : 0), latencies: view2d.latencies.slice() }),
     view3d: () => view3d,
     timeline: () => timeline,
+    animate: (on) => { view2d.animate = on; },
+    resetStats: () => { view2d.latencies.length = 0; },
     sent,
   };
 }

@@ -23,7 +23,7 @@ export class View2D {
     this.seenVersion = -1;
     this.drawing = false;     // drawing an obstacle
     this.drag = null;
-    this.obstacleCount = 0;
+    this.animate = false;     // redraw every animation frame, drifting (benchmarks/viewer.py measures so)
     this.dpr = window.devicePixelRatio || 1;
     this.listen();
   }
@@ -146,7 +146,8 @@ export class View2D {
   draw(now) {
     const w = this.world;
     const resized = this.resize();
-    if (!resized && w.version === this.seenVersion && !w.flashes.length && !this.drag) return;
+    if (!resized && w.version === this.seenVersion && !w.flashes.length && !this.drag && !this.animate) return;
+    if (this.animate) this.ox += Math.sin(now / 500) * 0.5;
     const newFrame = this.lastFrames !== w.frames;
     this.seenVersion = w.version;
     this.lastFrames = w.frames;
