@@ -14,6 +14,9 @@ const FLOOR = [0.16, 0.17, 0.2];
 const WALL = [0.62, 0.63, 0.68];
 const OBSTACLE = [0.63, 0.53, 0.5];
 const BEACON = [1.0, 0.84, 0.31];
+const BORDER = [0.45, 0.47, 0.55];
+const BORDER_M = 1.0;          // the lab's edge (a wall to the collision check) drawn this high
+const BORDER_THICK_M = 0.1;
 const DOOR_RGB = [0.55, 0.43, 0.39];
 
 const VS = `
@@ -163,6 +166,10 @@ export class View3D {
     const out = [];
     if (s) {
       prism(out, box(0, 0, s.width, s.height), -0.02, 0, FLOOR);
+      const t = BORDER_THICK_M;
+      for (const b of [[-t, -t, s.width + t, 0], [-t, s.height, s.width + t, s.height + t], [-t, 0, 0, s.height], [s.width, 0, s.width + t, s.height]]) {
+        prism(out, box(...b), 0, BORDER_M, BORDER);
+      }
       for (const w of s.walls) prism(out, w.corners, 0, w.height, WALL);
       for (const o of s.obstacles) prism(out, box(o.x0, o.y0, o.x1, o.y1), 0, o.height, OBSTACLE);
       for (const [x, y, h] of s.beacons) prism(out, box(x - 0.05, y - 0.05, x + 0.05, y + 0.05), 0, h, BEACON);
