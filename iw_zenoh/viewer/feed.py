@@ -106,8 +106,9 @@ class Feed:
     # --- what the world says -------------------------------------------------------------------
 
     def on_info(self, info: WorldInfo) -> list[PageMessage]:
-        """A description of the world: a new scene when its revision is newer than the one shown."""
-        if self.info is not None and info.revision <= self.info.revision and info.lab == self.info.lab:
+        """A description of the world: a new scene when its revision is not the one shown (older
+        too: a replay sought back, a world started afresh)."""
+        if self.info is not None and info.revision == self.info.revision and info.lab == self.info.lab:
             return []
         self.info = info
         lab = info.lab
@@ -130,8 +131,8 @@ class Feed:
         return [self.scene]
 
     def needs_info(self, revision: int) -> bool:
-        """Whether a message of ``revision`` names a world newer than the scene shown."""
-        return self.info is None or revision > self.info.revision
+        """Whether a message of ``revision`` names another world than the scene shown."""
+        return self.info is None or revision != self.info.revision
 
     def on_tick(self, tick: Tick, wall_ns: int) -> list[PageMessage]:
         """The clock: a status when mode or running changed, or now and then while it runs."""

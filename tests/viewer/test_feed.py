@@ -171,3 +171,13 @@ def test_a_snapshot_gives_a_joining_page_the_scene_clock_frame_with_ids_and_read
     frame = feed.snapshot(wall_ns=2)[2]
     assert isinstance(frame, PageFrame)
     assert frame.ids == [1]
+
+
+def test_an_older_revision_is_a_new_scene_too_a_replay_sought_back() -> None:
+    feed = Feed("t")
+    feed.on_info(_info(3, [1, 2]))
+    assert feed.needs_info(2)
+    [scene] = feed.on_info(_info(2, [1]))
+    assert isinstance(scene, PageScene)
+    assert [r.id for r in scene.robots] == [1]
+    assert not feed.needs_info(2)
