@@ -193,7 +193,7 @@ def test_an_obstacle_dragged_on_the_page_moves_in_the_world_and_delete_removes_i
     box = page.locator("#view2d").bounding_box()
     assert box is not None
     a = page.evaluate("window.iwz.toScreen(20.5, 10.5)")
-    b = page.evaluate("window.iwz.toScreen(23.5, 9.5)")
+    b = page.evaluate("window.iwz.toScreen(23.5, 10.5)")  # 3 m east, still clear of the chairs' lanes
     page.mouse.move(box["x"] + a[0], box["y"] + a[1])
     page.mouse.down()
     page.mouse.move(box["x"] + (a[0] + b[0]) / 2, box["y"] + (a[1] + b[1]) / 2)
@@ -201,9 +201,9 @@ def test_an_obstacle_dragged_on_the_page_moves_in_the_world_and_delete_removes_i
     page.mouse.up()
     moved = wait_msg(infos, WorldInfo, lambda i: any(o.name == name and o.x0 > 22 for o in i.obstacles))
     [ob] = [o for o in moved.obstacles if o.name == name]
-    assert (ob.x0, ob.y0, ob.x1, ob.y1) == pytest.approx((23.0, 9.0, 24.0, 10.0), abs=0.05)
+    assert (ob.x0, ob.y0, ob.x1, ob.y1) == pytest.approx((23.0, 10.0, 24.0, 11.0), abs=0.05)
 
-    c = page.evaluate("window.iwz.toScreen(23.5, 9.5)")
+    c = page.evaluate("window.iwz.toScreen(23.5, 10.5)")
     page.wait_for_function(f"window.iwz.world.scene.obstacles.some((o) => o.name === '{name}' && o.x0 > 22)")
     page.mouse.click(box["x"] + c[0], box["y"] + c[1])
     page.wait_for_selector("#btn-obstacle-delete:not([hidden])", timeout=WAIT_MS)
