@@ -140,7 +140,8 @@ function hud() {
   let text = "connecting";
   let cls = "";
   if (world.connected && !world.live && world.timeline) {
-    text = `replay ${world.timeline.playing ? "playing" : "paused"} ${world.timeline.rate || "max"}x`;
+    const rate = world.timeline.rate ? `${world.timeline.rate}x` : "as fast as it goes";
+    text = `replay ${world.timeline.playing ? "playing" : "paused"} ${rate}`;
     cls = world.timeline.playing ? "running" : "paused";
   } else if (world.connected && s) {
     text = `${s.mode} ${s.running ? "running" : "paused"}`;
