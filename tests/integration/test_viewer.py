@@ -282,6 +282,8 @@ def test_replay_seeks_to_a_time_and_shows_the_poses_recorded_at_that_tick(replay
     following = states[states.index(want) + 1]
     page.wait_for_function(f"window.iwz.world.tick === {following.tick}", timeout=WAIT_MS)
     assert not page.evaluate("window.iwz.world.timeline.playing")
+    page.select_option("#rate", "2")
+    page.wait_for_function("window.iwz.world.timeline.rate === 2", timeout=WAIT_MS)
     marks = page.locator("#tl-marks span").count()
     assert marks > 0  # the sample's incidents are on the timeline
     page.close()
