@@ -286,4 +286,12 @@ def test_replay_seeks_to_a_time_and_shows_the_poses_recorded_at_that_tick(replay
     page.wait_for_function("window.iwz.world.timeline.rate === 2", timeout=WAIT_MS)
     marks = page.locator("#tl-marks span").count()
     assert marks > 0  # the sample's incidents are on the timeline
+    first = page.evaluate("window.iwz.world.timeline.marks[0].t_ns")
+    page.locator("#tl-marks span").first.click()  # jumps a second before the incident
+    page.wait_for_function(
+        f"window.iwz.sent.filter((c) => c.cmd === 'seek').pop().at_ns === Math.max({states[0].sim_time_ns}, {first} - 1e9)",
+        timeout=WAIT_MS,
+    )
+    before = next(s for s in states if s.sim_time_ns >= max(states[0].sim_time_ns, first - 10**9))
+    page.wait_for_function(f"window.iwz.world.tick === {before.tick}", timeout=WAIT_MS)
     page.close()
