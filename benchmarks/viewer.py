@@ -124,7 +124,7 @@ def _start(tmp: Path, procs: list[subprocess.Popen[bytes]]) -> tuple[str, str]:
         time.sleep(0.02)
     log = tmp / "view.log"
     with log.open("wb") as f:
-        argv = [*iwz, "view", "--port", "0", "--sim", SIM, "-e", endpoint]
+        argv = [*iwz, "view", "--port", "0", "--no-foxglove", "--sim", SIM, "-e", endpoint]
         procs.append(subprocess.Popen(argv, stdout=f, stderr=subprocess.STDOUT))
     while not (m := re.search(r"iwz view: (http://\S+/)", log.read_text())):
         assert procs[-1].poll() is None, f"iwz view died:\n{log.read_text()}"

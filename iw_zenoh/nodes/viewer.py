@@ -13,6 +13,8 @@ from pathlib import Path
 from aiohttp import web
 
 from iw_zenoh.errors import IwError
+from iw_zenoh.nodes.foxglove_live import DEFAULT_PORT as FOXGLOVE_PORT
+from iw_zenoh.nodes.foxglove_live import FoxgloveLive, start_foxglove_live
 from iw_zenoh.record.reader import file_error
 from iw_zenoh.runtime import Process, start_role
 from iw_zenoh.viewer.feed import Feed
@@ -29,6 +31,11 @@ EPILOG = """Examples:
   iwz view --host 0.0.0.0 -e tcp/10.0.0.5:7447  a run on another laptop; the page open to the LAN
   iwz view recordings/demo-sample.mcap         replay a recording with a timeline (no router needed)
   iwz view --port 0                            any free port (the address is printed)
+  iwz view --foxglove-port 9765                Foxglove / Lichtblick live on ws://127.0.0.1:9765
+  iwz view --no-foxglove                       the page only
+
+A live viewer also serves the Foxglove WebSocket protocol (default ws://127.0.0.1:8765): Foxglove
+or Lichtblick connects to it and sees the same channels as in a recording (docs/foxglove.md).
 
 On the page: drag to pan, wheel to zoom, click a robot for its panel; the buttons start, pause,
 step, stop; docs/viewer.md explains every control and the WebSocket messages."""
@@ -61,11 +68,20 @@ def _arguments(p: argparse.ArgumentParser) -> None:
         "--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1: this machine only; 0.0.0.0: all)"
     )
     p.add_argument("--rate", type=float, default=1.0, help="replay: the speed to start at (default 1)")
+    p.add_argument(
+        "--foxglove-port",
+        type=int,
+        default=FOXGLOVE_PORT,
+        help=f"live: the Foxglove WebSocket port, on --host (default {FOXGLOVE_PORT}; 0: any free port)",
+    )
+    p.add_argument("--no-foxglove", action="store_true", help="live: do not serve the Foxglove WebSocket protocol")
 
 
 def _check(args: argparse.Namespace) -> argparse.Namespace:
     if not 0 <= args.port <= 65535:
         raise IwError(f"--port {args.port} is no TCP port: give 0..65535 (0: any free port)")
+    if not 0 <= args.foxglove_port <= 65535:
+        raise IwError(f"--foxglove-port {args.foxglove_port} is no TCP port: give 0..65535 (0: any free port)")
     if args.rate < 0:
         raise IwError("--rate must be >= 0 (0: as fast as possible)")
     if args.recording is not None and not Path(args.recording).exists():
@@ -85,10 +101,32 @@ def _run(proc: Process, args: argparse.Namespace) -> int:
     else:
         source = LiveSource(proc.bus, proc.sim, wake)
         proc.io.alive()
+    fox = None if args.recording is not None or args.no_foxglove else _foxglove(proc)
+    if fox is False:
+        source.close()
+        return 2
     try:
         return asyncio.run(_serve(proc, source, Feed(source.sim), wake))
     finally:
+        if isinstance(fox, FoxgloveLive):
+            fox.close()
         source.close()
+
+
+def _foxglove(proc: Process) -> FoxgloveLive | bool:
+    """Starts Foxglove live beside the page; False (and why, printed) when its port is taken."""
+    host, port = proc.args.host, proc.args.foxglove_port
+    try:
+        live = start_foxglove_live(proc.io, host, port)
+    except RuntimeError as e:
+        print(
+            f"iwz view: cannot serve Foxglove on {host}:{port}: {e}; "
+            "use --foxglove-port N (0: any free port) or --no-foxglove",
+            flush=True,
+        )
+        return False
+    print(f"iwz view: Foxglove live on ws://{host}:{live.port}", flush=True)
+    return live
 
 
 async def _serve(proc: Process, source: Source, feed: Feed, wake: threading.Event) -> int:

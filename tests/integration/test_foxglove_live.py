@@ -38,11 +38,11 @@ def _live_run(net: Net) -> int:
     net.spawn("sensors")
     net.spawn("agent", "wanderer", "--count", "2", "--seed", "5", "--name", "herd")
     port = free_port()
-    fox = net.spawn("foxglove", "--port", str(port))
+    fox = net.spawn("view", "--port", "0", "--foxglove-port", str(port))  # iwz view serves Foxglove live too
     deadline = time.monotonic() + 60
     while not port_in_use(port):
-        assert fox.popen.poll() is None, f"iwz foxglove died:\n{fox.output()}"
-        assert time.monotonic() < deadline, f"iwz foxglove did not listen in 60 s:\n{fox.output()}"
+        assert fox.popen.poll() is None, f"iwz view died:\n{fox.output()}"
+        assert time.monotonic() < deadline, f"iwz view did not serve Foxglove in 60 s:\n{fox.output()}"
         time.sleep(0.02)  # polling a port: there is no event to wait on
     return port
 

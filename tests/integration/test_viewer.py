@@ -52,7 +52,7 @@ def live(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Net, ZenohB
             net.spawn(
                 "agent", "waypoint", "--waypoints", waypoints, "--start", start, "--robot-name", name, "--name", name
             )
-        url = viewer_url(net.spawn("view", "--port", "0"))
+        url = viewer_url(net.spawn("view", "--port", "0", "--foxglove-port", "0"))
         yield net, bus, url
     finally:
         net.close()
