@@ -14,8 +14,9 @@ import math
 from iw_zenoh.agent import Command
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.messages import Heard, SensorReading
+from iw_zenoh.places import points_arg
 
-from .waypoint import WaypointDriver, fine_chair, parse_points
+from .waypoint import WaypointDriver, fine_chair
 
 __all__ = ["Follower", "Leader", "add_arguments", "make", "parse_position"]
 
@@ -125,7 +126,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--id", type=int, default=0, help="robot id to ask for")
     p.add_argument("--robot-name", default="", help="robot name (default leader / followerN)")
-    p.add_argument("--waypoints", default="", help="leader: x,y;x,y;...")
+    p.add_argument("--waypoints", type=points_arg, help="leader: x,y;x,y;... in metres")
     p.add_argument("--follow", type=int, default=0, help="follower: the robot id it follows")
     p.add_argument("--gap", type=float, default=2.0, help="follower: centre-to-centre gap to keep, m (default 2)")
 
@@ -134,7 +135,9 @@ def make(args: argparse.Namespace) -> list[Leader | Follower]:
     """The convoy member the arguments ask for."""
     if args.role == "leader":
         spec = fine_chair(args.robot_name or "leader", id=args.id)
-        return [Leader(spec, parse_points(args.waypoints), speed=0.08)]
+        if not args.waypoints:
+            raise ValueError("a leader needs --waypoints x,y;x,y;... (e.g. --waypoints '20,6.1')")
+        return [Leader(spec, args.waypoints, speed=0.08)]
     if args.follow <= 0:
         raise ValueError("a follower needs --follow ID")
     spec = fine_chair(args.robot_name or f"follower{args.id}", id=args.id)

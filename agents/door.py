@@ -23,6 +23,7 @@ from dataclasses import dataclass, replace
 from iw_zenoh.agent import Command
 from iw_zenoh.core.spec import IrSensorSpec, NoiseSpec, RobotSpec, RobotType, SensorNoise
 from iw_zenoh.messages import Heard, SensorReading
+from iw_zenoh.places import pose_arg
 
 from .passage import Arbiter, join, parse_all
 
@@ -214,7 +215,7 @@ class DoorAgent:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Options of ``iwz agent door``."""
     p.add_argument("--kind", choices=[k.value for k in DoorKind], default="hinged", help="door kind (default hinged)")
-    p.add_argument("--at", required=True, help="closed pose x,y,dir_deg")
+    p.add_argument("--at", required=True, type=pose_arg, help="closed pose x,y,dir_deg")
     p.add_argument("--robot-name", default="door", help="robot name (default door)")
     p.add_argument("--id", type=int, default=0, help="robot id to ask for (default: the next free one)")
     p.add_argument("--detect", type=float, default=1.0, help="open when something is this near, m (default 1)")
@@ -232,7 +233,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def make(args: argparse.Namespace) -> list[DoorAgent]:
     """The door the arguments ask for."""
-    x, y, d = (float(v) for v in args.at.split(","))
+    x, y, d = args.at
     kind = DoorKind(args.kind)
     spec = replace(door_spec(args.robot_name, kind, x=x, y=y, dir_deg=d, test_door=args.test_door), id=args.id)
     params = DoorParams(kind=kind, detect_m=args.detect, timeout_s=args.timeout)

@@ -14,8 +14,9 @@ import math
 from iw_zenoh.agent import Command
 from iw_zenoh.core.spec import NoiseSpec, RobotSpec, SensorNoise, prototype_chair, prototype_sensors
 from iw_zenoh.messages import Heard, SensorReading
+from iw_zenoh.places import points_arg, pose_arg
 
-__all__ = ["PROTOTYPE_SENSORS", "WaypointDriver", "fine_chair", "add_arguments", "make", "parse_points"]
+__all__ = ["PROTOTYPE_SENSORS", "WaypointDriver", "fine_chair", "add_arguments", "make"]
 
 MAX_POWER = 0.15
 STOP_M = 0.25  # stop when something is this near ahead
@@ -122,31 +123,12 @@ class WaypointDriver:
         return min(ds, default=math.inf)
 
 
-def parse_points(text: str) -> list[tuple[float, float]]:
-    """Parses ``x,y;x,y;...``.
-
-    Raises:
-        ValueError: Saying what the form is.
-    """
-    out: list[tuple[float, float]] = []
-    for part in text.split(";"):
-        if not part.strip():
-            continue
-        xs = part.split(",")
-        if len(xs) != 2:
-            raise ValueError(f"waypoints are x,y;x,y;... got {part!r}")
-        out.append((float(xs[0]), float(xs[1])))
-    if not out:
-        raise ValueError("give at least one waypoint, e.g. --waypoints '20,6.1'")
-    return out
-
-
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Options of ``iwz agent waypoint``."""
-    p.add_argument("--waypoints", required=True, help="x,y;x,y;... in metres")
+    p.add_argument("--waypoints", required=True, type=points_arg, help="x,y;x,y;... in metres")
     p.add_argument("--robot-name", default="chair", help="robot name (default chair)")
     p.add_argument("--id", type=int, default=0, help="robot id to ask for (default: first free grid slot)")
-    p.add_argument("--start", default="", help="start pose x,y,dir_deg (default: the grid position of its id)")
+    p.add_argument("--start", type=pose_arg, help="start pose x,y,dir_deg (default: the grid position of its id)")
     p.add_argument("--tolerance", type=float, default=0.3, help="a waypoint is reached this near, m (default 0.3)")
     p.add_argument(
         "--safety", type=float, default=0.45, help="slow down for what is nearer than this ahead, m (default 0.45)"
@@ -157,12 +139,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def make(args: argparse.Namespace) -> list[WaypointDriver]:
     """The agent the arguments ask for."""
     kw: dict[str, object] = {"id": args.id}
-    if args.start:
-        x, y, d = (float(v) for v in args.start.split(","))
+    if args.start is not None:
+        x, y, d = args.start
         kw.update(x_m=x, y_m=y, dir_deg=d)
     spec = fine_chair(args.robot_name, **kw)
-    return [
-        WaypointDriver(
-            spec, parse_points(args.waypoints), tolerance_m=args.tolerance, safety_m=args.safety, speed=args.speed
-        )
-    ]
+    return [WaypointDriver(spec, args.waypoints, tolerance_m=args.tolerance, safety_m=args.safety, speed=args.speed)]

@@ -43,6 +43,7 @@ from iw_zenoh.core.motor import MAX_POWER
 from iw_zenoh.core.spec import NoiseSpec, RobotSpec, RobotType, SensorNoise
 from iw_zenoh.maps import load_lab
 from iw_zenoh.messages import ChairReading, Heard, SensorReading
+from iw_zenoh.places import point_arg, pose_arg
 
 from .autopilot import Autopilot, mapping_chair
 from .chairlink import SerialChair
@@ -333,20 +334,6 @@ class Wheelchair:
         return Command(left, right, say=say)  # on a serial link the bridge reports the pose
 
 
-def _pose(text: str) -> tuple[float, float, float]:
-    parts = [float(v) for v in text.split(",")]
-    if len(parts) != 3:
-        raise ValueError(f"a pose is x,y,dir_deg, got {text!r}")
-    return parts[0], parts[1], parts[2]
-
-
-def _point(text: str) -> tuple[float, float]:
-    parts = [float(v) for v in text.split(",")]
-    if len(parts) != 2:
-        raise ValueError(f"a point is x,y, got {text!r}")
-    return parts[0], parts[1]
-
-
 def _boxes(text: str) -> tuple[Wall, ...]:
     walls = []
     for part in filter(None, (p.strip() for p in text.split(";"))):
@@ -358,8 +345,8 @@ def _boxes(text: str) -> tuple[Wall, ...]:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Options of ``iwz agent wheelchair``."""
     p.add_argument("--map", required=True, help="the map the chair knows (Lab XML); obstacles not in it are found")
-    p.add_argument("--start", required=True, help="start pose x,y,dir_deg")
-    p.add_argument("--goal", default="", help="autonomous: drive to x,y")
+    p.add_argument("--start", required=True, type=pose_arg, help="start pose x,y,dir_deg")
+    p.add_argument("--goal", type=point_arg, help="autonomous: drive to x,y")
     p.add_argument("--teleop", action="store_true", help="manual: drive with the arrow keys in this terminal")
     p.add_argument(
         "--stale", type=float, default=0.5, help="teleop: stop when no key came for this long, s (default 0.5)"
@@ -401,11 +388,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def make(args: argparse.Namespace) -> list[Wheelchair]:
     """The chair the arguments ask for."""
-    if not args.teleop and not args.goal:
+    if not args.teleop and args.goal is None:
         raise ValueError("say where to go (--goal X,Y) or drive by hand (--teleop)")
     if not 0.0 < args.limit <= MAX_POWER:
         raise ValueError(f"--limit must be in (0, {MAX_POWER}], got {args.limit}")
-    x, y, d = _pose(args.start)
+    x, y, d = args.start
     known = load_lab(args.map)
     spec = mapping_chair(args.robot_name, id=args.id, x_m=x, y_m=y, dir_deg=d, noise=FINE_GPS)
     hardware: EmulatedChair | SerialChair | None = None
@@ -430,7 +417,7 @@ def make(args: argparse.Namespace) -> list[Wheelchair]:
 
         threading.Thread(target=quit_on_q, name="quit", daemon=True).start()
         teleop = Teleop(keys, limit=args.limit, stale_s=args.stale)
-    goal = _point(args.goal) if args.goal else None
+    goal = args.goal
     doors = []
     for text in args.door:
         parts = text.split(",")
