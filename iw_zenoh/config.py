@@ -67,7 +67,8 @@ class RolesSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
 
 
 class AgentEntry(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
-    """``[[agents]]``: one agent process, a program of ``iw_zenoh.agents`` and its arguments."""
+    """``[[agents]]``: one agent process: a program of ``iw_zenoh.agents``, or the user's own file
+    (``./my_agent.py[:Name]``, relative to the scenario), and its arguments."""
 
     program: str
     args: tuple[Arg, ...] = ()

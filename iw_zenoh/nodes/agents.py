@@ -1,17 +1,19 @@
-"""``iwz agent NAME [options]``: runs agents of the program NAME (a module of ``iw_zenoh.agents``
-with ``add_arguments(parser)`` and ``make(args) -> list[Agent]``) in one process."""
+"""``iwz agent PROGRAM [options]``: runs the agents of one program in one process: a program
+that ships (a module of ``iw_zenoh.agents`` with ``add_arguments(parser)`` and ``make(args) ->
+list[Agent]``) or one from the user's own file (``./my_agent.py[:Name]``, see
+:mod:`iw_zenoh.nodes.agent_programs` and ``docs/first-agent.md``)."""
 
 from __future__ import annotations
 
 import argparse
-import importlib
 import logging
 import os
-import pkgutil
+import sys
 from collections.abc import Sequence
 
 from iw_zenoh import keys
 from iw_zenoh.agent import BATCH_FROM, Agent, AgentHost, RegistrationRefused
+from iw_zenoh.nodes.agent_programs import ProgramError, available, find_program, program_label
 from iw_zenoh.runtime import Process, start_role
 
 __all__ = ["available", "main"]
@@ -19,30 +21,36 @@ __all__ = ["available", "main"]
 logger = logging.getLogger(__name__)
 
 
-def available() -> list[str]:
-    """Names of the agent programs that ship."""
-    package = importlib.import_module("iw_zenoh.agents")
-    names = sorted(m.name for m in pkgutil.iter_modules(package.__path__) if not m.name.startswith("_"))
-    # helper modules (the autopilot, the emulated chair) are not programs: a program has make()
-    return [n for n in names if hasattr(importlib.import_module(f"iw_zenoh.agents.{n}"), "make")]
+def _usage(names: list[str]) -> str:
+    return (
+        "usage: iwz agent PROGRAM [options]\n\n"
+        "Runs agent programs over Zenoh. PROGRAM is one that ships, or your own file:\n"
+        f"  programs: {', '.join(names)}\n"
+        "  your own: ./my_agent.py (its make(args)) or ./my_agent.py:Name (an agent class, an agent,\n"
+        "            or a function that returns agents); see docs/first-agent.md\n\n"
+        "Examples:\n"
+        "  iwz agent waypoint --waypoints '16,5.55;21.5,6.5' --id 1\n"
+        "  iwz agent ./my_agent.py:GoTo --goal 10.5,3\n"
+        "  iwz agent waypoint --waypoints 20,6.1 --spec maps/chair.toml   # the chair from a spec file\n\n"
+        "Options of one program: iwz agent PROGRAM --help"
+    )
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Runs ``iwz agent NAME``."""
+    """Runs ``iwz agent PROGRAM``."""
     argv = list(argv or [])
-    names = available()
     if not argv or argv[0] in ("-h", "--help"):
-        print("usage: iwz agent NAME [options]\n\nRuns agent programs over Zenoh. Programs: " + ", ".join(names))
-        print("Options of one program: iwz agent NAME --help")
+        print(_usage(available()))
         return 0 if argv else 2
     name, rest = argv[0], argv[1:]
-    if name not in names:
-        print(f"iwz agent: no agent program {name!r}; choose one of {', '.join(names)}")
+    try:
+        program = find_program(name)
+    except ProgramError as e:
+        print(f"iwz agent: {e}", file=sys.stderr, flush=True)
         return 2
-    module = importlib.import_module(f"iw_zenoh.agents.{name}")
 
     def arguments(p: argparse.ArgumentParser) -> None:
-        module.add_arguments(p)
+        program.add_arguments(p)
         p.add_argument(
             "--batch",
             choices=["auto", "on", "off"],
@@ -53,22 +61,24 @@ def main(argv: Sequence[str] | None = None) -> int:
             ),
         )
 
+    label = "your own program" if program.from_file else f"program = {name!r}"
     return start_role(
         rest,
         role="agent",
         prog=f"iwz agent {name}",
-        description=" ".join((module.__doc__ or "").strip().split("\n\n")[0].split()),
+        description=" ".join(program.doc.strip().split("\n\n")[0].split()),
         epilog=(
             "Examples:\n"
-            f"  maps/*.toml          the [[agents]] tables with program = {name!r}, at work in a scenario\n"
+            f"  maps/*.toml          the [[agents]] tables with {label}, at work in a scenario\n"
             "  docs/agents.md       every program, the planner and the door protocol\n"
+            "  docs/first-agent.md  an agent of your own, from nothing to a chair at its goal\n"
             "  iwz agent --help     the other programs"
         ),
         arguments=arguments,
-        prepare=module.make,
+        prepare=program.make,
         run=_host,
-        name=lambda _args: f"{name}-{os.getpid()}",
-        name_help="NAME-PID",
+        name=lambda _args: f"{program_label(name)}-{os.getpid()}",
+        name_help="PROGRAM-PID",
     )
 
 

@@ -28,6 +28,7 @@ from iw_zenoh.core.modes import Mode
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import Control, Event, WorldInfo, WorldState, decode, encode
 from iw_zenoh.net import DEFAULT_PORT, NetConfig, free_port, port_in_use
+from iw_zenoh.nodes.agent_programs import program_label
 from iw_zenoh.nodes.child import Child
 from iw_zenoh.nodes.restarts import MAX_RESTARTS, Restarts
 from iw_zenoh.nodes.role_options import BridgeOptions, RadioOptions, RecorderOptions, SensorsOptions
@@ -124,7 +125,7 @@ class Launcher:
         if sc.chair is not None:
             self._plan_chair()
         for i, a in enumerate(sc.agents):
-            name = a.name or f"agent-{i + 1}-{a.program}"
+            name = a.name or f"agent-{i + 1}-{program_label(a.program)}"
             c = self._child("agent", name, a.program, *a.argv, "--name", name)
             c.cwd, c.token = sc.base.resolve(), keys.chunk(name)
 
