@@ -26,6 +26,11 @@ class Child:
     cwd: Path | None = None
     token: str = ""  # the name of its liveliness token ("": any of its role's)
     options: msgspec.Struct | None = None  # its typed options, in its command line as --options JSON
+    seen: bool = False  # its liveliness token was seen at least once: it started
+
+    def owns_token(self, role: str, name: str) -> bool:
+        """Whether the liveliness token ``role``/``name`` is this child's."""
+        return self.token_role == role and self.token in ("", name)
 
     @property
     def token_role(self) -> str:
@@ -67,3 +72,13 @@ class Child:
             return "\n".join(self.log.read_text(errors="replace").splitlines()[-lines:])
         except OSError:
             return ""
+
+    def error(self, lines: int = 12) -> str:
+        """What it said as it ended: its log from the last line that starts an error (``iwz ...:``,
+        a traceback) to the end, or its last lines."""
+        try:
+            said = self.log.read_text(errors="replace").splitlines()
+        except OSError:
+            return ""
+        starts = [i for i, line in enumerate(said) if line.startswith(("iwz ", "Traceback"))]
+        return "\n".join(said[starts[-1] :][:lines] if starts else said[-lines:])

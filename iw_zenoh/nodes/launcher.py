@@ -77,6 +77,7 @@ class Launcher:
         self.children: list[Child] = []
         self.tally = Tally()
         self.restarts = Restarts()
+        self.failed: Child | None = None  # the child that could not start, which ended the run
         self.bus: ZenohBus | None = None  # the launcher's own session, from the router's start
         self._inboxes: tuple[Inbox, Inbox, Inbox] | None = None
         self.stop_event = threading.Event()
@@ -191,7 +192,10 @@ class Launcher:
             # before would get no readings for its first ticks (its motors zeroed by the
             # watchdog) or be held still (a sensors process compiles its kernel on a first run)
             roles = {"collision": 1, "sensors": self.sc.roles.sensors_shards}
-            if not self._wait_roles(roles, timeout_s=60.0) and not self.stop_event.is_set():
+            up = self._wait_roles(roles, timeout_s=60.0)
+            if self.failed is not None:
+                return  # supervise() ends the run at once
+            if not up and not self.stop_event.is_set():
                 print(
                     f"iwz run: collision and sensors not all up after 60 s; starting the agents anyway ({self.log_dir})"
                 )
@@ -215,7 +219,7 @@ class Launcher:
             bus.watch_alive(keys.all_alive(self.sim), on_alive)
             deadline = time.monotonic() + timeout_s
             while not done.wait(0.1):
-                if self.stop_event.is_set() or time.monotonic() > deadline:
+                if self.stop_event.is_set() or time.monotonic() > deadline or self._start_failed():
                     return False
             return True
         finally:
@@ -235,6 +239,9 @@ class Launcher:
             parts = keys.alive_parts(key)
             if parts and parts[0] == "agent":
                 (self.tally.agents_alive.add if alive else self.tally.agents_alive.discard)(parts[1])
+            if parts and alive:
+                for c in self.children:
+                    c.seen = c.seen or c.owns_token(parts[0], parts[1])
             if parts and alive:
                 back = self.restarts.on_alive(self.children, parts[0], parts[1], time.monotonic())
                 if back:
@@ -305,9 +312,25 @@ class Launcher:
             return 0  # the world ended the run (its duration, a stop); one that died is restarted
         return None
 
+    def _start_failed(self) -> bool:
+        """Whether a child could not start (see :meth:`Restarts.could_not_start`): the first one
+        found is said on stderr, its name and its error, and kept in ``failed``."""
+        for c in self.children:
+            if self.failed is None and c.proc is not None and not c.alive() and not c.expected_exit:
+                code = c.proc.returncode
+                if self.restarts.could_not_start(c, code):
+                    self.failed, c.expected_exit = c, True
+                    if sys.stdout.isatty():
+                        print()
+                    print(f"iwz run: {c.name} could not start (exit {code}): {c.error()}", file=sys.stderr, flush=True)
+                    print(f"iwz run: its log: {c.log}", file=sys.stderr, flush=True)
+        return self.failed is not None
+
     def _restart_lost(self) -> int | None:
-        """Restarts every lost role that may be restarted, once its wait is over; 3 when the
-        router or the world is lost for good."""
+        """Restarts every lost role that may be restarted, once its wait is over; 3 when a role
+        could not start, or when the router or the world is lost for good."""
+        if self._start_failed():
+            return 3
         now = time.monotonic()
         for c in self.children:
             if c.alive() or c.expected_exit or c.proc is None:
@@ -426,6 +449,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if launcher.bus is not None:
             launcher.bus.close()
         launcher.shutdown()
+    if launcher.failed is not None:
+        return 3  # no verdict: the run never ran
     ok = _summary(launcher)
     if code:
         return code

@@ -37,6 +37,14 @@ class Restarts:
         recorder writes the next part of the same recording: ``iwz record --continue``)."""
         return not (code == 0 and c.role in ("world", "agent"))
 
+    @staticmethod
+    def could_not_start(c: Child, code: int) -> bool:
+        """Whether a child that exited with ``code`` could not start, which no restart mends and
+        which ends the run (exit 3): on its first start, it ended with an error (not a signal)
+        before its liveliness token was seen, or with 2 (its arguments, its file or its bus
+        refused) or 3 (its robot refused) at any time of that start."""
+        return c.restarts == 0 and code > 0 and (code in (2, 3) or not c.seen)
+
     def due(self, c: Child, now: float) -> bool:
         """Whether a dead child's wait before its next restart is over (noting when it was found dead)."""
         since = self.lost_at.setdefault(c.name, now)
@@ -53,7 +61,7 @@ class Restarts:
         report ("" when it is no restarted child's)."""
         with self._lock:
             for c in children:
-                if c.token_role == role and c.name in self.waiting and c.token in ("", name):
+                if c.owns_token(role, name) and c.name in self.waiting:
                     took = now - self.waiting.pop(c.name)
                     self.recovered.setdefault(c.name, []).append(took)
                     return f"{c.name} is back {took:.2f} s after it was found dead"

@@ -20,6 +20,25 @@ def test_every_role_is_restarted_unless_it_finished_by_itself() -> None:
     assert r.restartable(_child("collision"), 0)
 
 
+def test_a_child_that_could_not_start_is_not_restarted_but_ends_the_run(tmp_path: Path) -> None:
+    r = Restarts()
+    agent = _child("agent", "a1", token="a1")
+    assert r.could_not_start(agent, 2)  # its arguments or its file refused
+    assert r.could_not_start(agent, 1)  # an error before its token was ever seen
+    assert not r.could_not_start(agent, 0)
+    assert not r.could_not_start(agent, -9)  # killed: restarted as before
+    assert agent.owns_token("agent", "a1")
+    assert not agent.owns_token("agent", "a2")
+    agent.seen = True
+    assert r.could_not_start(agent, 3)  # its robot refused
+    assert not r.could_not_start(agent, 1)  # it ran: a crash is restarted as before
+    agent.restarts = 1
+    assert not r.could_not_start(agent, 2)  # a restart that fails is retried as before
+    log = tmp_path / "a1.log"
+    log.write_text("usage: iwz agent x\niwz agent: no agent program 'x'\n")
+    assert Child("agent", "a1", ["x"], log).error() == "iwz agent: no agent program 'x'"
+
+
 def test_restarts_wait_longer_each_time_and_report_the_time_to_recover() -> None:
     r = Restarts()
     c = _child("sensors", "sensors-1", token="sensors-1-1")
