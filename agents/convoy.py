@@ -15,6 +15,7 @@ from iw_zenoh.agent import Command
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.messages import Heard, SensorReading
 from iw_zenoh.places import points_arg
+from iw_zenoh.specfile import spec_with_args
 
 from .waypoint import WaypointDriver, fine_chair
 
@@ -134,11 +135,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def make(args: argparse.Namespace) -> list[Leader | Follower]:
     """The convoy member the arguments ask for."""
     if args.role == "leader":
-        spec = fine_chair(args.robot_name or "leader", id=args.id)
+        spec = spec_with_args(fine_chair(args.robot_name or "leader", id=args.id), args)
         if not args.waypoints:
             raise ValueError("a leader needs --waypoints x,y;x,y;... (e.g. --waypoints '20,6.1')")
         return [Leader(spec, args.waypoints, speed=0.08)]
     if args.follow <= 0:
         raise ValueError("a follower needs --follow ID")
-    spec = fine_chair(args.robot_name or f"follower{args.id}", id=args.id)
+    spec = spec_with_args(fine_chair(args.robot_name or f"follower{args.id}", id=args.id), args)
     return [Follower(spec, args.follow, gap_m=args.gap)]

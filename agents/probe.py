@@ -16,6 +16,7 @@ from pathlib import Path
 from iw_zenoh.agent import Command
 from iw_zenoh.core.spec import RobotSpec, prototype_sensors
 from iw_zenoh.messages import Heard, SensorReading
+from iw_zenoh.specfile import spec_with_args
 
 CONES_4M = prototype_sensors(4.0)  # the core benchmark's chair
 
@@ -87,4 +88,7 @@ def make(args: argparse.Namespace) -> list[Probe]:
     if args.latency_out:
         out = Path(args.latency_out)
         atexit.register(lambda: out.write_text("\n".join(map(str, sink)) + "\n"))
-    return [Probe(f"{args.robot_name}{i + 1}"[:20], args.creep, sink, avoid_m=args.avoid) for i in range(args.count)]
+    probes = [Probe(f"{args.robot_name}{i + 1}"[:20], args.creep, sink, avoid_m=args.avoid) for i in range(args.count)]
+    if not getattr(args, "spec_table", None):
+        return probes
+    return [Probe(p.spec().name, p.creep, sink, spec_with_args(p.spec(), args), p.avoid_m) for p in probes]

@@ -14,6 +14,7 @@ import numpy as np
 from iw_zenoh.agent import Command
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.messages import Heard, SensorReading
+from iw_zenoh.specfile import spec_with_args
 
 __all__ = ["Wanderer", "add_arguments", "make"]
 
@@ -87,7 +88,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def make(args: argparse.Namespace) -> list[Wanderer]:
     """The agents the arguments ask for."""
     seeds = np.random.SeedSequence(args.seed).spawn(args.count)
-    return [
+    walkers = [
         Wanderer(f"{args.robot_name}{i + 1}"[:20], np.random.default_rng(s), safety_m=args.safety)
         for i, s in enumerate(seeds)
     ]
+    if not getattr(args, "spec_table", None):
+        return walkers
+    return [Wanderer(w.spec().name, w.rng, safety_m=w.safety_m, spec=spec_with_args(w.spec(), args)) for w in walkers]

@@ -15,6 +15,7 @@ from iw_zenoh.agent import Command
 from iw_zenoh.core.spec import NoiseSpec, RobotSpec, SensorNoise, prototype_chair, prototype_sensors
 from iw_zenoh.messages import Heard, SensorReading
 from iw_zenoh.places import points_arg, pose_arg
+from iw_zenoh.specfile import spec_with_args
 
 __all__ = ["PROTOTYPE_SENSORS", "WaypointDriver", "fine_chair", "add_arguments", "make"]
 
@@ -142,5 +143,5 @@ def make(args: argparse.Namespace) -> list[WaypointDriver]:
     if args.start is not None:
         x, y, d = args.start
         kw.update(x_m=x, y_m=y, dir_deg=d)
-    spec = fine_chair(args.robot_name, **kw)
+    spec = spec_with_args(fine_chair(args.robot_name, **kw), args)
     return [WaypointDriver(spec, args.waypoints, tolerance_m=args.tolerance, safety_m=args.safety, speed=args.speed)]

@@ -44,6 +44,7 @@ from iw_zenoh.core.spec import NoiseSpec, RobotSpec, RobotType, SensorNoise
 from iw_zenoh.maps import load_lab
 from iw_zenoh.messages import ChairReading, Heard, SensorReading
 from iw_zenoh.places import point_arg, pose_arg
+from iw_zenoh.specfile import spec_with_args
 
 from .autopilot import Autopilot, mapping_chair
 from .chairlink import SerialChair
@@ -394,7 +395,7 @@ def make(args: argparse.Namespace) -> list[Wheelchair]:
         raise ValueError(f"--limit must be in (0, {MAX_POWER}], got {args.limit}")
     x, y, d = args.start
     known = load_lab(args.map)
-    spec = mapping_chair(args.robot_name, id=args.id, x_m=x, y_m=y, dir_deg=d, noise=FINE_GPS)
+    spec = spec_with_args(mapping_chair(args.robot_name, id=args.id, x_m=x, y_m=y, dir_deg=d, noise=FINE_GPS), args)
     hardware: EmulatedChair | SerialChair | None = None
     if args.chair != "simulated" and args.hardware == "serial":
         if args.id <= 0:

@@ -21,6 +21,7 @@ import msgspec
 from iw_zenoh.core.modes import Mode, Profile
 from iw_zenoh.errors import ConfigError
 from iw_zenoh.messages import Obstacle
+from iw_zenoh.specfile import SPEC_TABLE, check_spec, load_spec_file
 
 __all__ = [
     "AgentEntry",
@@ -74,6 +75,9 @@ class AgentEntry(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_onl
     args: tuple[Arg, ...] = ()
     robots: Annotated[int, msgspec.Meta(ge=0)] = 1
     name: str = ""
+    # its robots' spec as data (docs/spec.md): a table of the registration's fields, or a spec
+    # file's path; read and checked when the scenario is, then handed to the agent as a table
+    spec: dict[str, Any] | str | None = None
 
     @property
     def argv(self) -> list[str]:
@@ -118,6 +122,7 @@ class ChairSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     room: str = ""  # emulator: real obstacles not in the map, x0,y0,x1,y1;...
     seed: int = 0  # emulator: noise seed
     baud: Annotated[int, msgspec.Meta(gt=0)] = 115200
+    spec: Path | None = None  # a spec file (docs/spec.md) the bridge and the emulator both read
 
 
 class ScenarioFile(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -217,10 +222,32 @@ def parse_scenario(text: str, base: Path, name: str = "scenario") -> Scenario:
     if bridge is not None and bridge.params is not None:
         bridge = msgspec.structs.replace(bridge, params=base / bridge.params)
         _exists(bridge.params, "bridge.params")
-    if sc.chair is not None and world.mode != Mode.REALTIME:
+    chair = sc.chair
+    if chair is not None and world.mode != Mode.REALTIME:
         raise ConfigError("chair.hardware", "a chair on a serial link moves in real time: world.mode must be realtime")
-    fields = {**msgspec.structs.asdict(sc), "world": world, "bridge": bridge, "name": sc.name or name}
-    return Scenario(**fields, base=base)
+    if chair is not None and chair.spec is not None:
+        spec_file = base / chair.spec
+        _exists(spec_file, "chair.spec")
+        check_spec(load_spec_file(spec_file), where=f"chair.spec: {spec_file}: {SPEC_TABLE}")
+        chair = msgspec.structs.replace(chair, spec=spec_file)
+    agents = tuple(_with_spec(a, i, base) for i, a in enumerate(sc.agents))
+    fields = {**msgspec.structs.asdict(sc), "world": world, "bridge": bridge, "chair": chair, "agents": agents}
+    return Scenario(**{**fields, "name": sc.name or name}, base=base)
+
+
+def _with_spec(agent: AgentEntry, i: int, base: Path) -> AgentEntry:
+    """An agent whose spec is read (a file's table) and checked as a registration would be."""
+    if agent.spec is None:
+        return agent
+    where = f"agents[{i}].spec"
+    table = agent.spec
+    if isinstance(table, str):
+        path = base / table
+        _exists(path, where)
+        table = load_spec_file(path)
+        where = f"{where}: {path}: {SPEC_TABLE}"
+    check_spec(table, where=where)
+    return msgspec.structs.replace(agent, spec=table)
 
 
 def load_scenario(path: str | Path) -> Scenario:

@@ -7,22 +7,20 @@ reads its sonars and infrareds there with seeded noise; drains a battery; latche
 keeps its own watchdog: no valid frame for :data:`WATCHDOG_S` and the motors are zeroed.
 
 :func:`chair_spec` is the chair both ends of the link agree on (the LIACC prototype's body with
-the autonomous chair's mapping cones), optionally changed by a TOML file.
+the autonomous chair's mapping cones), optionally changed by a spec file (``docs/spec.md``).
 """
 
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import replace
-from typing import Any
 
 from iw_zenoh.agents.autopilot import mapping_chair
 from iw_zenoh.agents.emulated import LocalWorld
 
 from iw_zenoh.core.lab import Lab
-from iw_zenoh.core.spec import EncoderSpec, NoiseSpec, RobotSpec, RobotType
-from iw_zenoh.errors import ConfigError
+from iw_zenoh.core.spec import NoiseSpec, RobotSpec, RobotType
+from iw_zenoh.specfile import SPEC_TABLE, apply_spec, load_spec_file
 
 from .protocol import (
     FLAG_ESTOP,
@@ -45,7 +43,6 @@ IDLE_DRAIN_V_PER_S = 2e-4  # electronics alone
 DRIVE_DRAIN_V_PER_S = 4e-3  # both motors at full power
 FAULT_LOW_BATTERY = 1
 LOW_BATTERY_V = 22.0
-_SPEC_KEYS = {"width", "height", "com", "max_speed", "acceleration_curve", "ticks_per_m"}
 
 
 def chair_spec(name: str, *, path: str = "", start: tuple[float, float, float] = (1.0, 1.0, 0.0)) -> RobotSpec:
@@ -53,31 +50,17 @@ def chair_spec(name: str, *, path: str = "", start: tuple[float, float, float] =
 
     Args:
         name: Robot name.
-        path: A TOML file whose ``[chair]`` table may set width, height, com, max_speed,
-            acceleration_curve and ticks_per_m; "" for none.
+        path: A spec file (``docs/spec.md``) whose ``[chair]`` table may set any registration
+            field (width, height, com, max_speed, acceleration_curve, ticks_per_m, sensors,
+            noise...); "" for none. The same loader as ``iwz agent --spec``.
         start: Start pose (x m, y m, heading deg).
 
     Raises:
-        ConfigError: An unreadable file or an unknown key.
+        ConfigError: An unreadable file, an unknown field, or a value out of range, named.
     """
-    over: dict[str, Any] = {}
-    if path:
-        try:
-            with open(path, "rb") as f:
-                over = dict(tomllib.load(f).get("chair", {}))
-        except (OSError, tomllib.TOMLDecodeError) as e:
-            raise ConfigError(path, str(e)) from e
-        unknown = set(over) - _SPEC_KEYS
-        if unknown:
-            raise ConfigError(f"{path}: [chair]", f"unknown keys {sorted(unknown)}; known: {sorted(_SPEC_KEYS)}")
-    args: dict[str, Any] = {f"{k}_m" if k in ("width", "height") else k: v for k, v in over.items()}
-    if "max_speed" in args:
-        args["max_speed_mps"] = args.pop("max_speed")
-    if "ticks_per_m" in args:
-        args["encoder"] = EncoderSpec(float(args.pop("ticks_per_m")))
     x, y, d = start
-    spec: RobotSpec = mapping_chair(name, type=RobotType.REAL, x_m=x, y_m=y, dir_deg=d, **args)
-    return spec
+    spec: RobotSpec = mapping_chair(name, type=RobotType.REAL, x_m=x, y_m=y, dir_deg=d)
+    return apply_spec(spec, load_spec_file(path), where=f"{path}: {SPEC_TABLE}") if path else spec
 
 
 class Board:

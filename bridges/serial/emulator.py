@@ -182,7 +182,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--map", default="", help="the real room (Lab XML); default an empty 30 x 15 m room")
     p.add_argument("--room", default="", help="real obstacles the simulator may not know: x0,y0,x1,y1;...")
     p.add_argument("--start", default="1,1,0", help="where the chair really starts: x,y,dir_deg")
-    p.add_argument("--spec", default="", help="chair.toml: [chair] width, height, com, max_speed, ...")
+    p.add_argument(
+        "--spec", default="", help="a spec file: its [chair] table sets any registration field (docs/spec.md)"
+    )
     p.add_argument("--seed", type=int, default=0, help="noise seed")
     p.add_argument("--period-ms", type=float, default=50.0, help="board cycle (default 50 ms)")
     p.add_argument("--fault", choices=["drop", "flip", "stall", "unplug"], default="", help="inject a fault")

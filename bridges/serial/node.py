@@ -237,7 +237,9 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--port", required=True, help="the chair's serial device or a pyserial URL")
     p.add_argument("--robot", required=True, help="the chair's robot name")
     p.add_argument("--baud", type=int, default=115200, help="bits a second (default 115200)")
-    p.add_argument("--spec", default="", help="chair.toml: [chair] width, height, com, max_speed, ...")
+    p.add_argument(
+        "--spec", default="", help="a spec file: its [chair] table sets any registration field (docs/spec.md)"
+    )
     p.add_argument("--start", default="1,1,0", help="where the chair starts: x,y,dir_deg (its odometry's origin)")
     p.add_argument("--id", type=int, default=0, help="robot id to ask for")
     p.add_argument("--log", default="", help="CSV of every board status (iwz calibrate reads it)")

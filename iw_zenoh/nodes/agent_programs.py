@@ -20,6 +20,7 @@ import difflib
 import importlib
 import importlib.util
 import inspect
+import json
 import pkgutil
 import sys
 import traceback
@@ -29,11 +30,22 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-from iw_zenoh.agent import Agent
+from iw_zenoh.agent import Agent, Command
 from iw_zenoh.core.spec import RobotSpec
-from iw_zenoh.errors import IwError
+from iw_zenoh.errors import ConfigError, IwError
+from iw_zenoh.messages import Heard, SensorReading
+from iw_zenoh.specfile import SPEC_TABLE, apply_spec, load_spec_file
 
-__all__ = ["Program", "ProgramError", "available", "find_program", "is_file_program", "program_label"]
+__all__ = [
+    "Program",
+    "ProgramError",
+    "add_spec_arguments",
+    "available",
+    "find_program",
+    "is_file_program",
+    "make_with_spec",
+    "program_label",
+]
 
 DEFAULT_MAKER = "make"  # what a user's file is asked for when its name is not given
 
@@ -215,3 +227,72 @@ def _where(error: BaseException, path: Path) -> str:
         return said
     f = frames[-1]
     return f"line {f.lineno}, in {f.name}: {(f.line or '').strip()}\n    {said}"
+
+
+def add_spec_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--spec FILE`` and ``--spec-json TABLE``: the robots' spec as data (every program has them)."""
+    parser.add_argument(
+        "--spec",
+        metavar="FILE",
+        default="",
+        help="the chair as data: a spec file whose [chair] table sets any registration field "
+        "(size, centre of movement, speed, sensors, noise...) of this program's robots (docs/spec.md)",
+    )
+    parser.add_argument(
+        "--spec-json",
+        metavar="TABLE",
+        default="",
+        help="the same table as JSON (what iwz run passes for a scenario's spec); over --spec's",
+    )
+
+
+def make_with_spec(program: Program, args: argparse.Namespace) -> list[Agent]:
+    """The program's agents, their robots' spec changed by ``--spec`` and ``--spec-json``.
+
+    The table is in ``args.spec_table`` (and its place, for refusals, in ``args.spec_where``), so a
+    program applies it to the chair it builds (:func:`iw_zenoh.specfile.spec_with_args`) and drives
+    the chair it registers; an agent whose spec does not have it yet (a user's) registers it anyway.
+
+    Raises:
+        ConfigError: A spec file or table refused, naming the field.
+    """
+    table: dict[str, Any] = {}
+    where = []
+    if args.spec:
+        table.update(load_spec_file(args.spec))
+        where.append(f"{args.spec}: {SPEC_TABLE}")
+    if args.spec_json:
+        try:
+            given = json.loads(args.spec_json)
+        except json.JSONDecodeError as e:
+            raise ConfigError("--spec-json", f"not JSON: {e}") from None
+        if not isinstance(given, dict):
+            raise ConfigError("--spec-json", f"a table (JSON object) of spec fields, got {given!r}")
+        table.update(given)
+        where.append("spec")
+    args.spec_table, args.spec_where = table, " and ".join(where) or SPEC_TABLE
+    agents = program.make(args)
+    return [_with_spec(a, table, args.spec_where) for a in agents] if table else agents
+
+
+class _WithSpec:
+    """An agent whose robot is registered with the spec table laid over its own."""
+
+    def __init__(self, agent: Agent, spec: RobotSpec) -> None:
+        self._agent = agent
+        self._spec = spec
+
+    def spec(self) -> RobotSpec:
+        return self._spec
+
+    def on_sensors(self, reading: SensorReading, heard: list[Heard]) -> Command:
+        return self._agent.on_sensors(reading, heard)
+
+    def __getattr__(self, name: str) -> Any:  # on_registered, attach_to, on_chair...: the agent's own
+        return getattr(self._agent, name)
+
+
+def _with_spec(agent: Agent, table: dict[str, Any], where: str) -> Agent:
+    own = agent.spec()
+    spec = apply_spec(own, table, where=where)
+    return agent if spec == own else _WithSpec(agent, spec)

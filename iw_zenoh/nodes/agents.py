@@ -13,7 +13,14 @@ from collections.abc import Sequence
 
 from iw_zenoh import keys
 from iw_zenoh.agent import BATCH_FROM, Agent, AgentHost, RegistrationRefused
-from iw_zenoh.nodes.agent_programs import ProgramError, available, find_program, program_label
+from iw_zenoh.nodes.agent_programs import (
+    ProgramError,
+    add_spec_arguments,
+    available,
+    find_program,
+    make_with_spec,
+    program_label,
+)
 from iw_zenoh.runtime import Process, start_role
 
 __all__ = ["available", "main"]
@@ -51,6 +58,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     def arguments(p: argparse.ArgumentParser) -> None:
         program.add_arguments(p)
+        add_spec_arguments(p)
         p.add_argument(
             "--batch",
             choices=["auto", "on", "off"],
@@ -75,7 +83,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             "  iwz agent --help     the other programs"
         ),
         arguments=arguments,
-        prepare=program.make,
+        prepare=lambda args: make_with_spec(program, args),
         run=_host,
         name=lambda _args: f"{program_label(name)}-{os.getpid()}",
         name_help="PROGRAM-PID",

@@ -7,6 +7,7 @@ refused; 3 a role could not start; 130 interrupted.
 
 from __future__ import annotations
 
+import json
 import logging
 import os
 import signal
@@ -127,7 +128,8 @@ class Launcher:
             self._plan_chair()
         for i, a in enumerate(sc.agents):
             name = a.name or f"agent-{i + 1}-{program_label(a.program)}"
-            c = self._child("agent", name, a.program, *a.argv, "--name", name)
+            spec = ["--spec-json", json.dumps(a.spec)] if a.spec is not None else []  # read and checked: a table
+            c = self._child("agent", name, a.program, *a.argv, *spec, "--name", name)
             c.cwd, c.token = sc.base.resolve(), keys.chunk(name)
 
     def _plan_chair(self) -> None:
@@ -138,6 +140,7 @@ class Launcher:
         if not port:
             port = str(self.log_dir / "chair-pty")  # a stable link to the emulator's pty
             emulate = ["emulate", "--pty", "--link", port, "--map", str(sc.world.map), "--start", ch.start]
+            emulate += ["--spec", str(ch.spec)] if ch.spec is not None else []
             emulate += [
                 "--room",
                 ch.room,
@@ -149,6 +152,7 @@ class Launcher:
             self.children.append(Child("chair", "chair", self._cmd("chair", *emulate), self.log_dir / "chair.log"))
         bridge = ["serial", "--port", port, "--robot", ch.name, "--id", str(ch.robot), "--start", ch.start]
         bridge += ["--baud", str(ch.baud), "--log", str(self.log_dir / "bridge-serial.csv")]
+        bridge += ["--spec", str(ch.spec)] if ch.spec is not None else []
         self._child("bridge", "bridge-serial", *bridge)
 
     def _wait_router(self, timeout_s: float = 15.0) -> bool:
