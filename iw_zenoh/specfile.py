@@ -58,7 +58,9 @@ def load_spec_file(path: str | Path) -> dict[str, Any]:
         raise ConfigError(str(p), f"not a TOML file: {e}") from None
     other = sorted(set(doc) - {SPEC_TABLE})
     if other:
-        raise ConfigError(f"{p}: {other[0]}", f"unknown table; a spec file holds one table, [{SPEC_TABLE}]")
+        raise ConfigError(
+            f"{p}: {other[0]}", f"not under [{SPEC_TABLE}]: a spec file holds its fields in [{SPEC_TABLE}]"
+        )
     table = doc.get(SPEC_TABLE)
     if not isinstance(table, dict):
         raise ConfigError(str(p), f"no [{SPEC_TABLE}] table: write the fields under [{SPEC_TABLE}] (docs/spec.md)")
