@@ -142,3 +142,22 @@ def test_docs_spec_names_every_registration_field_and_noise_kind() -> None:
         assert f"`{field}`" in text, f"docs/spec.md does not name {field}"
     for kind in SensorNoiseMsg.__struct_fields__:
         assert f"| `{kind}` |" in text, f"docs/spec.md has no row for noise {kind}"
+
+
+def test_iwz_run_hands_a_scenarios_spec_to_its_agent_and_to_the_serial_chair(tmp_path: Path) -> None:
+    from iw_zenoh.nodes.launcher import Launcher
+
+    (tmp_path / "m.xml").write_text('<Lab Name="m" Width="10" Height="5"></Lab>')
+    (tmp_path / "chair.toml").write_text(EXAMPLE.read_text())
+    sc = parse_scenario(
+        '[world]\nmap = "m.xml"\n[chair]\nspec = "chair.toml"\n'
+        '[[agents]]\nprogram = "waypoint"\nspec = { width = 1.2 }\n',
+        tmp_path,
+    )
+    launcher = Launcher(sc, port=1, log_dir=tmp_path / "logs", record=None)
+    launcher.plan()
+    argv = {c.name: c.argv for c in launcher.children}
+    agent = argv["agent-1-waypoint"]
+    assert json.loads(agent[agent.index("--spec-json") + 1]) == {"width": 1.2}
+    for name in ("chair", "bridge-serial"):
+        assert argv[name][argv[name].index("--spec") + 1] == str(tmp_path / "chair.toml")
