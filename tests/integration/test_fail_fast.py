@@ -34,9 +34,10 @@ y = 3
 """
 
 
-def _run(tmp: Path, program: str) -> tuple[int, str, str, float]:
+def _run(tmp: Path, program: str, args: str = '["--id", "2"]') -> tuple[int, str, str, float]:
     scenario = tmp / "broken.toml"
-    scenario.write_text(SCENARIO.format(map=MAPS / "open-room.xml", program=program))
+    text = SCENARIO.format(map=MAPS / "open-room.xml", program=program)
+    scenario.write_text(text.replace('args = ["--id", "2"]', f"args = {args}"))
     argv = iwz_run_argv(scenario, tmp / "logs", "ff")
     t0 = time.monotonic()
     p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -66,3 +67,10 @@ def test_a_users_file_with_a_syntax_error_ends_the_run_with_its_line(tmp_path: P
     assert "def spec(self)" in err
     assert "never seen" not in out + err
     assert took < 120, f"took {took:.0f} s"
+
+
+def test_an_agent_whose_robot_is_refused_ends_the_run_with_the_worlds_reason(tmp_path: Path) -> None:
+    code, out, err, _ = _run(tmp_path, "waypoint", '["--id", "2", "--waypoints", "1,1", "--start", "50,50,0"]')
+    assert code == 3, out + err
+    assert "iwz run: agent-2-waypoint could not start (exit 3): " in err
+    assert "start (50, 50) is outside the lab (12 x 6)" in err
