@@ -2,14 +2,20 @@
 
 from __future__ import annotations
 
+import logging
 import signal
 import subprocess
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import msgspec
 
-__all__ = ["Child"]
+__all__ = ["Child", "stop_in_order"]
+
+logger = logging.getLogger(__name__)
+
+STOP_ORDER = {"agent": 0, "world": 2, "record": 3, "router": 4}  # by role; the rest 1
 
 
 @dataclass
@@ -82,3 +88,22 @@ class Child:
             return ""
         starts = [i for i, line in enumerate(said) if line.startswith(("iwz ", "Traceback"))]
         return "\n".join(said[starts[-1] :][:lines] if starts else said[-lines:])
+
+
+def stop_in_order(children: list[Child], timeout_s: float = 8.0) -> None:
+    """Stops children group by group: agents first, then the roles beside the world, the world,
+    the recorder, the router last; each group is waited for, SIGKILLed after ``timeout_s``."""
+    for group in sorted(set(STOP_ORDER.values()) | {1}):
+        members = [c for c in children if STOP_ORDER.get(c.role, 1) == group]
+        for c in members:
+            c.stop()
+        deadline = time.monotonic() + timeout_s
+        for c in members:
+            if c.proc is None:
+                continue
+            try:
+                c.proc.wait(max(0.1, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                logger.warning("%s did not stop: killing it", c.name)
+                c.proc.kill()
+                c.proc.wait(5)

@@ -30,7 +30,7 @@ from iw_zenoh.errors import IwError
 from iw_zenoh.messages import Control, Event, WorldInfo, WorldState, decode, encode
 from iw_zenoh.net import DEFAULT_PORT, NetConfig, free_port, port_in_use
 from iw_zenoh.nodes.agent_programs import program_label
-from iw_zenoh.nodes.child import Child
+from iw_zenoh.nodes.child import Child, stop_in_order
 from iw_zenoh.nodes.restarts import MAX_RESTARTS, Restarts
 from iw_zenoh.nodes.role_options import BridgeOptions, RadioOptions, RecorderOptions, SensorsOptions
 from iw_zenoh.nodes.run_args import build_parser, default_recording
@@ -389,21 +389,7 @@ class Launcher:
 
     def shutdown(self, timeout_s: float = 8.0) -> None:
         """Stops every child: agents first, the router last; SIGKILL after ``timeout_s``."""
-        rank = {"agent": 0, "world": 2, "record": 3, "router": 4}
-        for group in (0, 1, 2, 3, 4):
-            members = [c for c in self.children if rank.get(c.role, 1) == group]
-            for c in members:
-                c.stop()
-            deadline = time.monotonic() + timeout_s
-            for c in members:
-                if c.proc is None:
-                    continue
-                try:
-                    c.proc.wait(max(0.1, deadline - time.monotonic()))
-                except subprocess.TimeoutExpired:
-                    logger.warning("%s did not stop: killing it", c.name)
-                    c.proc.kill()
-                    c.proc.wait(5)
+        stop_in_order(self.children, timeout_s)
 
     def verdict(self) -> tuple[bool, list[str]]:
         """Whether the criteria are met, and a line per criterion."""
