@@ -8,6 +8,11 @@ An agent is any object with ``spec()`` and ``on_sensors(reading, heard)``::
         def on_sensors(self, reading: SensorReading, heard: list[Heard]) -> Command:
             return Command(0.1, 0.1)
 
+It may also have ``on_registered(robot_id, spec)``, called once the world has accepted its robot
+(with the id and the spec the world accepted). ``iwz agent ./my_agent.py:Name`` runs one from the
+user's own file (``docs/first-agent.md``), and ``--spec chair.toml`` lays a spec file's fields
+over its robot (``docs/spec.md``).
+
 An :class:`AgentHost` registers every agent's robot with the world, hands each one its readings
 (and what its robot heard on the radio) every tick, and publishes its actions and messages. One
 process may host any number of agents; in lock-step the host answers a tick once every robot's
