@@ -270,7 +270,7 @@ def make_with_spec(program: Program, args: argparse.Namespace) -> list[Agent]:
             raise ConfigError("--spec-json", f"a table (JSON object) of spec fields, got {given!r}")
         table.update(given)
         where.append("spec")
-    args.spec_table, args.spec_where = table, " and ".join(where) or SPEC_TABLE
+    args.spec_table, args.spec_where = table, where[-1] if where else SPEC_TABLE
     agents = program.make(args)
     return [_with_spec(a, table, args.spec_where) for a in agents] if table else agents
 
