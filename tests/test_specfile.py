@@ -11,12 +11,12 @@ from pathlib import Path
 import msgspec
 import pytest
 
+from iw_zenoh.agent_programs import add_spec_arguments, find_program, make_with_spec
 from iw_zenoh.config import parse_scenario
 from iw_zenoh.convert import spec_to_msg
 from iw_zenoh.core.spec import RobotSpec, prototype_chair
 from iw_zenoh.errors import ConfigError
 from iw_zenoh.messages import RobotSpecMsg, SensorNoiseMsg
-from iw_zenoh.nodes.agent_programs import add_spec_arguments, find_program, make_with_spec
 from iw_zenoh.specfile import apply_spec, load_spec_file
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -23,13 +23,13 @@ from pathlib import Path
 import msgspec
 
 from iw_zenoh import keys
+from iw_zenoh.agent_programs import program_label
 from iw_zenoh.bus import Inbox, ZenohBus
 from iw_zenoh.config import Scenario, load_scenario
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import Control, Event, WorldInfo, WorldState, decode, encode
 from iw_zenoh.net import DEFAULT_PORT, NetConfig, free_port, port_in_use
-from iw_zenoh.nodes.agent_programs import program_label
 from iw_zenoh.nodes.child import Child, stop_in_order
 from iw_zenoh.nodes.restarts import MAX_RESTARTS, Restarts
 from iw_zenoh.nodes.role_options import BridgeOptions, RadioOptions, RecorderOptions, SensorsOptions

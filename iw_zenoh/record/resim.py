@@ -10,7 +10,6 @@ they were live), to see whether a fix avoids an incident.
 from __future__ import annotations
 
 import argparse
-import importlib
 import shlex
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -18,6 +17,7 @@ from pathlib import Path
 from typing import IO, Any
 
 from iw_zenoh import keys
+from iw_zenoh.agent_programs import add_spec_arguments, find_program, make_with_spec
 from iw_zenoh.convert import grid_from_msg, lab_from_msg, spec_from_msg
 from iw_zenoh.core.lab import Scene
 from iw_zenoh.core.modes import Mode
@@ -120,10 +120,11 @@ def _make_agent(spec: str) -> tuple[int, Any]:
     words = shlex.split(command)
     if not sep or not rid_text.isdigit() or not words:
         raise IwError(f"--agent takes ID=PROGRAM [ARGS...], e.g. 1=waypoint --waypoints '20,6', got {spec!r}")
-    module = importlib.import_module(f"iw_zenoh.agents.{words[0]}")
+    program = find_program(words[0])  # a program that ships, or the user's own file
     p = argparse.ArgumentParser(prog=f"agent {words[0]}")
-    module.add_arguments(p)
-    agents = module.make(p.parse_args(words[1:]))
+    program.add_arguments(p)
+    add_spec_arguments(p)
+    agents = make_with_spec(program, p.parse_args(words[1:]))
     return int(rid_text), agents[0]
 
 
@@ -216,7 +217,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument(
         "--from", dest="from_s", type=float, default=0.0, help="simulation time the swapped agent takes over, s"
     )
-    p.add_argument("--agent", help="ID=PROGRAM [ARGS...]: the agent to drive robot ID instead of its recorded actions")
+    p.add_argument(
+        "--agent",
+        help="ID=PROGRAM [ARGS...]: the agent to drive robot ID instead of its recorded actions "
+        "(a program that ships, or your own file: 1=./my_agent.py:GoTo --goal 10.5,3)",
+    )
     p.add_argument("-o", "--output", help="write the re-simulated world (states, events) to this MCAP file")
     args = p.parse_args(argv)
     try:

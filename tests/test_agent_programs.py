@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from iw_zenoh.nodes.agent_programs import ProgramError, find_program, is_file_program, program_label
+from iw_zenoh.agent_programs import ProgramError, find_program, is_file_program, program_label
 
 AGENT = '''"""Goes forward."""
 from iw_zenoh.agent import Command
@@ -141,3 +141,12 @@ def test_a_file_that_does_not_import_shows_the_users_line(tmp_path: Path, monkey
 def test_a_misspelled_program_that_ships_is_refused_with_the_nearest_name() -> None:
     with pytest.raises(ProgramError, match=r"no agent program 'wayponit' \(did you mean 'waypoint'\?\); programs: "):
         find_program("wayponit")
+
+
+@pytest.mark.usefixtures("agent_file")
+def test_resim_swaps_in_an_agent_from_the_users_file() -> None:
+    from iw_zenoh.record.resim import _make_agent
+
+    rid, agent = _make_agent("2=./mine.py:Forward --power 0.05")
+    assert rid == 2
+    assert agent.power == 0.05
