@@ -84,7 +84,9 @@ def apply_spec(base: RobotSpec, table: Table, *, where: str = SPEC_TABLE) -> Rob
     if not table:
         return base
     doc = msgspec.to_builtins(spec_to_msg(base))
-    changes = _expand_switch(table, doc)
+    if not base.ir_sensors:  # the defaults of Table 4.5, placed from the body the table may change
+        doc["ir_sensors"] = []
+    changes = _expand_switch(table)
     try:
         return _checked(_merged(doc, changes))
     except msgspec.ValidationError as e:
@@ -115,7 +117,7 @@ def check_spec(table: Table, *, where: str = SPEC_TABLE) -> None:
     apply_spec(RobotSpec("check"), table, where=where)
 
 
-def _expand_switch(table: Table, doc: dict[str, Any]) -> dict[str, Any]:
+def _expand_switch(table: Table) -> dict[str, Any]:
     """``noise = true/false`` as every noise's ``enabled``."""
     out = dict(table)
     switch = out.get(NOISE_SWITCH)

@@ -35,6 +35,12 @@ def test_a_table_changes_only_the_fields_it_gives() -> None:
     assert apply_spec(base, {}) is base
 
 
+def test_a_chair_with_the_default_sensors_keeps_them_placed_on_its_new_body() -> None:
+    spec = apply_spec(RobotSpec("c"), {"width": 2.0, "com": 0.75})
+    assert spec.ir_sensors == ()
+    assert spec.sensors[0].x_m == 1.5  # the front sensor at the new front
+
+
 def test_a_list_replaces_the_chairs_whole_and_noise_false_switches_every_noise_off() -> None:
     spec = apply_spec(prototype_chair("c"), {"ir_sensors": [{"id": 4, "cone_deg": 5.0}], "noise": False})
     assert [(s.id, s.cone_deg, s.range_m) for s in spec.ir_sensors] == [(4, 5.0, 4.0)]
