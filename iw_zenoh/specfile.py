@@ -86,6 +86,11 @@ def apply_spec(base: RobotSpec, table: Table, *, where: str = SPEC_TABLE) -> Rob
     doc = msgspec.to_builtins(spec_to_msg(base))
     if not base.ir_sensors:  # the defaults of Table 4.5, placed from the body the table may change
         doc["ir_sensors"] = []
+    noise = doc.setdefault("noise", {})
+    for kind in SensorNoiseMsg.__struct_fields__:  # the wire leaves some out (laser_m without a scanner)
+        own = getattr(base.noise, kind, None)
+        if kind not in noise and own is not None:
+            noise[kind] = {"mean": own.mean, "std": own.std, "enabled": own.enabled}
     changes = _expand_switch(table)
     try:
         return _checked(_merged(doc, changes))

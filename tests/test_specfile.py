@@ -35,6 +35,12 @@ def test_a_table_changes_only_the_fields_it_gives() -> None:
     assert apply_spec(base, {}) is base
 
 
+def test_a_laser_scanner_comes_through_a_table_like_any_sensor() -> None:
+    spec = apply_spec(prototype_chair("c"), {"lasers": [{"id": 0, "beams": 32}], "noise": {"laser_m": {"std": 0.05}}})
+    assert [(s.id, s.beams, s.fov_deg) for s in spec.lasers] == [(0, 32, 270.0)]
+    assert spec.noise.laser_m.std == 0.05
+
+
 def test_a_chair_with_the_default_sensors_keeps_them_placed_on_its_new_body() -> None:
     spec = apply_spec(RobotSpec("c"), {"width": 2.0, "com": 0.75})
     assert spec.ir_sensors == ()
@@ -67,6 +73,8 @@ def test_a_list_replaces_the_chairs_whole_and_noise_false_switches_every_noise_o
         ({"shape": "hexagon"}, "shape", "Invalid enum value 'hexagon'"),
         ({"bumpers": [{"id": 0, "corners": [[0, 0], [1, 0]]}]}, "bumpers[0]", "needs at least 3 corners"),
         ({"max_speed": float("inf")}, "max_speed", "must be a finite number"),
+        ({"lasers": [{"id": 0, "fov_deg": 400.0}]}, "lasers[0].fov_deg", "must be in ]0;360], got 400.0"),
+        ({"lasers": [{"id": 0, "beams": 0}]}, "lasers[0].beams", ">= 1"),
     ],
 )
 def test_a_bad_field_is_refused_with_its_path_as_a_registration_would_be(table, path: str, reason: str) -> None:  # type: ignore[no-untyped-def]

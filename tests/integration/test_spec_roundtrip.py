@@ -14,7 +14,7 @@ import pytest
 from mcap.reader import make_reader
 
 from iw_zenoh import keys
-from iw_zenoh.messages import IrSensorMsg, NoiseMsg, RobotSpecMsg, SensorNoiseMsg, WorldInfo, decode
+from iw_zenoh.messages import IrSensorMsg, LaserMsg, NoiseMsg, RobotSpecMsg, SensorNoiseMsg, WorldInfo, decode
 from tests.integration.harness import MAPS, iwz_run_argv, stop_run
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(300)]
@@ -42,6 +42,7 @@ ir_sensors = [
     { id = 5, x = -0.2, y = -0.3, angle_deg = -170.0, cone_deg = 45.0, range_m = 1.5 },
 ]
 bumpers = [{ id = 2, corners = [[0.6, -0.3], [0.65, -0.3], [0.65, 0.3], [0.6, 0.3]] }]
+lasers = [{ id = 1, x = 0.5, y = 0.05, angle_deg = 5.0, fov_deg = 180.0, beams = 33, range_m = 6.0 }]
 
 [agents.spec.noise]
 proximity_m = { mean = 0.01, std = 0.02, enabled = true }
@@ -52,6 +53,7 @@ gps_m = { mean = 0.0, std = 0.05, enabled = true }
 gps_heading_deg = { mean = 0.0, std = 1.5, enabled = true }
 encoder_slip = { mean = 0.0, std = 0.01, enabled = false }
 motion = { mean = 0.0, std = 0.03, enabled = true }
+laser_m = { mean = 0.0, std = 0.02, enabled = true }
 """
 
 SCENARIO = """
@@ -98,6 +100,7 @@ def test_every_spec_field_from_a_scenario_is_the_worlds_accepted_spec(tmp_path: 
     assert set(given["noise"]) == set(SensorNoiseMsg.__struct_fields__)
     assert all(set(n) == set(NoiseMsg.__struct_fields__) for n in given["noise"].values())
     assert all(set(s) == set(IrSensorMsg.__struct_fields__) for s in given["ir_sensors"])
+    assert all(set(s) == set(LaserMsg.__struct_fields__) for s in given["lasers"])
     defaults = msgspec.to_builtins(RobotSpecMsg(name="x"))
     assert all(given[f] != defaults[f] for f in ("width", "height", "com", "max_speed", "acceleration_curve"))
     scenario = tmp_path / "spec.toml"
