@@ -32,6 +32,9 @@ __all__ = ["DoorKind", "DoorMachine", "DoorParams", "DoorState", "add_arguments"
 DOOR_CURVE = 0.1  # a door's drive answers almost at once, so it stops where it is told
 SLOW_SHARE = 0.2  # the slowest a door moves near the end of its travel, as a share of its power
 EXACT = SensorNoise(*(NoiseSpec(0.0, 0.0, enabled=False),) * 8)
+LEAF_M = 1.0  # the seed's door leaf
+SLIDING_THICK_M = 0.08  # a sliding leaf is thinner than the 0.1 m walls, so it hides in its pocket
+SENSOR_OFF_M = 0.2  # a sliding door's sensors stand this far out from the wall's faces
 
 
 class DoorKind(enum.StrEnum):
@@ -131,9 +134,26 @@ class DoorMachine:
         return -sign * power, sign * power
 
 
-def door_spec(name: str, kind: DoorKind, *, x: float, y: float, dir_deg: float, test_door: bool = False) -> RobotSpec:
-    """A door body: the seed's table (leaf 1.0 across, 0.1 thick; COM 0.99, revolving 0.5), or
-    the test door of section 7.4 (1.0 long, 0.1 across, COM 0.99, sensors at +-90 deg, cone 40)."""
+def door_spec(
+    name: str,
+    kind: DoorKind,
+    *,
+    x: float,
+    y: float,
+    dir_deg: float,
+    test_door: bool = False,
+    leaf_m: float = LEAF_M,
+) -> RobotSpec:
+    """A door body.
+
+    Hinged and revolving: the seed's table (leaf ``leaf_m`` across, 0.1 thick; COM 0.99, revolving
+    0.5), or the test door of section 7.4 (1.0 long, 0.1 across, COM 0.99, sensors at +-90 deg,
+    cone 40). Sliding: a leaf ``leaf_m`` long ALONG its heading, thinner than a wall, at (x, y) when
+    closed; it slides forward its whole length into the wall beside the doorway (its pocket: door
+    bodies pass through walls), so an open doorway is clear.
+    """
+    if kind == DoorKind.SLIDING:
+        return _sliding_spec(name, x=x, y=y, dir_deg=dir_deg, leaf_m=leaf_m)
     if test_door:
         # at the middle of the leaf, so that open, they look past the door frame, not at it
         sensors = (IrSensorSpec(0, 0.5, 0.05, 90.0, 40.0, 3.0), IrSensorSpec(1, 0.5, -0.05, -90.0, 40.0, 3.0))
@@ -157,8 +177,33 @@ def door_spec(name: str, kind: DoorKind, *, x: float, y: float, dir_deg: float, 
         name,
         type=RobotType.DOOR,
         width_m=0.1,
-        height_m=1.0,
+        height_m=leaf_m,
         com=com,
+        x_m=x,
+        y_m=y,
+        dir_deg=dir_deg,
+        ir_sensors=sensors,
+        noise=EXACT,
+        max_speed_mps=0.5,
+        acceleration_curve=DOOR_CURVE,
+    )
+
+
+def _sliding_spec(name: str, *, x: float, y: float, dir_deg: float, leaf_m: float) -> RobotSpec:
+    """A sliding leaf along its heading. Its two sensors sit at its trailing end, which stays at the
+    doorway's edge when open, on brackets SENSOR_OFF_M out from the wall's faces (inside a wall a
+    cone would read the wall), looking out of either face: they see a chair coming, closed or open."""
+    rear = -0.5 * leaf_m
+    sensors = (
+        IrSensorSpec(0, rear, SENSOR_OFF_M, 90.0, 60.0, 3.0),
+        IrSensorSpec(1, rear, -SENSOR_OFF_M, -90.0, 60.0, 3.0),
+    )
+    return RobotSpec(
+        name,
+        type=RobotType.DOOR,
+        width_m=leaf_m,
+        height_m=SLIDING_THICK_M,
+        com=0.5,
         x_m=x,
         y_m=y,
         dir_deg=dir_deg,
@@ -229,12 +274,21 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--test-door", action="store_true", help="the seed's test door of section 7.4 (1 m leaf along the heading)"
     )
+    p.add_argument(
+        "--leaf",
+        type=float,
+        default=LEAF_M,
+        help="leaf length, m (default 1); a sliding leaf lies along --at's heading and slides that far",
+    )
 
 
 def make(args: argparse.Namespace) -> list[DoorAgent]:
     """The door the arguments ask for."""
     x, y, d = args.at
     kind = DoorKind(args.kind)
-    spec = replace(door_spec(args.robot_name, kind, x=x, y=y, dir_deg=d, test_door=args.test_door), id=args.id)
-    params = DoorParams(kind=kind, detect_m=args.detect, timeout_s=args.timeout)
+    if args.leaf <= 0.0:
+        raise ValueError(f"--leaf is the leaf's length in metres and must be > 0, got {args.leaf:g}")
+    spec = door_spec(args.robot_name, kind, x=x, y=y, dir_deg=d, test_door=args.test_door, leaf_m=args.leaf)
+    params = DoorParams(kind=kind, detect_m=args.detect, timeout_s=args.timeout, slide_m=args.leaf)
+    spec = replace(spec, id=args.id)
     return [DoorAgent(spec, params, negotiate=args.policy == "negotiate")]

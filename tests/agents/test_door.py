@@ -77,3 +77,18 @@ def test_a_revolving_door_turns_while_detected_and_stops_after_the_timeout() -> 
     assert m.step(detected=False, collided=False, pose=CLOSED, dt_s=0.1) == (-0.05, 0.05)
     m.step(detected=False, collided=False, pose=CLOSED, dt_s=0.1)
     assert m.step(detected=False, collided=False, pose=CLOSED, dt_s=0.1) == (0.0, 0.0)
+
+
+def test_a_sliding_leaf_lies_along_its_heading_and_slides_its_whole_length() -> None:
+    import argparse
+
+    from iw_zenoh.agents import door
+
+    p = argparse.ArgumentParser()
+    door.add_arguments(p)
+    [agent] = door.make(p.parse_args(["--kind", "sliding", "--at", "10,5,90", "--leaf", "1.2"]))
+    spec = agent.spec()
+    assert (spec.width_m, spec.com) == (1.2, 0.5)  # the leaf's length along the way it slides
+    assert spec.height_m < 0.1  # thinner than a wall: it hides in the wall beside the doorway
+    assert agent.machine.p.slide_m == 1.2  # so the doorway it covered is clear when open
+    assert all(abs(s.y_m) >= 0.1 for s in spec.ir_sensors)  # its sensors stay out of the wall, open or closed

@@ -43,6 +43,24 @@ def test_automatic_door_opens_for_the_chair_and_closes_after(tmp_path: Path) -> 
     assert door[-1] == pytest.approx(-90.0, abs=5.0)  # and closed again once the chair had gone
 
 
+def test_a_sliding_door_slides_along_its_wall_and_the_chair_passes_a_clear_doorway(tmp_path: Path) -> None:
+    r, rec = _run("sliding-door.toml", tmp_path)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "PASS robot 2 within 0.5 m of (16, 5)" in r.stdout
+    assert "PASS collisions 0" in r.stdout
+    door = _track(rec, 1)
+    assert door[0] == pytest.approx((10.0, 5.0), abs=0.01)  # closed across the doorway (10, 4.4..5.6)
+    assert all(x == pytest.approx(10.0, abs=0.01) for x, _ in door)  # only ever along the wall
+    assert max(y for _, y in door) == pytest.approx(6.2, abs=0.05)  # its whole 1.2 m, into the wall
+    chair = _track(rec, 2)
+    # while the chair is in the doorway (its front past the wall's west face 9.95, its rear not past
+    # the east face 10.05; the prototype's COM is 0.2 m behind its front, 0.84 m ahead of its rear)
+    crossing = [i for i, (x, _) in enumerate(chair) if 9.95 - 0.2 <= x <= 10.05 + 0.84]
+    assert crossing
+    assert all(door[i][1] - 0.6 > chair[i][1] + 0.33 for i in crossing)  # the leaf's end is past the chair's side
+    assert door[-1][1] == pytest.approx(5.0, abs=0.05)  # and it closed again once the chair had gone
+
+
 def test_convoy_three_followers_keep_their_gaps_behind_the_leader(tmp_path: Path) -> None:
     r, rec = _run("convoy.toml", tmp_path)
     assert r.returncode == 0, r.stdout + r.stderr
