@@ -28,6 +28,7 @@ __all__ = [
     "BridgeSection",
     "ChairSection",
     "Criteria",
+    "DoorCriterion",
     "ObstacleEntry",
     "Reach",
     "RolesSection",
@@ -94,11 +95,29 @@ class Reach(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=Tru
     within: Annotated[float, msgspec.Meta(gt=0)] = 0.5
 
 
+class DoorCriterion(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """``[[criteria.doors]]``: what door ``robot`` must do (``iw_zenoh/sim/doorwatch.py`` judges it).
+
+    Its pose when first seen is its closed pose. It opened once it moved ``OPEN_M`` or turned
+    ``OPEN_DEG`` from there; it is closed again when back within ``SHUT_M`` and ``SHUT_DEG`` (its
+    heading taken modulo ``symmetry_deg``: a four-wing revolving door looks shut every 90 degrees).
+    """
+
+    robot: int
+    opened: bool = True
+    closed_again: bool = True
+    x: float | None = None
+    y: float | None = None
+    one_chair_within: Annotated[float, msgspec.Meta(gt=0)] | None = None
+    symmetry_deg: Annotated[float, msgspec.Meta(gt=0, le=360)] = 360.0
+
+
 class Criteria(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """``[criteria]``: what makes a run a success."""
 
     max_collisions: Annotated[int, msgspec.Meta(ge=0)] | None = None
     reach: tuple[Reach, ...] = ()
+    doors: tuple[DoorCriterion, ...] = ()
     stop_when_reached: bool = True
 
 
@@ -222,6 +241,9 @@ def parse_scenario(text: str, base: Path, name: str = "scenario") -> Scenario:
     if bridge is not None and bridge.params is not None:
         bridge = msgspec.structs.replace(bridge, params=base / bridge.params)
         _exists(bridge.params, "bridge.params")
+    for i, d in enumerate(sc.criteria.doors):
+        if d.one_chair_within is not None and (d.x is None or d.y is None):
+            raise ConfigError(f"criteria.doors[{i}].one_chair_within", "needs the doorway's middle: give x and y too")
     chair = sc.chair
     if chair is not None and world.mode != Mode.REALTIME:
         raise ConfigError("chair.hardware", "a chair on a serial link moves in real time: world.mode must be realtime")

@@ -82,3 +82,18 @@ def test_bad_chair_tables_are_refused_naming_the_field(toml: str, field: str) ->
     with pytest.raises(ConfigError) as e:
         parse_scenario(toml, MAPS)
     assert e.value.field == field
+
+
+@pytest.mark.parametrize(
+    ("toml", "field"),
+    [
+        ('[world]\nmap = "liacc.xml"\n[[criteria.doors]]\nopened = true', "criteria.doors[0].robot"),
+        ('[world]\nmap = "liacc.xml"\n[[criteria.doors]]\nrobot = 1\none_chair_within = 1.0', "criteria.doors[0]"),
+        ('[world]\nmap = "liacc.xml"\n[[criteria.doors]]\nrobot = 1\nsymmetry_deg = 400', "criteria.doors[0]"),
+        ('[world]\nmap = "liacc.xml"\n[[criteria.doors]]\nrobot = 1\nwide = 2', "criteria.doors[0].wide"),
+    ],
+)
+def test_bad_door_criteria_are_refused_naming_the_field(toml: str, field: str) -> None:
+    with pytest.raises(ConfigError) as e:
+        parse_scenario(toml, MAPS)
+    assert e.value.field.startswith(field), e.value

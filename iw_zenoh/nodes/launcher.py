@@ -267,7 +267,7 @@ class Launcher:
                 continue
         for _, data, _ in states.drain():
             try:
-                self.tally.on_state(decode(data, WorldState), self.sc.criteria.reach)
+                self.tally.on_state(decode(data, WorldState), self.sc.criteria.reach, self.sc.criteria.doors)
             except IwError:
                 continue
 
@@ -303,8 +303,13 @@ class Launcher:
     def _ended(self, bus: ZenohBus, world: Child) -> int | None:
         """0 when every goal is reached (the world is told to stop) or the world ended; 3 when it failed."""
         crit = self.sc.criteria
-        if crit.reach and crit.stop_when_reached and all(r.robot in self.tally.reached for r in crit.reach):
-            self._say("every goal reached: stopping")
+        if (
+            crit.reach
+            and crit.stop_when_reached
+            and all(r.robot in self.tally.reached for r in crit.reach)
+            and self.tally.doors.settled(crit.doors)
+        ):
+            self._say("every goal reached" + (" and every door opened and closed" if crit.doors else "") + ": stopping")
             bus.publish(keys.control(self.sim), encode(Control(command="stop")))
             if world.proc is not None:
                 try:

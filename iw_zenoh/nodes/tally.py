@@ -6,9 +6,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from iw_zenoh.config import Criteria, Reach
+from iw_zenoh.config import Criteria, DoorCriterion, Reach
 from iw_zenoh.errors import DecodeError
 from iw_zenoh.messages import Event, EventKind, RegisteredData, WorldInfo, WorldState, event_payload
+from iw_zenoh.sim.doorwatch import DoorWatch
 from iw_zenoh.sim.resume import WorldSnapshot, snapshot
 
 __all__ = ["Tally"]
@@ -39,6 +40,7 @@ class Tally:
     running: bool = True
     state: WorldState | None = None
     info: WorldInfo | None = None
+    doors: DoorWatch = field(default_factory=DoorWatch)
 
     def on_event(self, ev: Event) -> None:
         """Counts an event; a collision, a hold and its end, who drives each robot, a pause are also kept."""
@@ -59,12 +61,17 @@ class Tally:
         if ev.kind == EventKind.RESUMED:
             self.holding = ""
 
-    def on_state(self, st: WorldState, reach: tuple[Reach, ...]) -> None:
-        """Keeps the tick, the time and every robot's position; notes each goal when first reached."""
+    def on_state(self, st: WorldState, reach: tuple[Reach, ...], doors: tuple[DoorCriterion, ...] = ()) -> None:
+        """Keeps the tick, the time and every robot's position; notes each goal when first reached
+        and what the doors of ``doors`` did."""
         self.tick, self.sim_s, self.robots = st.tick, st.sim_time_ns / 1e9, len(st.ids)
         self.state = st
         for rid, x, y in zip(st.ids, st.x, st.y, strict=True):
             self.positions[rid] = (x, y)
+        if doors:
+            poses = {rid: (x, y, h) for rid, x, y, h in zip(st.ids, st.x, st.y, st.heading, strict=True)}
+            door_ids = {r.id for r in self.info.robots if r.type == "Door"} if self.info is not None else set()
+            self.doors.observe(doors, self.sim_s, poses, door_ids)
         for r in reach:
             p = self.positions.get(r.robot)
             if p is not None and r.robot not in self.reached and math.hypot(p[0] - r.x, p[1] - r.y) <= r.within:
@@ -115,4 +122,5 @@ class Tally:
                 f"{'PASS' if good else 'FAIL'} robot {r.robot} within {r.within:g} m of ({r.x:g}, {r.y:g})"
                 + (f" at t={when:.1f} s" if good else f": {where}")
             )
-        return ok, lines
+        good, door_lines = self.doors.verdict(crit.doors)
+        return ok and good, lines + door_lines

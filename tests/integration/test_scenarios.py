@@ -41,6 +41,9 @@ def test_automatic_door_opens_for_the_chair_and_closes_after(tmp_path: Path) -> 
     assert door[0] == pytest.approx(-90.0, abs=1.0)
     assert max(door) > -10.0  # it opened (about 90 degrees)
     assert door[-1] == pytest.approx(-90.0, abs=5.0)  # and closed again once the chair had gone
+    assert "PASS door 1 opened" in r.stdout
+    assert "PASS door 1 closed again" in r.stdout
+    assert "PASS door 1: never two chairs within 1 m of (10, 5)" in r.stdout
 
 
 def test_a_sliding_door_slides_along_its_wall_and_the_chair_passes_a_clear_doorway(tmp_path: Path) -> None:
@@ -59,6 +62,31 @@ def test_a_sliding_door_slides_along_its_wall_and_the_chair_passes_a_clear_doorw
     assert crossing
     assert all(door[i][1] - 0.6 > chair[i][1] + 0.33 for i in crossing)  # the leaf's end is past the chair's side
     assert door[-1][1] == pytest.approx(5.0, abs=0.05)  # and it closed again once the chair had gone
+    assert "PASS door 1 opened" in r.stdout  # iwz run judged the same
+    assert "PASS door 1 closed again" in r.stdout
+    assert "PASS door 1: never two chairs within 1 m of (10, 5)" in r.stdout
+
+
+def test_a_door_criterion_that_fails_fails_the_run(tmp_path: Path) -> None:
+    scenario = tmp_path / "idle-door.toml"
+    scenario.write_text(
+        "# a door nobody comes near: it never opens, so its criterion fails\n"
+        f'[world]\nmap = "{MAPS / "door-lab.xml"}"\nmode = "lockstep"\nduration_s = 3\n'
+        '[[agents]]\nprogram = "door"\nargs = ["--id", "1", "--at", "10,5.5,-90", "--test-door"]\n'
+        "[criteria]\nmax_collisions = 0\n[[criteria.doors]]\nrobot = 1\n",
+        encoding="utf-8",
+    )
+    argv = iwz_run_argv(scenario, tmp_path, "sc")
+    p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        out, err = p.communicate(timeout=120)
+    except subprocess.TimeoutExpired:
+        out, err = stop_run(p)
+        pytest.fail(f"still running after 120 s, stopped:\n{out}{err}")
+    assert p.returncode == 1, out + err
+    assert "PASS collisions 0" in out
+    assert "FAIL door 1 opened: it never did" in out
+    assert "FAIL door 1 closed again: it never did" in out
 
 
 def test_convoy_three_followers_keep_their_gaps_behind_the_leader(tmp_path: Path) -> None:
@@ -163,6 +191,9 @@ def test_two_chairs_negotiate_one_doorway_one_at_a_time(tmp_path: Path) -> None:
     assert door[0] == pytest.approx(-90.0, abs=1.0)
     assert max(door) > -10.0  # it opened
     assert apart > 1.0  # never both chairs in the doorway
+    assert "PASS door 1: never two chairs within 1 m of (10, 5)" in r.stdout  # iwz run judged the same
+    assert "PASS door 1 opened" in r.stdout
+    assert "PASS door 1 closed again" in r.stdout
 
 
 def test_hospital_five_chairs_do_their_tasks_through_two_negotiated_doors(tmp_path: Path) -> None:
@@ -181,6 +212,8 @@ def test_hospital_five_chairs_do_their_tasks_through_two_negotiated_doors(tmp_pa
                 if abs(shut) > math.radians(45.0):
                     opened.add(door)
     assert opened == {1, 2}  # both doors let chairs through
+    assert "PASS door 1 opened" in r.stdout  # iwz run judged the same
+    assert "PASS door 2 opened" in r.stdout
 
 
 @pytest.mark.xfail(
