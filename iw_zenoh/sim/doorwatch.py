@@ -113,23 +113,19 @@ class DoorWatch:
 
     def _lines_ok(self, c: DoorCriterion) -> tuple[bool, list[str]]:
         d = self.doors.get(c.robot)
+        checks = [
+            ("opened", c.opened, d.opened_s if d else None),
+            ("closed again", c.closed_again, d.closed_s if d else None),
+        ]
         lines: list[str] = []
         ok = True
-        if c.opened:
-            good = d is not None and d.opened_s is not None
-            ok &= good
-            seen = "never seen" if d is None else "it never did"
-            lines.append(
-                f"{'PASS' if good else 'FAIL'} door {c.robot} opened"
-                + (f" at t={d.opened_s:.1f} s" if good and d is not None and d.opened_s is not None else f": {seen}")
-            )
-        if c.closed_again:
-            good = d is not None and d.closed_s is not None
-            ok &= good
-            lines.append(
-                f"{'PASS' if good else 'FAIL'} door {c.robot} closed again"
-                + (f" at t={d.closed_s:.1f} s" if good and d is not None and d.closed_s is not None else ": it never did")
-            )
+        for what, asked, when in checks:
+            if not asked:
+                continue
+            ok &= when is not None
+            why = "never seen" if d is None else "it never did"
+            done = f" at t={when:.1f} s" if when is not None else f": {why}"
+            lines.append(f"{'PASS' if when is not None else 'FAIL'} door {c.robot} {what}{done}")
         return ok, lines
 
     def verdict(self, criteria: tuple[DoorCriterion, ...]) -> tuple[bool, list[str]]:
@@ -145,9 +141,10 @@ class DoorWatch:
                 good = crowd.most <= 1
                 ok &= good
                 where = f"within {c.one_chair_within:g} m of ({c.x:g}, {c.y:g})"
+                who = ", ".join(map(str, crowd.who))
                 lines.append(
                     f"PASS door {c.robot}: never two chairs {where}"
                     if good
-                    else f"FAIL door {c.robot}: chairs {', '.join(map(str, crowd.who))} {where} at t={crowd.when_s:.1f} s"
+                    else f"FAIL door {c.robot}: chairs {who} {where} at t={crowd.when_s:.1f} s"
                 )
         return ok, lines
