@@ -21,11 +21,13 @@ import math
 from dataclasses import dataclass, replace
 
 from iw_zenoh.agent import Command
+from iw_zenoh.core.revolving import Drum
 from iw_zenoh.core.spec import IrSensorSpec, NoiseSpec, RobotSpec, RobotType, SensorNoise
 from iw_zenoh.messages import Heard, SensorReading
 from iw_zenoh.places import pose_arg
 
 from .passage import Arbiter, join, parse_all
+from .revolving import LeafAgent, leaves
 
 __all__ = ["DoorKind", "DoorMachine", "DoorParams", "DoorState", "add_arguments", "door_spec", "make"]
 
@@ -260,7 +262,12 @@ class DoorAgent:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Options of ``iwz agent door``."""
     p.add_argument("--kind", choices=[k.value for k in DoorKind], default="hinged", help="door kind (default hinged)")
-    p.add_argument("--at", required=True, type=pose_arg, help="closed pose x,y,dir_deg")
+    p.add_argument(
+        "--at",
+        required=True,
+        type=pose_arg,
+        help="closed pose x,y,dir_deg (revolving: its hub and the passage's direction)",
+    )
     p.add_argument("--robot-name", default="door", help="robot name (default door)")
     p.add_argument("--id", type=int, default=0, help="robot id to ask for (default: the next free one)")
     p.add_argument("--detect", type=float, default=1.0, help="open when something is this near, m (default 1)")
@@ -274,6 +281,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--test-door", action="store_true", help="the seed's test door of section 7.4 (1 m leaf along the heading)"
     )
+    p.add_argument("--radius", type=float, default=1.6, help="revolving: the drum's inside radius, m (default 1.6)")
+    p.add_argument("--wings", type=int, default=3, choices=[3, 4], help="revolving: leaves (default 3)")
     p.add_argument(
         "--leaf",
         type=float,
@@ -282,10 +291,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
-def make(args: argparse.Namespace) -> list[DoorAgent]:
-    """The door the arguments ask for."""
+def make(args: argparse.Namespace) -> list[DoorAgent] | list[LeafAgent]:
+    """The door the arguments ask for (a revolving door: one agent per leaf)."""
     x, y, d = args.at
     kind = DoorKind(args.kind)
+    if kind == DoorKind.REVOLVING:
+        return leaves(args.robot_name, Drum(x, y, axis_deg=d, radius_m=args.radius, wings=args.wings), first_id=args.id)
     if args.leaf <= 0.0:
         raise ValueError(f"--leaf is the leaf's length in metres and must be > 0, got {args.leaf:g}")
     spec = door_spec(args.robot_name, kind, x=x, y=y, dir_deg=d, test_door=args.test_door, leaf_m=args.leaf)

@@ -10,6 +10,14 @@ Messages (ASCII, space separated, at most 100 bytes; a door and a chair are name
     REFUSE <door> <chair> <why> <n>    door -> chair: not now (queue full, ...); ask again later
     PASSED <door> <chair>              chair -> door: I am through; the doorway is free
 
+A revolving door (``iw_zenoh/core/revolving.py``) also needs to know which side a chair comes
+from, and carries it through in turn::
+
+    ASK <door> <chair> <eta_s> <n> <side>   side +1 or -1: along the door's axis or against it
+    IN <door> <chair>                  chair -> door: I am in the sector, turned: carry me
+    TURN <door> <chair> <done> <rate> <t>   door -> chair: of the half turn, done degrees at
+                                       sim time t s, turning rate deg/s (180 and 0: delivered)
+
 ``n`` is the chair's request counter, echoed so a chair can tell a fresh answer from a stale one.
 
 Rules. A chair asks about once a second while it wants the door (radio messages may be lost; a
@@ -28,23 +36,25 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-__all__ = ["Answer", "Arbiter", "Ask", "Client", "Passed", "join", "parse", "parse_all"]
+__all__ = ["Answer", "Arbiter", "Ask", "Client", "In", "Passed", "Turn", "join", "parse", "parse_all"]
 
 MAX_BYTES = 100
 
 
 @dataclass(frozen=True)
 class Ask:
-    """ASK: a chair asks a door for passage."""
+    """ASK: a chair asks a door for passage (from ``side`` of a revolving door; 0: not said)."""
 
     door: int
     chair: int
     eta_s: float
     n: int
+    side: int = 0
 
     def text(self) -> str:
         """The radio text."""
-        return f"ASK {self.door} {self.chair} {self.eta_s:.1f} {self.n}"
+        more = f" {self.side:+d}" if self.side else ""
+        return f"ASK {self.door} {self.chair} {self.eta_s:.1f} {self.n}{more}"
 
 
 @dataclass(frozen=True)
@@ -79,15 +89,47 @@ class Passed:
         return f"PASSED {self.door} {self.chair}"
 
 
-Message = Ask | Answer | Passed
+@dataclass(frozen=True)
+class In:
+    """IN: a chair is in a revolving door's sector, ready to be carried."""
+
+    door: int
+    chair: int
+
+    def text(self) -> str:
+        """The radio text."""
+        return f"IN {self.door} {self.chair}"
+
+
+@dataclass(frozen=True)
+class Turn:
+    """TURN: how far a revolving door has carried a chair, and how fast it turns."""
+
+    door: int
+    chair: int
+    done_deg: float
+    rate_dps: float
+    t_s: float
+
+    def text(self) -> str:
+        """The radio text."""
+        return f"TURN {self.door} {self.chair} {self.done_deg:.2f} {self.rate_dps:.3f} {self.t_s:.2f}"
+
+
+Message = Ask | Answer | Passed | In | Turn
 
 
 def parse(text: str) -> Message | None:
     """A protocol message, or None for anything else (other talk on the radio, garbage)."""
     p = text.split()
     try:
-        if p[0] == "ASK" and len(p) == 5:
-            return Ask(int(p[1]), int(p[2]), float(p[3]), int(p[4]))
+        if p[0] == "ASK" and len(p) in (5, 6):
+            side = int(p[5]) if len(p) == 6 else 0
+            return Ask(int(p[1]), int(p[2]), float(p[3]), int(p[4]), side) if side in (-1, 0, 1) else None
+        if p[0] == "IN" and len(p) == 3:
+            return In(int(p[1]), int(p[2]))
+        if p[0] == "TURN" and len(p) == 6:
+            return Turn(int(p[1]), int(p[2]), float(p[3]), float(p[4]), float(p[5]))
         if p[0] == "GRANT" and len(p) == 4:
             return Answer("GRANT", int(p[1]), int(p[2]), int(p[3]))
         if p[0] == "WAIT" and len(p) == 5:
@@ -130,6 +172,7 @@ class _Entry:
     arrival_s: float
     heard_s: float
     n: int
+    side: int = 0
 
 
 @dataclass
@@ -182,7 +225,7 @@ class Arbiter:
             elif len(self.queue) >= self.max_queue:
                 refused[a.chair] = a
             else:
-                self.queue.append(_Entry(a.chair, now_s + max(0.0, a.eta_s), now_s, a.n))
+                self.queue.append(_Entry(a.chair, now_s + max(0.0, a.eta_s), now_s, a.n, a.side))
         # the holder keeps its place at the head; the rest in order of arrival, then id
         self.queue.sort(key=lambda e: (e.chair != self.holder, e.arrival_s, e.chair))
         if self.holder is None and self.queue and door_open:
@@ -226,6 +269,7 @@ class Client:
     last_ask_s: float = -1e9
     last_answer: Answer | None = None
     passed_left: int = 0
+    side: int = 0
 
     def granted(self, now_s: float) -> bool:
         """Whether this chair may drive through the doorway now."""
@@ -257,5 +301,5 @@ class Client:
             if self.n == 0 or self.last_answer is not None:
                 self.n += 1
             self.last_answer = None
-            return Ask(self.door, self.chair, eta_s, self.n).text()
+            return Ask(self.door, self.chair, eta_s, self.n, self.side).text()
         return None

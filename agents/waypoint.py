@@ -12,12 +12,17 @@ import argparse
 import math
 
 from iw_zenoh.agent import Command
+from iw_zenoh.core.revolving import Drum
 from iw_zenoh.core.spec import NoiseSpec, RobotSpec, SensorNoise, prototype_chair, prototype_sensors
 from iw_zenoh.messages import Heard, SensorReading
 from iw_zenoh.places import points_arg, pose_arg
 from iw_zenoh.specfile import spec_with_args
 
-__all__ = ["PROTOTYPE_SENSORS", "WaypointDriver", "fine_chair", "add_arguments", "make"]
+
+from .passage import parse_all
+from .revolving import RevolvingPilot, mid_wheel_chair
+
+__all__ = ["PROTOTYPE_SENSORS", "WaypointDriver", "add_arguments", "fine_chair", "make", "parse_revolving"]
 
 MAX_POWER = 0.15
 STOP_M = 0.25  # stop when something is this near ahead
@@ -63,6 +68,12 @@ class WaypointDriver:
         self.backing = 0
         self._angles = {s.id: s.angle_deg for s in spec.sensors}
         self._lateral = {s.id: s.y_m for s in spec.sensors}
+        self.pilot: RevolvingPilot | None = None  # drives through a revolving door on the way
+
+    def on_registered(self, robot_id: int, spec: RobotSpec) -> None:
+        """Learns its id (a revolving door's protocol names chairs by robot id)."""
+        if self.pilot is not None:
+            self.pilot.on_registered(robot_id)
 
     def spec(self) -> RobotSpec:
         """The robot to register."""
@@ -74,6 +85,18 @@ class WaypointDriver:
         return self.index >= len(self.waypoints)
 
     def on_sensors(self, reading: SensorReading, heard: list[Heard]) -> Command:
+        """Steer to the next waypoint; slow and swerve for what is in the way; near a revolving
+        door on the way, its pilot drives."""
+        if self.pilot is None:
+            return self._drive(reading)
+        now_s = reading.sim_time_ns / 1e9
+        if self.pilot.engaged(reading.gps[0], reading.gps[1]):
+            return self.pilot.step(now_s, reading.gps, [m for h in heard for m in parse_all(h.text)])
+        cmd = self._drive(reading)
+        bye = self.pilot.farewell(now_s)
+        return Command(cmd.left, cmd.right, say=bye) if bye else cmd
+
+    def _drive(self, reading: SensorReading) -> Command:
         """Steer to the next waypoint; slow and swerve for what is in the way."""
         x, y, hdg = reading.gps
         while (
@@ -135,6 +158,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--safety", type=float, default=0.45, help="slow down for what is nearer than this ahead, m (default 0.45)"
     )
     p.add_argument("--speed", type=float, default=0.1, help="cruise power, at most 0.15 (default 0.1)")
+    p.add_argument(
+        "--revolving-door",
+        default="",
+        metavar="ID,X,Y,AXIS[,RADIUS[,WINGS]]",
+        help="a revolving door on the way: leaf 0's robot id, the hub, the passage's direction (deg), "
+        "the drum's radius (default 1.6) and wings (default 3); the chair passes it one sector at a "
+        "time (agents/revolving.py), e.g. --revolving-door 1,10,5,0",
+    )
+    p.add_argument(
+        "--mid-wheel",
+        action="store_true",
+        help="a mid-wheel-drive chair (1.0 x 0.6, turns about its middle: it fits a revolving door's sector)",
+    )
 
 
 def make(args: argparse.Namespace) -> list[WaypointDriver]:
@@ -143,5 +179,29 @@ def make(args: argparse.Namespace) -> list[WaypointDriver]:
     if args.start is not None:
         x, y, d = args.start
         kw.update(x_m=x, y_m=y, dir_deg=d)
-    spec = spec_with_args(fine_chair(args.robot_name, **kw), args)
-    return [WaypointDriver(spec, args.waypoints, tolerance_m=args.tolerance, safety_m=args.safety, speed=args.speed)]
+    chair = fine_chair(args.robot_name, **kw)
+    spec = spec_with_args(mid_wheel_chair(chair) if args.mid_wheel else chair, args)
+    driver = WaypointDriver(spec, args.waypoints, tolerance_m=args.tolerance, safety_m=args.safety, speed=args.speed)
+    if args.revolving_door:
+        door, drum = parse_revolving(args.revolving_door)
+        driver.pilot = RevolvingPilot(drum, door, spec)
+    return [driver]
+
+
+def parse_revolving(text: str) -> tuple[int, Drum]:
+    """Parses ``ID,X,Y,AXIS[,RADIUS[,WINGS]]``: a revolving door's id and geometry.
+
+    Raises:
+        ValueError: Saying what the form is.
+    """
+    parts = text.split(",")
+    form = "--revolving-door is ID,X,Y,AXIS[,RADIUS[,WINGS]], e.g. 1,10,5,0"
+    if not 4 <= len(parts) <= 6:
+        raise ValueError(f"{form}; got {text!r}")
+    try:
+        door, wings = int(parts[0]), int(parts[5]) if len(parts) == 6 else 3
+        x, y, axis = float(parts[1]), float(parts[2]), float(parts[3])
+        radius = float(parts[4]) if len(parts) >= 5 else 1.6
+    except ValueError:
+        raise ValueError(f"{form}; got {text!r}") from None
+    return door, Drum(x, y, axis_deg=axis, radius_m=radius, wings=wings)

@@ -4,8 +4,9 @@ robot-wall, on the next pose, exact polygons; or the Ciber-Rato rule in the lega
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 
-from iw_zenoh.core.collision import check_collisions, check_collisions_ciberrato
+from iw_zenoh.core.collision import Collisions, check_collisions, check_collisions_ciberrato
 from iw_zenoh.core.modes import Profile
 from iw_zenoh.core.spec import RobotType
 from iw_zenoh.messages import Hit, Proposed, Verdict
@@ -29,7 +30,9 @@ class CollisionNode:
             hits = [Hit(robot_id=ids[i], other=ids[j]) for i, j in col.robot_pairs]
         else:
             doors = np.asarray([t == RobotType.DOOR for t in bodies.types], dtype=bool)
-            col = check_collisions(view.scene, bodies.outline, now, nxt, active=active, ignore_walls=doors)
+            col = _doors_pass_doors(
+                check_collisions(view.scene, bodies.outline, now, nxt, active=active, ignore_walls=doors), doors
+            )
             hits = [Hit(robot_id=ids[i], other=ids[j]) for i, j in col.robot_pairs]
             hits += [Hit(robot_id=ids[j], other=ids[i]) for i, j in col.robot_pairs]
         hits += [Hit(robot_id=ids[i], wall=int(w)) for i, w in col.wall_pairs]
@@ -41,3 +44,15 @@ class CollisionNode:
             collided=col.collided.tolist(),
             hits=hits,
         )
+
+
+def _doors_pass_doors(col: Collisions, doors: npt.NDArray[np.bool_]) -> Collisions:
+    """The collisions without door-door contacts: the leaves of one revolving door cross at its hub
+    (each leaf is a Door robot turning about the hub), and two leaves of a double door meet."""
+    pairs = col.robot_pairs
+    if len(pairs) == 0 or not doors.any():
+        return col
+    keep = pairs[~(doors[pairs[:, 0]] & doors[pairs[:, 1]])]
+    hit_robot = np.zeros(len(doors), dtype=bool)
+    hit_robot[keep.reshape(-1)] = True
+    return Collisions(col.hit_wall | hit_robot, col.hit_wall, hit_robot, col.wall_pairs, keep)

@@ -3,7 +3,7 @@ from the committed states alone: pure, so ``iwz run`` and a test judge alike.
 
 A door's pose when first seen is its closed pose. It *opened* once it moved :data:`OPEN_M` or
 turned :data:`OPEN_DEG` from there (its heading unwrapped tick by tick, so a revolving door's
-half turn counts as 180 degrees); it is *closed again* at a later tick back within
+half turn counts as 180 degrees); it is *closed again* at a later tick standing still back within
 :data:`SHUT_M` and :data:`SHUT_DEG` of that pose, its turn taken modulo the criterion's
 ``symmetry_deg``. *One chair at a time*: no two robots other than doors are ever within
 ``one_chair_within`` of the doorway's middle at once.
@@ -16,12 +16,14 @@ from dataclasses import dataclass, field
 
 from iw_zenoh.config import DoorCriterion
 
-__all__ = ["OPEN_DEG", "OPEN_M", "SHUT_DEG", "SHUT_M", "DoorWatch"]
+__all__ = ["OPEN_DEG", "OPEN_M", "SHUT_DEG", "SHUT_M", "STILL_DEG", "STILL_M", "DoorWatch"]
 
 OPEN_M = 0.5  # a sliding leaf this far from its closed place is open
 OPEN_DEG = 45.0  # a hinged or revolving door turned this far is open
 SHUT_M = 0.05  # back this near its closed place ...
-SHUT_DEG = 5.0  # ... and turned back this near, a door is closed again
+SHUT_DEG = 5.0  # ... and turned back this near, a door is closed again ...
+STILL_DEG = 0.05  # ... once it stands still (turned at most this since the last state ...
+STILL_M = 0.002  # ... and moved at most this): a revolving door passing a shut angle is not shut
 
 
 @dataclass
@@ -33,6 +35,8 @@ class _Door:
     h0_deg: float
     turn_deg: float = 0.0  # unwrapped turn from the closed heading
     last_deg: float = 0.0
+    last_x: float = 0.0
+    last_y: float = 0.0
     opened_s: float | None = None
     closed_s: float | None = None
 
@@ -95,14 +99,17 @@ class DoorWatch:
         x, y, h = pose[0], pose[1], math.degrees(pose[2])
         d = self.doors.get(c.robot)
         if d is None:
-            self.doors[c.robot] = _Door(x, y, h, last_deg=h)
+            self.doors[c.robot] = _Door(x, y, h, last_deg=h, last_x=x, last_y=y)
             return
-        d.turn_deg += math.remainder(h - d.last_deg, 360.0)
+        step_deg = math.remainder(h - d.last_deg, 360.0)
+        d.turn_deg += step_deg
         d.last_deg = h
         away_m = math.hypot(x - d.x0, y - d.y0)
+        still = abs(step_deg) <= STILL_DEG and math.hypot(x - d.last_x, y - d.last_y) <= STILL_M
+        d.last_x, d.last_y = x, y
         if d.opened_s is None and (away_m >= OPEN_M or abs(d.turn_deg) >= OPEN_DEG):
             d.opened_s = sim_s
-        shut = away_m <= SHUT_M and abs(math.remainder(d.turn_deg, c.symmetry_deg)) <= SHUT_DEG
+        shut = still and away_m <= SHUT_M and abs(math.remainder(d.turn_deg, c.symmetry_deg)) <= SHUT_DEG
         if d.opened_s is not None and d.closed_s is None and shut:
             d.closed_s = sim_s
 

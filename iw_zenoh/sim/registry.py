@@ -125,6 +125,8 @@ class Registry:
             if len(hit):
                 raise Refused(f"start ({x:g}, {y:g}) puts the body on wall {int(hit[0])}; choose a free place")
         others = list(pose.items())
+        if placed.type == RobotType.DOOR:  # the leaves of one revolving door share its hub
+            others = [(i, q) for i, q in others if i not in self.entries or self.entries[i].spec.type != RobotType.DOOR]
         if others:
             ob = Bodies.from_specs([self.entries[i].spec for i, _ in others])
             polys = shapely.polygons(ob.world_outline(np.array([p for _, p in others])))

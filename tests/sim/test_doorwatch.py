@@ -22,12 +22,13 @@ def _hinged(deg: float, chair_x: float = 4.0) -> dict[int, tuple[float, float, f
 
 
 def test_a_door_that_opens_and_closes_again_passes() -> None:
-    w = _watch(HINGED, [_hinged(-90.0), _hinged(-40.0), _hinged(0.0, 10.0), _hinged(-60.0), _hinged(-88.0)])
+    track = [_hinged(-90.0), _hinged(-40.0), _hinged(0.0, 10.0), _hinged(-60.0), _hinged(-88.0), _hinged(-88.0)]
+    w = _watch(HINGED, track)
     ok, lines = w.verdict((HINGED,))
     assert ok, lines
     assert lines == [
         "PASS door 1 opened at t=0.1 s",
-        "PASS door 1 closed again at t=0.4 s",
+        "PASS door 1 closed again at t=0.5 s",  # back, and still
         "PASS door 1: never two chairs within 1 m of (10, 5)",
     ]
     assert w.settled((HINGED,))
@@ -82,16 +83,23 @@ def test_other_doors_are_not_chairs() -> None:
 
 def test_a_revolving_door_half_turn_opens_and_closes_it_modulo_its_symmetry() -> None:
     crit = DoorCriterion(robot=1, symmetry_deg=90.0)
-    turns = [0.0, 30.0, 60.0, 100.0, 140.0, 179.0, -170.0, 180.0]  # through +-180: unwrapped, 180 in all
+    turns = [0.0, 30.0, 60.0, 90.0, 120.0, 179.0, -170.0, 180.0, 180.0]  # through +-180: unwrapped, 180 in all
     w = _watch(crit, [{1: (10.0, 5.0, math.radians(d))} for d in turns])
     ok, lines = w.verdict((crit,))
     assert ok, lines
     assert lines[0] == "PASS door 1 opened at t=0.2 s"  # turned 60 degrees: past 45
-    assert lines[1] == "PASS door 1 closed again at t=0.5 s"  # within 5 degrees of 90 (four wings)
+    assert lines[1] == "PASS door 1 closed again at t=0.8 s"  # at rest a half turn on (four wings: every 90)
+
+
+def test_a_revolving_door_turning_past_a_shut_angle_is_not_closed() -> None:
+    crit = DoorCriterion(robot=1, symmetry_deg=60.0)
+    turns = [0.0, 20.0, 50.0, 60.0, 70.0, 100.0]  # past 60 on the way: it never stood there
+    w = _watch(crit, [{1: (10.0, 5.0, math.radians(d))} for d in turns])
+    assert "FAIL door 1 closed again: it never did" in w.verdict((crit,))[1]
 
 
 def test_a_sliding_door_opens_by_moving_along_its_wall() -> None:
     crit = DoorCriterion(robot=1)
-    ys = [5.0, 5.3, 5.7, 6.2, 5.6, 5.03]
+    ys = [5.0, 5.3, 5.7, 6.2, 5.6, 5.03, 5.03]
     w = _watch(crit, [{1: (10.0, y, math.pi / 2)} for y in ys])
-    assert w.verdict((crit,)) == (True, ["PASS door 1 opened at t=0.2 s", "PASS door 1 closed again at t=0.5 s"])
+    assert w.verdict((crit,)) == (True, ["PASS door 1 opened at t=0.2 s", "PASS door 1 closed again at t=0.6 s"])
