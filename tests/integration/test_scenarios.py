@@ -67,6 +67,42 @@ def test_a_sliding_door_slides_along_its_wall_and_the_chair_passes_a_clear_doorw
     assert "PASS door 1: never two chairs within 1 m of (10, 5)" in r.stdout
 
 
+def _poses(rec: Path) -> list[dict[int, tuple[float, float, float]]]:
+    out = []
+    with rec.open("rb") as f:
+        for _, _, m in make_reader(f).iter_messages(topics=[keys.state("sc")]):
+            st = decode(m.data, WorldState)
+            out.append({r: (st.x[i], st.y[i], st.heading[i]) for i, r in enumerate(st.ids)})
+    return out
+
+
+def test_a_revolving_door_carries_two_chairs_through_one_sector_at_a_time(tmp_path: Path) -> None:
+    r, rec = _run("revolving-door.toml", tmp_path)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "PASS collisions 0" in r.stdout  # neither chair touched a leaf, the drum or the other
+    assert "PASS robot 4 within 0.5 m of (16, 5)" in r.stdout
+    assert "PASS robot 5 within 0.5 m of (4, 5)" in r.stdout
+    assert "PASS door 1 opened" in r.stdout
+    assert "PASS door 1 closed again" in r.stdout
+    assert "PASS door 1: never two chairs within 2 m of (10, 5)" in r.stdout
+    states = [p for p in _poses(rec) if {1, 2, 3, 4, 5} <= set(p)]
+    turned = sum(math.remainder(b[1][2] - a[1][2], 2 * math.pi) for a, b in zip(states, states[1:], strict=False))
+    # a sixth to face the chair that asked first (from the east), half a turn for each chair
+    assert math.degrees(turned) == pytest.approx(180.0 + 60.0 + 180.0, abs=2.0)
+    for s in states:  # the three leaves keep their 120 degrees, turning about the hub
+        assert math.degrees(math.remainder(s[2][2] - s[1][2], 2 * math.pi)) == pytest.approx(120.0, abs=2.0)
+        assert math.degrees(math.remainder(s[3][2] - s[1][2], 2 * math.pi)) == pytest.approx(-120.0, abs=2.0)
+        assert (s[1][0], s[1][1]) == pytest.approx((10.0, 5.0), abs=0.01)
+    for chair, below in ((4, True), (5, False)):  # each rides the ring, round the hub's south or north side
+        mid = [s[chair] for s in states if abs(s[chair][0] - 10.0) < 0.2]
+        assert mid
+        assert all(math.hypot(x - 10.0, y - 5.0) == pytest.approx(0.9, abs=0.08) for x, y, _ in mid)
+        assert all((y < 5.0) == below for _, y, _ in mid)
+    # one at a time: the second chair came into the drum only after the first had left it
+    inside = [{c for c in (4, 5) if math.hypot(s[c][0] - 10.0, s[c][1] - 5.0) < 1.6 + 0.5} for s in states]
+    assert all(len(i) <= 1 for i in inside)
+
+
 def test_a_door_criterion_that_fails_fails_the_run(tmp_path: Path) -> None:
     scenario = tmp_path / "idle-door.toml"
     scenario.write_text(
