@@ -326,3 +326,14 @@ def test_removing_a_robot_the_world_does_not_have_is_refused_with_its_id() -> No
     assert ev.robot_id == 7
     assert "no robot 7" in ev.reason
     assert _kinds(core.on_control(Control(command="remove", robot_id=1))) == ["removed"]
+
+
+def test_the_leaves_of_a_revolving_door_are_placed_on_one_hub_and_a_chair_is_not() -> None:
+    core = _core()
+    for i, deg in enumerate((0.0, 120.0, -120.0)):
+        leaf = RobotSpecMsg(name=f"leaf{i}", type="Door", width=1.6, height=0.1, com=0.98, x=15.0, y=5.0, dir=deg)
+        reply, _ = core.register(RegisterRequest(spec=leaf), 0)
+        assert reply.ok, reply.reason  # a door may stand on another door
+    reply, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="chair", x=15.5, y=5.0)), 0)
+    assert not reply.ok
+    assert "robot" in reply.reason
