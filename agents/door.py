@@ -4,10 +4,16 @@ The state machine of the seed's Fig. 5.5: Closed -> (something detected) -> Open
 90 degrees, or slid its length) -> Open (timer starts) -> (timeout with nothing detected) ->
 Closing -> (back where it was) -> Closed. While opening or closing a collision stops the
 movement and it resumes when the collision clears; something detected while closing opens the
-door again (nobody gets shut in). A revolving door turns while something is detected and stops
-after the timeout.
+door again (nobody gets shut in). (The machine's revolving kind, a single leaf turning while
+something is detected, is the seed's; it let no chair through a doorway, and ``--kind revolving``
+no longer runs it.)
 
-Two policies: ``proximity`` opens when a door sensor detects something (the seed's test);
+A sliding door's leaf lies along its heading and slides its whole length forward into the wall
+beside the doorway (door bodies pass through walls), so the doorway is clear when it is open. A
+revolving door (``--kind revolving``) is not this machine: its leaves and the passage of a chair,
+one sector at a time, are ``agents/revolving.py`` (it always negotiates, over the radio).
+
+Two policies for hinged and sliding doors: ``proximity`` opens when a door sensor detects something (the seed's test);
 ``negotiate`` opens for the chairs that ask over the radio and grants the doorway to one at a
 time (``agents/passage.py`` has the protocol). Under either, a closing door that detects
 something opens again.
