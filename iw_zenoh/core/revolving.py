@@ -67,7 +67,10 @@ class Drum:
                 f"a revolving door here has 3 or 4 wings (its openings span 180 - 360/wings), got {self.wings}"
             )
         if not 0.0 < self.ring_m < self.radius_m:
-            raise ValueError(f"the ring ({self.ring_m:g} m) must lie inside the drum ({self.radius_m:g} m)")
+            raise ValueError(
+                f"the ring a carried chair rides ({self.ring_m:g} m from the hub) must lie inside the drum "
+                f"(radius {self.radius_m:g} m): give a larger radius (1.6 m fits a mid-wheel chair)"
+            )
 
     @property
     def sector_deg(self) -> float:
