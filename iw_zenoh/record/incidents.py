@@ -20,6 +20,7 @@ import shapely
 from iw_zenoh.convert import lab_from_msg, spec_from_msg
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.lab import Scene
+from iw_zenoh.core.spec import RobotType
 from iw_zenoh.errors import DecodeError, IwError
 from iw_zenoh.messages import CollisionData, Event, EventKind, WorldInfo, WorldState, event_payload
 from iw_zenoh.record.reader import RecordingReader, file_error, open_recording, print_notes
@@ -115,9 +116,12 @@ class _Finder:
         collided = {ids[k] for k in range(len(ids)) if st.collided[idx[k]]}
         pairs = _close_pairs(scene, polys, ids, self.near_m)
         still = _close_pairs(scene, polys, ids, self.near_m * HYSTERESIS)  # an episode ends past this
+        doors = {i for i in ids if getattr(specs[i], "type", None) == RobotType.DOOR}
         for a_id, b_id in sorted(pairs - self.near_now):
             if a_id in collided or (b_id >= 0 and b_id in collided):
                 continue
+            if a_id in doors and (b_id < 0 or b_id in doors):
+                continue  # doors hang in walls and a revolving door's leaves share a hub: no incident
             i = ids.index(a_id)
             if b_id >= 0:
                 j = ids.index(b_id)
