@@ -18,7 +18,6 @@ from iw_zenoh.messages import Heard, SensorReading
 from iw_zenoh.places import points_arg, pose_arg
 from iw_zenoh.specfile import spec_with_args
 
-
 from .passage import parse_all
 from .revolving import RevolvingPilot, mid_wheel_chair
 
