@@ -9,7 +9,8 @@ Scoring modes (the legacy simulator's ``--scoring``):
 * 0, competitive (lower is better): targets visited with the VisitingLed, a return home measured
   by :class:`PathLength` (shortest path of a disc of radius 0.5 from the start);
 * 1, control (C1; higher is better): 10 points per cell of the lab's closed loop of 2 m cells,
-  :func:`control_loop`;
+  :func:`control_loop`, built from the robot's start at its first Running step (whenever it
+  registered: the legacy simulator built it only at Time 0);
 * 2 and 3, mapping and planning (C2 to C5): the competitive function without the Returning state,
   starting from 0.
 """
@@ -143,9 +144,10 @@ class PathLength:
 def control_loop(lab: Lab, x: float, y: float) -> list[tuple[int, int]] | None:
     """Control mode's closed loop of 2 m cells from the robot's cell, or None ("Lab has no Loop!").
 
-    Starts east; at each cell tries right, straight, then left of the current direction; a move
-    is allowed when the straight line between the two cell centres hits no wall (nor leaves the
-    lab); ends back at the start cell.
+    The first move is east, whatever is there (the legacy simulator's loop starts with the cell
+    east of the start); then at each cell it tries right, straight, then left of the current
+    direction, a move being allowed when the straight line between the two cell centres hits no
+    wall (nor leaves the lab); it ends back at the start cell.
     """
     walls = [shapely.Polygon(w.corners) for w in lab.walls]
     solid = shapely.union_all(walls) if walls else shapely.Polygon()
@@ -161,9 +163,10 @@ def control_loop(lab: Lab, x: float, y: float) -> list[tuple[int, int]] | None:
             return False
         return not shapely.intersects(shapely.LineString([centre(a), centre(b)]), solid)
 
-    cell, d = start, (1, 0)
+    cell, d = (start[0] + 1, start[1]), (1, 0)
     loop = [start]
     for _ in range(4 * cols * rows + 4):
+        loop.append(cell)
         for nd in ((d[1], -d[0]), d, (-d[1], d[0])):  # right, straight, left
             nxt = (cell[0] + nd[0], cell[1] + nd[1])
             if free(cell, nxt):
@@ -173,7 +176,6 @@ def control_loop(lab: Lab, x: float, y: float) -> list[tuple[int, int]] | None:
             return None
         if cell == start:
             return loop
-        loop.append(cell)
     return None
 
 
@@ -335,7 +337,10 @@ class RobotGame:
         self.score = 100 + self.pen
 
     def _score_control(self, s: StepInput) -> None:
-        if not self._loop_done and s.now <= 1:  # the first Running step
+        if not self._loop_done:
+            # its first Running step, whatever the Time: the legacy simulator builds the loop when
+            # its robots first run at Time 0, which a robot registered into a running world (or
+            # after a pause) never sees, and it then scored nothing for ever
             self._loop_done = True
             self.loop = control_loop(self.lab, self.start[0], self.start[1])
         if self.loop and len(self.loop) > 1:

@@ -114,6 +114,25 @@ def test_control_mode_scores_the_cells_of_the_labs_loop() -> None:
     assert g.finished
 
 
+def test_control_mode_builds_its_loop_at_the_first_running_step_whatever_the_time() -> None:
+    # a robot registered into a running world first runs at Time 300: the legacy simulator built
+    # the loop only at Time 0, and such a robot scored nothing for ever
+    lab = Lab("ring", 6.0, 6.0, (box_wall(2.0, 2.0, 4.0, 4.0),))
+    g = RobotGame(lab, mode=Mode.CONTROL, start=(1.0, 1.0))
+    _run(g, 300, 1.0, 1.0, running=False)
+    _run(g, 301, 1.2, 1.0)
+    _run(g, 302, 3.0, 1.0)
+    _run(g, 303, 5.0, 1.0)
+    assert g.score == 20
+
+
+def test_the_control_loop_goes_east_first_whatever_turn_is_free() -> None:
+    # an open lab of 3 x 3 cells: from (0, 1) a right turn (south) is free, yet the legacy loop's
+    # first cell is the one east of the start
+    lab = Lab("open", 6.0, 6.0)
+    assert control_loop(lab, 1.0, 3.0) == [(0, 1), (1, 1), (1, 0), (0, 0)]
+
+
 def test_a_lab_without_a_loop_has_none() -> None:
     lab = Lab("split", 6.0, 2.0, (box_wall(1.9, 0.0, 2.1, 2.0),))
     assert control_loop(lab, 1.0, 1.0) is None
