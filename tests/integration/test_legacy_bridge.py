@@ -38,44 +38,9 @@ from tests.integration.harness import (
     wait_event,
     wait_msg,
 )
+from tests.integration.legacy import LegacyClient, ciberrato_world, udp_port
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(150)]
-
-
-def _udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-class LegacyClient:
-    """What croblink.py does: register on the port, then talk to the port the reply came from."""
-
-    def __init__(self, port: int) -> None:
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.settimeout(2.0)  # croblink's own timeout
-        self.server = ("127.0.0.1", port)
-
-    def register(self, xml: bytes, tries: int = 30) -> bytes:
-        for _ in range(tries):  # the bridge may still be starting: ask again, as a user would
-            self.sock.sendto(xml, self.server)
-            try:
-                data, addr = self.sock.recvfrom(1024)
-            except TimeoutError:
-                continue
-            self.server = addr
-            return data
-        raise AssertionError("no reply to the registration")
-
-    def recv(self, size: int = 4096) -> bytes:
-        data, _ = self.sock.recvfrom(size)  # 4096: croblink's Measures buffer
-        return data
-
-    def send(self, xml: bytes) -> None:
-        self.sock.sendto(xml, self.server)
-
-    def close(self) -> None:
-        self.sock.close()
 
 
 @pytest.fixture
@@ -96,40 +61,12 @@ def _c1_params(net: Net, old: str, new: str) -> Path:
     return path
 
 
-def _world(
-    net: Net,
-    params: Path | None = MAPS / "ciberrato" / "C1-config.xml",
-    *,
-    lab: str | None = None,
-    grid: str | None = None,
-    radio: bool = False,
-    bridge: tuple[str, ...] = (),
-) -> int:
-    """A ciberrato-profile world (C1's lab and grid unless given as XML text) with the bridge on a
-    free UDP port (returned)."""
-    lab_path, grid_path = MAPS / "ciberrato" / "C1-lab.xml", MAPS / "ciberrato" / "C1-grid.xml"
-    if lab is not None:
-        lab_path = net.tmp / "lab.xml"
-        lab_path.write_text(lab)
-    if grid is not None:
-        grid_path = net.tmp / "grid.xml"
-        grid_path.write_text(grid)
-    port = _udp_port()
-    net.spawn("world", str(lab_path), "--grid", str(grid_path), "--profile", "ciberrato", "--period-ms", "50")
-    net.spawn("collision")
-    net.spawn("sensors")
-    if radio:
-        net.spawn("radio")
-    net.spawn("bridge", "ciberrato", "--port", str(port), *(["--param", str(params)] if params else []), *bridge)
-    return port
-
-
 def test_a_robot_registering_before_the_world_is_up_is_accepted_when_it_comes(
     net: Net, clients: list[LegacyClient]
 ) -> None:
     # a legacy agent started with `iwz run` may ask before the world's queryable exists; it was
     # refused at once ("no world answered") where the legacy server would have answered it
-    port = _udp_port()
+    port = udp_port()
     net.spawn("bridge", "ciberrato", "--port", str(port))
     wait_alive(net.client(), keys.alive(net.sim, "bridge", "ciberrato"))  # its UDP port is open
     robot = LegacyClient(port)
@@ -146,7 +83,7 @@ def test_a_robot_registering_before_the_world_is_up_is_accepted_when_it_comes(
 
 
 def test_a_legacy_robot_registers_senses_and_drives(net: Net, clients: list[LegacyClient]) -> None:
-    port = _world(net)
+    port = ciberrato_world(net)
     bus = net.client()
     states = subscribe(bus, keys.state(net.sim), maxlen=1)
     robot = LegacyClient(port)
@@ -175,7 +112,7 @@ def test_a_legacy_robot_registers_senses_and_drives(net: Net, clients: list[Lega
 
 
 def test_a_malformed_sensor_batch_is_reported_and_the_robot_still_served(net: Net, clients: list[LegacyClient]) -> None:
-    port = _world(net)
+    port = ciberrato_world(net)
     bus = net.client()
     events = subscribe(bus, keys.all_events(net.sim))
     robot = LegacyClient(port)
@@ -192,7 +129,7 @@ def test_a_malformed_sensor_batch_is_reported_and_the_robot_still_served(net: Ne
 
 
 def test_a_legacy_viewer_gets_the_lab_grid_and_robot_states(net: Net, clients: list[LegacyClient]) -> None:
-    port = _world(net)
+    port = ciberrato_world(net)
     robot = LegacyClient(port)
     clients.append(robot)
     robot.register(b'<Robot Name="cRob" Id="1"></Robot>\x00')
@@ -214,7 +151,7 @@ def test_a_legacy_viewer_gets_the_lab_grid_and_robot_states(net: Net, clients: l
 
 
 def test_bad_datagrams_are_refused_and_never_stall_a_good_client(net: Net, clients: list[LegacyClient]) -> None:
-    port = _world(net)
+    port = ciberrato_world(net)
     bus = net.client()
     events = subscribe(bus, keys.event(net.sim, "legacy-refused"))
     robot = LegacyClient(port)
@@ -242,7 +179,7 @@ def test_bad_datagrams_are_refused_and_never_stall_a_good_client(net: Net, clien
 
 
 def test_iwz_run_a_ciberrato_scenario_serves_legacy_clients(tmp_path: Path, clients: list[LegacyClient]) -> None:
-    port = _udp_port()
+    port = udp_port()
     text = (
         (MAPS / "ciberrato-c1.toml")
         .read_text()
@@ -274,7 +211,7 @@ TWO = '<Grid><Position X="5" Y="7" Dir="0"/><Position X="7.2" Y="7" Dir="180"/><
 
 
 def test_a_legacy_robot_and_a_native_one_see_hear_and_hit_each_other(net: Net, clients: list[LegacyClient]) -> None:
-    port = _world(net, None, lab=OPEN_LAB, grid=TWO, radio=True)
+    port = ciberrato_world(net, None, lab=OPEN_LAB, grid=TWO, radio=True)
     bus = net.client()
     events = subscribe(bus, keys.event(net.sim, "collision"))
     robot = LegacyClient(port)
@@ -303,7 +240,7 @@ def test_a_legacy_robot_and_a_native_one_see_hear_and_hit_each_other(net: Net, c
 
 
 def test_thousands_of_malformed_datagrams_leave_good_clients_served(net: Net, clients: list[LegacyClient]) -> None:
-    port = _world(net)
+    port = ciberrato_world(net)
     robot = LegacyClient(port)
     clients.append(robot)
     robot.register(b'<Robot Name="good" Id="1"/>')
@@ -347,7 +284,7 @@ def test_requestable_sensors_the_request_limit_and_the_gps_origin(net: Net, clie
     params.write_text(
         '<Parameters GPS="On" GPSLinNoise="0" ObstacleRequestable="On" NRequestsPerCycle="1" CompassSensor="On" CompassNoise="0"/>'
     )
-    port = _world(net, params)
+    port = ciberrato_world(net, params)
     robot = LegacyClient(port)
     clients.append(robot)
     reply = etree.fromstring(robot.register(b'<Robot Id="1" Name="req"/>')[:-1])
@@ -386,7 +323,7 @@ def _robot_and_viewer(port: int, clients: list[LegacyClient], robot_xml: bytes) 
 
 
 def test_end_led_finishes_a_legacy_robot_for_good(net: Net, clients: list[LegacyClient]) -> None:
-    port = _world(net)
+    port = ciberrato_world(net)
     bus = net.client()
     states = subscribe(bus, keys.state(net.sim), maxlen=1)
     robot, viewer = _robot_and_viewer(port, clients, b'<Robot Id="1" Name="done"/>')
@@ -405,7 +342,7 @@ def test_end_led_finishes_a_legacy_robot_for_good(net: Net, clients: list[Legacy
 
 def test_scores_and_states_follow_the_legacy_game(net: Net, clients: list[LegacyClient]) -> None:
     params = _c1_params(net, 'ScoreSensor="Off"', 'ScoreSensor="On"')
-    port = _world(
+    port = ciberrato_world(
         net,
         params,
         lab='<Lab Name="home" Width="28" Height="14"><Target X="5" Y="7" Radius="1"/></Lab>',
@@ -446,7 +383,7 @@ def test_a_registration_the_world_is_slow_to_answer_stalls_no_other_client(
     # the test plays the world: it answers registrations when it chooses and sends readings
     bus = net.client()
     registrations = bus.serve(keys.register(net.sim))
-    port = _udp_port()
+    port = udp_port()
     net.spawn("bridge", "ciberrato", "--port", str(port))
 
     def ask(c: LegacyClient, xml: bytes, timeout_s: float = 30.0) -> PendingQuery:
@@ -490,7 +427,7 @@ def test_a_robot_beacon_moves_with_its_robot_and_only_one_beacon_is_allowed(
     net: Net, clients: list[LegacyClient]
 ) -> None:
     params = _c1_params(net, 'BeaconSensor="Off"', 'BeaconSensor="On"')
-    port = _world(
+    port = ciberrato_world(
         net,
         params,
         lab='<Lab Name="open" Width="20" Height="10"></Lab>',
@@ -531,7 +468,7 @@ def test_a_robot_beacon_moves_with_its_robot_and_only_one_beacon_is_allowed(
 
 def test_the_simulation_finishes_at_sim_time_and_stays_finished(net: Net, clients: list[LegacyClient]) -> None:
     params = _c1_params(net, 'SimTime="5000"', 'SimTime="40"')
-    port = _world(net, params)
+    port = ciberrato_world(net, params)
     bus = net.client()
     events = subscribe(bus, keys.event(net.sim, "legacy-finished"))
     robot, viewer = _robot_and_viewer(port, clients, b'<Robot Id="1" Name="late"/>')

@@ -24,7 +24,7 @@ from iw_zenoh.bus import ZenohBus
 from iw_zenoh.messages import Event, WorldState, decode
 from iw_zenoh.net import NetConfig
 from tests.integration.harness import MAPS, Net, iwz_run_argv, stop_run, subscribe
-from tests.integration.test_legacy_bridge import LegacyClient, _udp_port
+from tests.integration.legacy import LegacyClient, udp_port
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
 
@@ -92,7 +92,7 @@ def _drive(robot: LegacyClient, times: list[int], cycles: int, during: subproces
 
 
 def test_a_flood_from_many_ports_costs_the_run_a_bounded_amount(tmp_path: Path) -> None:
-    port = _udp_port()
+    port = udp_port()
     text = (MAPS / "ciberrato-c1.toml").read_text().replace("port = 6000", f"port = {port}")
     sc = tmp_path / "c1.toml"
     sc.write_text(text.replace('"ciberrato/', f'"{MAPS}/ciberrato/'))
@@ -173,7 +173,7 @@ def clients() -> Iterator[list[LegacyClient]]:
 
 
 def test_thousands_of_viewer_registrations_leave_no_sockets_behind(net: Net, clients: list[LegacyClient]) -> None:
-    port = _udp_port()
+    port = udp_port()
     lab, grid = MAPS / "ciberrato" / "C1-lab.xml", MAPS / "ciberrato" / "C1-grid.xml"
     net.spawn("world", str(lab), "--grid", str(grid), "--profile", "ciberrato", "--period-ms", "50")
     net.spawn("bridge", "ciberrato", "--port", str(port))
