@@ -207,7 +207,11 @@ class _World:
             self._publish_info()
             if not core.due():
                 io.send(keys.tick(cfg.sim), core.tick_msg())
-                self.wait_until(self.clock.now_ns() + period, lambda: core.due() or core.stopped)
+                # the ciberrato profile waits out the cycle (its first step is the next one)
+                self.wait_until(
+                    self.clock.now_ns() + period,
+                    lambda: core.stopped or core.due() and not core.starts_on_the_cycle,
+                )
                 next_ns = self.clock.now_ns()
                 continue
             start = self.clock.now_ns()
@@ -275,6 +279,7 @@ def world_config(opts: WorldOptions, sim: str) -> WorldConfig:
         duration_ticks=int(round(opts.duration_s * 1000.0 / opts.period_ms)) if opts.duration_s > 0 else 0,
         start_paused=opts.start_paused,
         motors_noise_pct=opts.motors_noise_pct,
+        silence=opts.silence,
     )
 
 

@@ -12,7 +12,7 @@ from typing import Annotated
 import msgspec
 
 from iw_zenoh.config import Scenario
-from iw_zenoh.core.modes import Mode, Profile
+from iw_zenoh.core.modes import Mode, Profile, Silence
 from iw_zenoh.errors import ConfigError, IwError
 from iw_zenoh.messages import Obstacle
 from iw_zenoh.runtime import Flag, add_option_flags, option, options_from_argv
@@ -34,13 +34,15 @@ class WorldOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
         mode: ``realtime`` or ``lockstep``.
         profile: Motion and collision rules, ``native`` or ``ciberrato``.
         seed: Seeds movement noise.
-        action_timeout_ms: Actions older than this zero a robot's motors.
+        action_timeout_ms: Actions older than this zero a robot's motors (when silence stops it).
         grace_ms: A robot is removed this long after its agent is gone.
         lockstep_timeout_ms: Lock-step waits this long for a tick's actions.
         expect: Robots to wait for before the first tick.
         duration_s: Stop after this many simulated seconds (0: run until stopped).
         start_paused: Do not tick until a ``start`` control arrives.
         motors_noise_pct: Ciber-Rato MotorsNoise, percent (legacy profile).
+        silence: What a robot whose actions stop coming does: ``stop`` (the watchdog) or
+            ``keep`` (its last command for ever); None: the profile's (native stop, ciberrato keep).
         obstacles: Rectangular obstacles placed before the first tick.
         resume: Go on from this last committed state (``iwz run`` restarting a world that died;
             its obstacles replace ``obstacles``); None: a new run.
@@ -59,6 +61,7 @@ class WorldOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     duration_s: float = 0.0
     start_paused: bool = _CORE.start_paused
     motors_noise_pct: float = _CORE.motors_noise_pct
+    silence: Silence | None = _CORE.silence
     obstacles: tuple[Obstacle, ...] = ()
     resume: WorldSnapshot | None = None
 
@@ -107,7 +110,15 @@ _FLAGS: tuple[Flag, ...] = (
         "--action-timeout-ms",
         "action_timeout_ms",
         {"type": float, "metavar": "MS"},
-        "zero a robot's motors when its actions are older (default {default:g})",
+        "zero a robot's motors when its actions are older, if silence stops it (default {default:g})",
+    ),
+    (
+        "--silence",
+        "silence",
+        {"choices": [s.value for s in Silence]},
+        "what a robot whose actions stop coming does: stop (its motors zeroed after --action-timeout-ms) "
+        "or keep (its last command for ever, as the legacy simulator); default: the profile's, "
+        "native stop, ciberrato keep",
     ),
     (
         "--grace-ms",

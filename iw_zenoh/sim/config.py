@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from iw_zenoh.core.modes import Mode, Profile
+from iw_zenoh.core.modes import Mode, Profile, Silence
 
 __all__ = ["MS", "WorldConfig"]
 
@@ -22,7 +22,8 @@ class WorldConfig:
         mode: ``realtime`` or ``lockstep``.
         profile: ``native`` or ``ciberrato``.
         seed: Seeds movement noise.
-        action_timeout_ms: Actions older than this (wall clock) zero the motors.
+        action_timeout_ms: Actions older than this (wall clock) zero the motors, when silence
+            stops a robot.
         grace_ms: A robot whose agent is gone is removed after this.
         lockstep_timeout_ms: Lock-step waits this long for a tick's actions before going on.
         verdict_timeout_ms: Longest wait for a collision verdict (lock-step); real time waits
@@ -31,6 +32,8 @@ class WorldConfig:
         duration_ticks: Stop after this many ticks (0: run until stopped).
         start_paused: Do not tick until a ``start`` control arrives.
         motors_noise_pct: Ciber-Rato MotorsNoise (legacy profile).
+        silence: What a robot whose actions stop coming does (None: its profile's rule,
+            :meth:`Silence.of`).
     """
 
     sim: str = "default"
@@ -46,6 +49,12 @@ class WorldConfig:
     duration_ticks: int = 0
     start_paused: bool = False
     motors_noise_pct: float = 0.0
+    silence: Silence | None = None
+
+    @property
+    def silent_robots(self) -> Silence:
+        """What a silent robot does: as set, or its profile's rule."""
+        return self.silence if self.silence is not None else Silence.of(self.profile)
 
     @property
     def period_ns(self) -> int:

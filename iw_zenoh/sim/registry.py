@@ -231,14 +231,14 @@ class Registry:
         return arranged, Bodies.from_specs(self.specs())
 
     def commands(
-        self, ids: list[int], *, now_ns: int, timeout_ns: int, answered_tick: int | None
+        self, ids: list[int], *, now_ns: int, timeout_ns: int | None, answered_tick: int | None
     ) -> tuple[np.ndarray, np.ndarray, list[int]]:
         """What to apply this tick, firing the watchdog of robots whose actions are stale.
 
         Args:
             ids: Robot ids in array order.
             now_ns: Monotonic time now.
-            timeout_ns: Actions older than this are stale.
+            timeout_ns: Actions older than this are stale (None: never; the last command holds).
             answered_tick: Lock-step: a robot that answered this sensors tick is on time however
                 long ago that was (None in real time).
 
@@ -256,7 +256,7 @@ class Registry:
             # others took (a wall-clock watchdog there zeroed a door that had answered while a
             # chair planned, differently each run)
             answered = answered_tick is not None and e.last_action_tick >= answered_tick
-            stale = now_ns - e.last_action_ns > timeout_ns and not answered
+            stale = timeout_ns is not None and now_ns - e.last_action_ns > timeout_ns and not answered
             if stale and not e.watchdog and e.lost_ns is None and e.spec.type != RobotType.REAL:
                 e.watchdog = True
                 fired.append(rid)

@@ -4,7 +4,8 @@ Each tick: apply the latest actions (those that arrived during the previous tick
 poses, wait for the collision verdict, commit, publish the state. Real time (default) ticks every
 period whoever is late; lock-step waits for every live agent's actions (or a timeout naming the
 laggards) and runs as fast as they answer. A robot whose actions are stale has its motors
-zeroed; one whose agent is gone is zeroed at once and removed after a grace period; while no
+zeroed (in the ciberrato profile, or with ``silence`` keep, it keeps its last command, as the
+legacy simulator's motors do); one whose agent is gone is zeroed at once and removed after a grace period; while no
 collision process answers, every robot is held still.
 """
 
@@ -19,7 +20,7 @@ from iw_zenoh.convert import grid_to_msg, lab_to_msg, spec_from_msg, spec_to_msg
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.collision import Collisions
 from iw_zenoh.core.lab import Grid, Lab, Scene
-from iw_zenoh.core.modes import Mode, Profile
+from iw_zenoh.core.modes import Mode, Profile, Silence
 from iw_zenoh.core.spec import RobotType
 from iw_zenoh.core.world import Proposal, commit, initial_state, propose
 from iw_zenoh.errors import SpecError
@@ -270,6 +271,14 @@ class WorldCore:
             return False
         return self.running or self.steps_left > 0
 
+    @property
+    def starts_on_the_cycle(self) -> bool:
+        """Whether a paused world that may step (start, step, its roster complete) waits for its
+        next cycle rather than stepping at once: in the ciberrato profile, as the legacy
+        simulator starts at its next timer tick, so an action sent just before Start is applied
+        at tick 1 and never overtaken by it."""
+        return Profile(self.cfg.profile) == Profile.CIBERRATO
+
     def expected(self, tick: int) -> list[int]:
         """Robots whose actions for sensors tick ``tick`` lock-step still waits for."""
         return self.presence.expected(tick)
@@ -296,7 +305,7 @@ class WorldCore:
         cmd, report, fired = self.registry.commands(
             ids,
             now_ns=now_ns,
-            timeout_ns=int(self.cfg.action_timeout_ms * MS),
+            timeout_ns=int(self.cfg.action_timeout_ms * MS) if self.cfg.silent_robots == Silence.STOP else None,
             answered_tick=self.tick if self.cfg.mode == Mode.LOCKSTEP else None,
         )
         silent = f"no actions for {self.cfg.action_timeout_ms:g} ms, motors zeroed"

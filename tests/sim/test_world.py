@@ -83,6 +83,26 @@ def test_actions_move_the_chair_at_the_next_tick_and_stale_ones_trip_the_watchdo
     assert core.state.cmd.tolist() == [[0.0, 0.0]]
 
 
+@pytest.mark.parametrize(
+    ("kw", "kept"),
+    [
+        ({"profile": "ciberrato"}, True),  # the legacy rule: a silent robot's motors keep its last power
+        ({"profile": "ciberrato", "silence": "stop"}, False),
+        ({"profile": "native", "silence": "keep"}, True),  # any profile may opt in
+        ({"profile": "native"}, False),
+    ],
+)
+def test_a_silent_robot_keeps_its_last_command_where_silence_keeps_it(kw: dict[str, str], kept: bool) -> None:
+    core = _core(action_timeout_ms=500.0, **kw)
+    core.collision_alive.add("c")
+    core.register(RegisterRequest(spec=RobotSpecMsg(name="a")), 0)
+    core.on_actions(Actions(robot_id=1, left=0.1, right=0.1), 0)
+    _tick(core, 50 * MS)
+    out = core.begin_tick(60_000 * MS)  # a minute of silence
+    assert ("watchdog" in _kinds(out)) is not kept
+    assert core.state.cmd.tolist() == ([[0.1, 0.1]] if kept else [[0.0, 0.0]])
+
+
 def test_a_pause_is_not_silence_resume_never_trips_the_watchdog() -> None:
     core = _core(action_timeout_ms=500.0)
     core.collision_alive.add("c")
