@@ -126,6 +126,7 @@ class Bridge:
         self.referee = Referee(self.params, scoring, self._world_info)
         self.delivery = Delivery(pace=pace)
         self.gate = Gate(self._tell)  # the flood limits; refusals told once per address a second
+        self._controls: list[Control] = []  # viewers' commands of a pass, sent after its actions
         self._swept = 0.0
         self._info_asked = -INFO_ASK_S
         self.io.alive()
@@ -256,9 +257,9 @@ class Bridge:
         elif cmd.kind == "gridreq" and info is not None:
             v.transport.sendto(grid_to_xml(grid_from_msg(info.grid), legacy=True) + b"\x00", peer)
         elif cmd.kind in ("start", "stop") and self.referee.finished_at is None:  # Finished is terminal
-            self.io.send(keys.control(self.sim), Control(command="start" if cmd.kind == "start" else "pause"))
+            self._controls.append(Control(command="start" if cmd.kind == "start" else "pause"))
         elif cmd.kind == "remove":
-            self.io.send(keys.control(self.sim), Control(command="remove", robot_id=cmd.robot_id))
+            self._controls.append(Control(command="remove", robot_id=cmd.robot_id))
 
     # --- Zenoh side ----------------------------------------------------------------------
 
@@ -418,6 +419,9 @@ class Bridge:
             if client is None or self.clients.get(client.addr) is client:  # not let go in this pass
                 self._drain(transport, client)
         self.outbox.flush()
+        for control in self._controls:  # after the pass's actions: a Start never overtakes them
+            self.io.send(keys.control(self.sim), control)
+        self._controls.clear()
         for peer, pending, reply in self.registrar.answered(time.monotonic()):
             try:
                 self._registered(peer, pending, reply)
