@@ -216,7 +216,9 @@ class _World:
                 continue
             start = self.clock.now_ns()
             io.send_all(core.begin_tick(start, self.clock.wall_ns()))
-            verdict_wait = int(cfg.verdict_timeout_ms * MS) if lockstep else period // 2
+            # lock-step: as long as it waits for actions (a slow machine must change how long a
+            # run takes, never what happens in it: a held tick would)
+            verdict_wait = int(max(cfg.verdict_timeout_ms, cfg.lockstep_timeout_ms) * MS) if lockstep else period // 2
             verdict = self.take_verdict(start + verdict_wait)
             t_verdict = self.clock.now_ns()
             io.send_all(core.finish_tick(verdict))

@@ -26,8 +26,8 @@ class WorldConfig:
             stops a robot.
         grace_ms: A robot whose agent is gone is removed after this.
         lockstep_timeout_ms: Lock-step waits this long for a tick's actions before going on.
-        verdict_timeout_ms: Longest wait for a collision verdict (lock-step); real time waits
-            at most half a period.
+        verdict_timeout_ms: Longest wait for a collision verdict (lock-step, which waits as long
+            as ``lockstep_timeout_ms`` when that is longer); real time waits at most half a period.
         expect: Robots to wait for before the first tick (a scenario's roster).
         duration_ticks: Stop after this many ticks (0: run until stopped).
         start_paused: Do not tick until a ``start`` control arrives.

@@ -65,7 +65,8 @@ def test_a_scripted_legacy_robot_senses_exactly_what_the_legacy_simulator_gave(
     net: Net, clients: list[LegacyClient]
 ) -> None:
     real = json.loads(REAL.read_text())["rows"]
-    port = ciberrato_world(net, PARAMS, world=("--lockstep", "--paused"))
+    # lock-step, as long as it takes: a loaded machine slows the run, never changes it
+    port = ciberrato_world(net, PARAMS, world=("--lockstep", "--lockstep-timeout-ms", "60000", "--paused"))
     robot, viewer = LegacyClient(port), LegacyClient(port)
     clients += [robot, viewer]
     assert b'Status="Ok"' in robot.register(ROBOT)
