@@ -41,10 +41,16 @@ def run(bus: Bus, sim: str, *, name: str = "collision", io: NodeIO | None = None
     """Answers every proposal with a verdict until stopped."""
     io = io or NodeIO(bus, sim, "collision", name)
     inbox = io.inbox(keys.proposed(sim))
-    window = ViewWindow(InfoCache(bus, sim).get)
+    infos = io.inbox(keys.info(sim))  # published at every revision: the view is ready before it is asked for
+    cache = InfoCache(bus, sim)
+    window = ViewWindow(cache.get)
     node = CollisionNode()
     io.alive()
     while not io.stop.is_set():
+        for _, data, _ in infos.drain()[-1:]:
+            view = cache.take(data)
+            if view is not None:
+                node.warm(view)
         pending = inbox.drain()
         if not pending:
             io.wait(0.2)

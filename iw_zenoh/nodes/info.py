@@ -1,6 +1,6 @@
 """The world's description as other nodes see it (a :class:`~iw_zenoh.sim.view.WorldView`):
 fetched from ``world/info`` whenever a batched message names a revision this node has not seen
-(a robot registered or left, an obstacle moved)."""
+(a robot registered or left, an obstacle moved), or taken as the world publishes it."""
 
 from __future__ import annotations
 
@@ -41,17 +41,37 @@ class InfoCache:
         if self.view is not None and self.view.info.revision >= revision:
             return self.view
         for data in self.bus.query(keys.info(self.sim), timeout_s=self.timeout_s):
-            try:
-                info = decode(data, WorldInfo)
-                lab = lab_from_msg(info.lab)
-                key = (info.lab.name, len(lab.walls), tuple(w.corners for w in lab.walls))
-                specs = {s.id: spec_from_msg(s) for s in info.robots}
-                if self._scene is None or key != self._scene_key:
-                    self._scene = Scene(lab)
-                    self._scene_key = key
-            except (IwError, ValueError) as e:  # not the world's: a robot or a wall it cannot have
-                logger.warning("world/info answer refused: %s", e)
-                continue
-            self.view = WorldView(info, self._scene, specs)
-            return self.view if info.revision >= revision else None
+            view = self._build(data, "answer")
+            if view is not None:
+                self.view = view
+                return view if view.info.revision >= revision else None
         return None
+
+    def take(self, data: bytes) -> WorldView | None:
+        """Takes the world's description as it published it (at every revision): the new view,
+        ready before a message of that revision asks for it; None when it is not newer (or
+        refused).
+
+        Args:
+            data: A published ``WorldInfo``.
+        """
+        view = self._build(data, "publication")
+        if view is None or (self.view is not None and view.info.revision <= self.view.info.revision):
+            return None
+        self.view = view
+        return view
+
+    def _build(self, data: bytes, what: str) -> WorldView | None:
+        """A view from an encoded ``WorldInfo`` (the scene kept while the lab is the same)."""
+        try:
+            info = decode(data, WorldInfo)
+            lab = lab_from_msg(info.lab)
+            key = (info.lab.name, len(lab.walls), tuple(w.corners for w in lab.walls))
+            specs = {s.id: spec_from_msg(s) for s in info.robots}
+            if self._scene is None or key != self._scene_key:
+                self._scene = Scene(lab)
+                self._scene_key = key
+        except (IwError, ValueError) as e:  # not the world's: a robot or a wall it cannot have
+            logger.warning("world/info %s refused: %s", what, e)
+            return None
+        return WorldView(info, self._scene, specs)

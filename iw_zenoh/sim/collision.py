@@ -18,6 +18,31 @@ __all__ = ["CollisionNode"]
 class CollisionNode:
     """Turns a proposal into a verdict (logic only)."""
 
+    def warm(self, view: WorldView) -> None:
+        """Checks the view's robots once and forgets the verdict, so that what a check builds on
+        first use (the lab's segments and their R-tree, the robots' bodies: several milliseconds)
+        is built before the revision's first proposal waits on it: a verdict later than the
+        world waits makes it hold every robot still, which changes a run."""
+        ids = [r.id for r in view.info.robots if r.id in view.specs]
+        if not ids:
+            return
+        n = len(ids)
+        x, y = [view.info.lab.width / 2] * n, [view.info.lab.height / 2] * n
+        heading = [0.0] * n
+        probe = Proposed(
+            revision=view.info.revision,
+            ids=ids,
+            x=x,
+            y=y,
+            heading=heading,
+            next_x=x,
+            next_y=y,
+            next_heading=heading,
+            linear=[0.0] * n,
+            active=[True] * n,
+        )
+        self.on_proposed(probe, view)
+
     def on_proposed(self, msg: Proposed, view: WorldView) -> Verdict:
         """The verdict on one proposal."""
         ids = msg.ids

@@ -1,0 +1,78 @@
+"""The world's description as other nodes keep it: asked for, or taken as the world publishes it."""
+
+from __future__ import annotations
+
+import msgspec
+import pytest
+
+from iw_zenoh.convert import lab_to_msg
+from iw_zenoh.core.lab import Lab
+from iw_zenoh.core.modes import Profile
+from iw_zenoh.messages import RobotSpecMsg, WorldInfo, encode
+from iw_zenoh.nodes.info import InfoCache
+from iw_zenoh.sim.collision import CollisionNode
+from tests.bridges.fakes import FakeBus
+from tests.conftest import box_wall
+
+LAB = Lab("t", 10.0, 6.0, (box_wall(4.0, 0.0, 4.2, 3.0),))
+
+
+def _info(revision: int, robots: int = 0) -> WorldInfo:
+    specs = [RobotSpecMsg(name=f"r{i}", id=i, x=1.0 + i, y=4.0, legacy=True) for i in range(1, robots + 1)]
+    return WorldInfo(revision=revision, lab=lab_to_msg(LAB), period_ns=50_000_000, robots=specs)
+
+
+class _CountingBus(FakeBus):
+    def __init__(self) -> None:
+        super().__init__()
+        self.queries = 0
+
+    def query(self, key: str, payload: bytes = b"", timeout_s: float = 2.0) -> list[bytes]:
+        self.queries += 1
+        return super().query(key, payload, timeout_s)
+
+
+def test_a_published_description_is_the_view_without_asking_the_world() -> None:
+    bus = _CountingBus()
+    cache = InfoCache(bus, "s")
+    view = cache.take(encode(_info(3, robots=1)))
+    assert view is not None
+    assert list(view.specs) == [1]
+    assert cache.get(3) is view
+    assert bus.queries == 0
+
+
+def test_an_older_or_refused_publication_is_not_taken() -> None:
+    cache = InfoCache(FakeBus(), "s")
+    assert cache.take(encode(_info(3))) is not None
+    assert cache.take(encode(_info(2, robots=1))) is None
+    assert cache.take(b"{not json") is None
+    assert cache.view is not None
+    assert cache.view.info.revision == 3
+
+
+def test_a_newer_revision_than_taken_is_asked_for() -> None:
+    bus = _CountingBus()
+    bus.info.append(encode(_info(5, robots=2)))
+    cache = InfoCache(bus, "s")
+    cache.take(encode(_info(4)))
+    view = cache.get(5)
+    assert view is not None
+    assert view.info.revision == 5
+    assert bus.queries == 1
+
+
+@pytest.mark.parametrize("profile", list(Profile))
+def test_warming_builds_what_the_first_check_of_a_revision_needs(profile: Profile) -> None:
+    view = InfoCache(FakeBus(), "s").take(encode(msgspec.structs.replace(_info(1, robots=2), profile=profile)))
+    assert view is not None
+    CollisionNode().warm(view)
+    assert "segments" in view.scene.__dict__  # the lab's geometry, built on first use (cached_property)
+    assert (1, 2) in view._bodies  # the roster's bodies, in the world's order
+
+
+def test_warming_an_empty_world_checks_nothing() -> None:
+    view = InfoCache(FakeBus(), "s").take(encode(_info(1)))
+    assert view is not None
+    CollisionNode().warm(view)
+    assert view._bodies == {}
