@@ -216,10 +216,7 @@ class _World:
                 continue
             start = self.clock.now_ns()
             io.send_all(core.begin_tick(start, self.clock.wall_ns()))
-            # lock-step: as long as it waits for actions (a slow machine must change how long a
-            # run takes, never what happens in it: a held tick would)
-            verdict_wait = int(max(cfg.verdict_timeout_ms, cfg.lockstep_timeout_ms) * MS) if lockstep else period // 2
-            verdict = self.take_verdict(start + verdict_wait)
+            verdict = self.take_verdict(start + cfg.verdict_wait_ns)
             t_verdict = self.clock.now_ns()
             io.send_all(core.finish_tick(verdict))
             t_state = self.clock.now_ns()

@@ -26,8 +26,8 @@ class WorldConfig:
             stops a robot.
         grace_ms: A robot whose agent is gone is removed after this.
         lockstep_timeout_ms: Lock-step waits this long for a tick's actions before going on.
-        verdict_timeout_ms: Longest wait for a collision verdict (lock-step, which waits as long
-            as ``lockstep_timeout_ms`` when that is longer); real time waits at most half a period.
+        verdict_timeout_ms: Longest wait for a collision verdict in lock-step (see
+            :attr:`verdict_wait_ns`).
         expect: Robots to wait for before the first tick (a scenario's roster).
         duration_ticks: Stop after this many ticks (0: run until stopped).
         start_paused: Do not tick until a ``start`` control arrives.
@@ -55,6 +55,19 @@ class WorldConfig:
     def silent_robots(self) -> Silence:
         """What a silent robot does: as set, or its profile's rule."""
         return self.silence if self.silence is not None else Silence.of(self.profile)
+
+    @property
+    def verdict_wait_ns(self) -> int:
+        """How long a tick waits for its collision verdict before it holds every robot still (a
+        held tick changes a run): lock-step as long as it waits for actions (``verdict_timeout_ms``
+        at least), so a slow machine changes how long a run takes, never what happens in it; real
+        time half a period, or in the ciberrato profile as much of the cycle as it leaves, nine
+        tenths (the legacy simulator never holds a robot)."""
+        if self.mode == Mode.LOCKSTEP:
+            return int(max(self.verdict_timeout_ms, self.lockstep_timeout_ms) * MS)
+        if self.profile == Profile.CIBERRATO:
+            return self.period_ns * 9 // 10
+        return self.period_ns // 2
 
     @property
     def period_ns(self) -> int:
