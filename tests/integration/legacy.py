@@ -8,7 +8,8 @@ from pathlib import Path
 
 from lxml import etree
 
-from tests.integration.harness import MAPS, Net
+from iw_zenoh import keys
+from tests.integration.harness import MAPS, Net, wait_alive
 
 __all__ = ["LegacyClient", "ciberrato_world", "measures_of", "udp_port"]
 
@@ -70,7 +71,8 @@ def ciberrato_world(
     world: tuple[str, ...] = (),
 ) -> int:
     """A ciberrato-profile world (C1's lab and grid unless given as XML text; ``world``: more of
-    its flags) with collision, sensors and the bridge on a free UDP port (returned)."""
+    its flags) with collision, sensors and the bridge on a free UDP port (returned), each of them
+    alive (a world that steps before its collision process is there holds its robots still)."""
     lab_path, grid_path = MAPS / "ciberrato" / "C1-lab.xml", MAPS / "ciberrato" / "C1-grid.xml"
     if lab is not None:
         lab_path = net.tmp / "lab.xml"
@@ -85,4 +87,7 @@ def ciberrato_world(
     if radio:
         net.spawn("radio")
     net.spawn("bridge", "ciberrato", "--port", str(port), *(["--param", str(params)] if params else []), *bridge)
+    bus = net.client()
+    for role, name in (("collision", "collision"), ("sensors", "sensors-1-1"), ("bridge", "ciberrato")):
+        wait_alive(bus, keys.alive(net.sim, role, name))
     return port
