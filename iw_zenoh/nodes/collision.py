@@ -47,12 +47,12 @@ def run(bus: Bus, sim: str, *, name: str = "collision", io: NodeIO | None = None
     node = CollisionNode()
     io.alive()
     while not io.stop.is_set():
-        for _, data, _ in infos.drain()[-1:]:
-            view = cache.take(data)
-            if view is not None:
-                node.warm(view)
+        fresh = [cache.take(data) for _, data, _ in infos.drain()[-1:]]
         pending = inbox.drain()
         if not pending:
+            for view in fresh:  # idle: the new roster checked once (a proposal waiting checks it anyway)
+                if view is not None:
+                    node.warm(view)
             io.wait(0.2)
             continue
         # only the newest proposal matters (an older one's tick is already decided), but every

@@ -19,15 +19,17 @@ class CollisionNode:
     """Turns a proposal into a verdict (logic only)."""
 
     def warm(self, view: WorldView) -> None:
-        """Checks the view's robots once and forgets the verdict, so that what a check builds on
-        first use (the lab's segments and their R-tree, the robots' bodies: several milliseconds)
-        is built before the revision's first proposal waits on it: a verdict later than the
-        world waits makes it hold every robot still, which changes a run."""
-        ids = [r.id for r in view.info.robots if r.id in view.specs]
-        if not ids:
+        """Checks the view's robots once, where they were placed, and forgets the verdict, so
+        that what a check builds on first use (the lab's segments and their R-tree, the robots'
+        bodies: several milliseconds) is built before the revision's first proposal waits on it:
+        a verdict later than the world waits makes it hold every robot still, which changes a run."""
+        robots = [r for r in view.info.robots if r.id in view.specs]
+        if not robots:
             return
-        n = len(ids)
-        x, y = [view.info.lab.width / 2] * n, [view.info.lab.height / 2] * n
+        n = len(robots)
+        ids = [r.id for r in robots]
+        x = [view.info.lab.width / 2 if r.x is None else r.x for r in robots]
+        y = [view.info.lab.height / 2 if r.y is None else r.y for r in robots]
         heading = [0.0] * n
         probe = Proposed(
             revision=view.info.revision,
