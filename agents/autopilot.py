@@ -17,7 +17,9 @@ the sonars find, replan when the plan is blocked.
   its map where it is not already (the follower strays from what the planner checked: a
   corrective turn on the spot swings the front 0.84 m out); the chair stops and plans again.
 * Tight spots: the plan may back up (straight, dearly), and a chair that stands inside its own
-  margin plans from there with its bare outline.
+  margin plans from there with its bare outline; one that the lattice has touching although its
+  real outline is clear (a few degrees off a plan in a tight gap) plans from the nearest lattice
+  pose a short turn or move reaches (:mod:`iw_zenoh.agents.outline`).
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from iw_zenoh.core.sonarmap import Cone, SonarMap
 from iw_zenoh.core.spec import RobotSpec
 
 from .mapping_chair import MAPPING_SENSORS, cones_of, mapping_chair
+from .outline import arc_poses, sweeps_onto, ways_out
 
 __all__ = ["MAPPING_SENSORS", "Autopilot", "Drive", "cones_of", "mapping_chair"]
 
@@ -159,9 +162,11 @@ class Autopilot:
             self.goal is not None and math.hypot(self.goal[0] - pose[0], self.goal[1] - pose[1]) <= self.reach_m + 0.1
         )
 
-    def _plan(self, pose: tuple[float, float, float]) -> None:
+    def _attempts(
+        self, pose: tuple[float, float, float]
+    ) -> list[tuple[Footprint, tuple[float, float, float, float] | None, npt.NDArray[np.bool_]]]:
+        """The searches :meth:`_plan` tries in turn: (footprint, window or None, marks)."""
         assert self.goal is not None
-        start = (pose[0], pose[1], math.radians(pose[2]))
         (x0, x1), (y0, y1) = sorted((pose[0], self.goal[0])), sorted((pose[1], self.goal[1]))
         box = (x0 - WINDOW_M, y0 - WINDOW_M, x1 + WINDOW_M, y1 + WINDOW_M)
         whole = box[0] <= 0 and box[1] <= 0 and box[2] >= self.known.width_m and box[3] >= self.known.height_m
@@ -172,33 +177,61 @@ class Autopilot:
             seen.append(self.sonar.confirmed)
         # the chair's margin first: in the window, then the whole lab; when the chair itself is
         # inside its margin (squeezed between two things, or pushed there by the follower), once
-        # more in the window without it: the bare outline still never touches what is mapped,
-        # and the next plan from a roomier pose has its margin again. At most four searches, so
-        # a plan stays within seconds even when there is no way.
+        # more in the window without it (the last one): the bare outline still never touches
+        # what is mapped, and the next plan from a roomier pose has its margin again. At most
+        # four searches, so a plan stays within seconds even when there is no way.
         attempts: list[tuple[Footprint, tuple[float, float, float, float] | None, npt.NDArray[np.bool_]]]
         attempts = [(self.fp, box, occ) for occ in seen]
         if not whole:
             attempts.append((self.fp, None, seen[0]))
+        return [*attempts, (self._bare, box, seen[0])]
+
+    def _plan(self, pose: tuple[float, float, float]) -> None:
+        assert self.goal is not None
+        start = (pose[0], pose[1], math.radians(pose[2]))
+        attempts = self._attempts(pose)
         fits = squeezed = False
-        for i, (fp, window, occ_seen) in enumerate([*attempts, (self._bare, box, seen[0])]):
-            if i == len(attempts) and fits:
+        for i, (fp, window, occ_seen) in enumerate(attempts):
+            last = i == len(attempts) - 1
+            if last and fits:
                 break  # the margin was not what stood in the way
             if fp is self.fp and squeezed:
                 continue  # the same cells round the chair in every window: no need to look again
             space = PoseSpace(self._occ | occ_seen, CELL_M, fp, window=window)
-            if not space.free(*start):
-                squeezed = squeezed or (fp is self.fp and occ_seen is seen[0])
+            if space.free(*start):
+                fits = fits or fp is self.fp
+                found = pose_plan(space, start, self.goal, reach_m=self.reach_m, max_expand=PLAN_EXPAND)
+                poses = None if found is None else found.poses
+            elif last:
+                poses = self._plan_out(space, start)  # the lattice has even the bare outline touching
+            else:
+                squeezed = squeezed or (fp is self.fp and occ_seen is self.sonar.occupied)
                 continue
-            fits = fits or fp is self.fp
-            found = pose_plan(space, start, self.goal, reach_m=self.reach_m, max_expand=PLAN_EXPAND)
-            if found is not None:
-                self._space, self.path, self.index = space, found.poses, 0
-                self._unwrapped = np.unwrap(found.poses[:, 2])
-                self._back = _backing(found.poses)
+            if poses is not None:
+                self._space, self.path, self.index = space, poses, 0
+                self._unwrapped = np.unwrap(poses[:, 2])
+                self._back = _backing(poses)
                 self.status = "driving"
                 return
         self._space, self.path = None, None
         self.status = "no path"
+
+    def _plan_out(self, space: PoseSpace, start: tuple[float, float, float]) -> FloatArray | None:
+        """A plan for a chair that stands where the lattice (heading steps of 7.5 degrees, 5 cm
+        cells) has even its bare outline touching, though its real outline may touch nothing: a
+        chair that follows a plan a few degrees off in a tight gap gets there, and planning from
+        there would fail for good. Plans from the nearest lattice pose that fits and that a short
+        turn or move (:func:`ways_out`) reaches without bringing the real outline onto the map;
+        the path starts with that move. None when there is no such pose or no plan from it.
+        """
+        assert self.goal is not None
+        for move in ways_out(start):
+            end = (float(move[-1, 0]), float(move[-1, 1]), float(move[-1, 2]))
+            if not space.free(*end) or sweeps_onto((self._occ, self.sonar.occupied), CELL_M, self._bare_points, move):
+                continue
+            found = pose_plan(space, end, self.goal, reach_m=self.reach_m, max_expand=PLAN_EXPAND)
+            return None if found is None else np.vstack([move[:-1], found.poses])
+        return None
 
     def step(
         self, pose: tuple[float, float, float], ids: list[int], dists: list[float | None], *, collided: bool = False
@@ -320,27 +353,10 @@ class Autopilot:
         cell of its map (known walls or marks) that it does not already overlap."""
         if drive.left_mps == 0.0 and drive.right_mps == 0.0:
             return False
-        x, y, th = pose[0], pose[1], math.radians(pose[2])
         v = 0.5 * (drive.left_mps + drive.right_mps)
         w = (drive.right_mps - drive.left_mps) / self.spec.height_m
-        ts = np.linspace(0.0, GUARD_S, 4)
-        if abs(w) < 1e-9:
-            xs, ys, hs = x + v * ts * math.cos(th), y + v * ts * math.sin(th), np.full(len(ts), th)
-        else:
-            hs = th + w * ts
-            xs = x + v / w * (np.sin(hs) - math.sin(th))
-            ys = y - v / w * (np.cos(hs) - math.cos(th))
-        pts = self._bare_points
-        c, s = np.cos(hs)[:, None], np.sin(hs)[:, None]
-        wx = xs[:, None] + c * pts[None, :, 0] - s * pts[None, :, 1]
-        wy = ys[:, None] + s * pts[None, :, 0] + c * pts[None, :, 1]
-        rows, cols = self._occ.shape
-        rr = np.clip((wy / CELL_M).astype(np.int64), 0, rows - 1)
-        cc = np.clip((wx / CELL_M).astype(np.int64), 0, cols - 1)
-        hit = self._occ[rr, cc] | self.sonar.occupied[rr, cc]  # only the cells under the outline, not the grid
-        now = set(zip(rr[0][hit[0]].tolist(), cc[0][hit[0]].tolist(), strict=True))
-        later = set(zip(rr[1:][hit[1:]].tolist(), cc[1:][hit[1:]].tolist(), strict=True))
-        return bool(later - now)
+        poses = arc_poses((pose[0], pose[1], math.radians(pose[2])), v, w, GUARD_S, 4)
+        return sweeps_onto((self._occ, self.sonar.occupied), CELL_M, self._bare_points, poses)
 
     def _follow(self, pose: tuple[float, float, float]) -> Drive:
         assert self.path is not None
