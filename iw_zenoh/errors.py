@@ -9,6 +9,7 @@ Every error the project raises on purpose is one of these::
      +-- ProtocolError      bytes from the outside that are refused
      |    +-- DecodeError   a wire message that does not decode
      +-- RecordingError     a recording that cannot be read (names the file and the reason)
+     +-- LogError           a chair's CSV log that is refused (names the file, line and the fix)
 
 Each carries enough to say *what*, *where* and *how to fix*: the field, file, line or key
 involved, and the reason.
@@ -16,7 +17,16 @@ involved, and the reason.
 
 from __future__ import annotations
 
-__all__ = ["ConfigError", "DecodeError", "IwError", "MapError", "ProtocolError", "RecordingError", "SpecError"]
+__all__ = [
+    "ConfigError",
+    "DecodeError",
+    "IwError",
+    "LogError",
+    "MapError",
+    "ProtocolError",
+    "RecordingError",
+    "SpecError",
+]
 
 
 class IwError(Exception):
@@ -83,3 +93,20 @@ class RecordingError(IwError):
         self.source = source
         self.reason = reason
         super().__init__(f"{source}: {reason}")
+
+
+class LogError(IwError):
+    """A chair's CSV log (``iwz calibrate``'s input) is refused.
+
+    Args:
+        source: The file name.
+        line: The 1-based line at fault, or ``None`` for the file as a whole.
+        reason: What is wrong there and how to fix it.
+    """
+
+    def __init__(self, source: str, line: int | None, reason: str) -> None:
+        self.source = source
+        self.line = line
+        self.reason = reason
+        where = f"{source} line {line}" if line is not None else source
+        super().__init__(f"{where}: {reason}")
