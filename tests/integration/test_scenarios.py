@@ -252,12 +252,6 @@ def test_hospital_five_chairs_do_their_tasks_through_two_negotiated_doors(tmp_pa
     assert "PASS door 2 opened" in r.stdout
 
 
-@pytest.mark.xfail(
-    strict=False,
-    reason="issue 18 is open: in real time the autopilot can stop for good in front of obstacle A "
-    "(slalom-serial, 2026-11-24: at (15.79, 5.77) from tick 350, commanding zero for 180 s on an idle "
-    "machine) although the link and the bridge work; the serial link's own tests are in test_serial_bridge.py",
-)
 @pytest.mark.parametrize(
     ("scenario", "goal"), [("slalom-serial.toml", "(20, 6.1)"), ("find-the-box-serial.toml", "(10.5, 3)")]
 )
