@@ -107,6 +107,9 @@ def find_program(text: str) -> Program:
     """
     if is_file_program(text):
         return _file_program(text)
+    module = _shipped(text)
+    if module is not None:
+        return Program(text, module.__doc__ or "", module.add_arguments, module.make)
     names = available()
     if text not in names:
         close = difflib.get_close_matches(text, names, n=1)
@@ -117,6 +120,20 @@ def find_program(text: str) -> Program:
         )
     module = importlib.import_module(f"iw_zenoh.agents.{text}")
     return Program(text, module.__doc__ or "", module.add_arguments, module.make)
+
+
+def _shipped(text: str) -> ModuleType | None:
+    """The shipped program module ``text`` names, importing only it (not every program, so a
+    process loads what its own program uses), or None when there is none of that name."""
+    if not text.isidentifier() or text.startswith("_"):
+        return None
+    try:
+        module = importlib.import_module(f"iw_zenoh.agents.{text}")
+    except ModuleNotFoundError as e:
+        if e.name != f"iw_zenoh.agents.{text}":
+            raise  # the program exists but something it imports does not: say so, not "no such program"
+        return None
+    return module if hasattr(module, "make") else None
 
 
 def _file_program(text: str) -> Program:

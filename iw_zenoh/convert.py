@@ -8,10 +8,10 @@ is checked here (``RobotSpec`` refuses a value out of range, naming the field).
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import msgspec
 
-from iw_zenoh.core.lab import Beacon, Grid, GridPosition, Lab, Target, Wall
 from iw_zenoh.core.spec import (
     BodyShape,
     BumperSpec,
@@ -34,6 +34,9 @@ from iw_zenoh.messages import (
     SensorNoiseMsg,
     WallMsg,
 )
+
+if TYPE_CHECKING:  # the lab's geometry (numpy, shapely) is imported by what converts a lab, not by every spec reader
+    from iw_zenoh.core.lab import Grid, Lab
 
 __all__ = ["grid_from_msg", "grid_to_msg", "lab_from_msg", "lab_to_msg", "spec_from_msg", "spec_to_msg"]
 
@@ -157,6 +160,8 @@ def lab_to_msg(lab: Lab) -> LabMsg:
 
 def lab_from_msg(m: LabMsg) -> Lab:
     """A lab from its wire shape."""
+    from iw_zenoh.core.lab import Beacon, Lab, Target, Wall  # here: an agent that reads specs never loads shapely
+
     return Lab(
         m.name,
         m.width,
@@ -174,4 +179,6 @@ def grid_to_msg(grid: Grid) -> list[tuple[float, float, float]]:
 
 def grid_from_msg(rows: list[tuple[float, float, float]]) -> Grid:
     """A grid from its wire shape."""
+    from iw_zenoh.core.lab import Grid, GridPosition
+
     return Grid(tuple(GridPosition(*r) for r in rows))
