@@ -9,8 +9,10 @@ loop per cone needs none of those arrays. The arithmetic is the vectorized versi
 for operation, so every distance is the same bit for bit
 (:func:`iw_zenoh.core.sensors.proximity_distances` documents what a cone sees).
 
-Compiled once per machine and cached next to this file (numba's ``cache=True``); the first call
-in a fresh checkout takes a few seconds, later processes load the cache.
+Compiled once per machine and cached next to this file (numba's ``cache=True``), or, where the
+package is installed read-only, in numba's per-user cache (``~/.cache/numba``) or the folder
+``NUMBA_CACHE_DIR`` names; the first call in a fresh install takes a few seconds, later processes
+load the cache (``tests/test_kernel_cache.py``, docs/runtime.md "Memory").
 """
 
 from __future__ import annotations
