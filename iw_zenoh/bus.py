@@ -19,6 +19,7 @@ import zenoh
 
 from iw_zenoh.errors import IwError
 from iw_zenoh.net import NetConfig, zenoh_config
+from iw_zenoh.publishers import Publishers
 
 __all__ = ["Asked", "Bus", "Delivery", "Handle", "Inbox", "PendingQuery", "QueryInbox", "Queue", "ZenohBus"]
 
@@ -215,19 +216,20 @@ class ZenohBus:
                 f"cannot join the bus ({self.net.mode} of {where}): {e}. "
                 "Is `iwz router` running there (or use `iwz run`)? Is the port free, for a router?"
             ) from None
-        self._pubs: dict[str, zenoh.Publisher] = {}
-        self._lock = threading.Lock()
+        # per-key publishers, those of keys gone quiet (robots that left) undeclared
+        self._pubs: Publishers[zenoh.Publisher] = Publishers(self._declare_publisher)
         self._handles: list[Handle] = []
 
+    def _declare_publisher(self, key: str) -> zenoh.Publisher:
+        return self.session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK)
+
     def publish(self, key: str, data: bytes) -> None:
-        pub = self._pubs.get(key)
-        if pub is None:
-            with self._lock:
-                pub = self._pubs.get(key)
-                if pub is None:
-                    pub = self.session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK)
-                    self._pubs[key] = pub
-        pub.put(data)
+        try:
+            self._pubs.get(key).put(data)
+        except zenoh.ZError:
+            # swept by another thread between its look-up and this put (a key quiet for a whole
+            # sweep, used again at that instant): declare it again, once
+            self._pubs.get(key).put(data)
 
     def subscribe(self, key_expr: str, inbox: Inbox) -> Handle:
         def on_sample(sample: zenoh.Sample) -> None:

@@ -131,7 +131,11 @@ class SensorsNode:
         return c, int(again.sum()) if len(c.out) else 0
 
     def commit(self, c: Computed) -> None:
-        """Makes ``c`` the newest tick: its encoder counts are the next tick's start."""
+        """Makes ``c`` the newest tick: its encoder counts are the next tick's start (and the keys
+        of robots that left are forgotten: the table holds the roster, not every robot ever)."""
+        if c.ids != self._enc_ids and len(self._keys) > len(c.ids):
+            roster = set(c.ids)
+            self._keys = {rid: key for rid, key in self._keys.items() if rid in roster}
         self._enc_ids, self._enc = c.ids, c.enc
         self.last_tick = c.msg.tick
         if self._z is not None and self._z[0] <= c.msg.tick:

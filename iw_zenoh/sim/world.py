@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+from cachetools import LRUCache
 
 from iw_zenoh import keys
 from iw_zenoh.convert import grid_to_msg, lab_to_msg, spec_from_msg, spec_to_msg
@@ -49,7 +50,12 @@ from iw_zenoh.sim.obstacles import Obstacles
 from iw_zenoh.sim.presence import Presence
 from iw_zenoh.sim.registry import Refused, Registry
 
-__all__ = ["WorldCore"]
+__all__ = ["ANSWERS_KEPT", "WorldCore"]
+
+# registrations whose answer is kept for a request asked again (an agent's retry comes within its
+# timeout, seconds later): far more than can be in flight at once, so the table never grows with
+# the run's length, only up to this
+ANSWERS_KEPT = 4096
 
 
 class WorldCore:
@@ -84,7 +90,7 @@ class WorldCore:
         self._pending: tuple[int, Proposal] | None = None
         self._robot_msgs: tuple[int, list[RobotSpecMsg]] = (-1, [])  # info's robots, by revision
         self._tick_wall_ns = 0
-        self._answered: dict[tuple[str, str], RegisterReply] = {}
+        self._answered: LRUCache[tuple[str, str], RegisterReply] = LRUCache(ANSWERS_KEPT)
         self.collisions = 0
 
     # --- small helpers ---------------------------------------------------------------------

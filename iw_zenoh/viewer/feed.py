@@ -249,12 +249,21 @@ class Feed:
             self.watchdog.discard(rid)
         if ev.kind == EventKind.REGISTERED:
             self.agents[rid] = str(ev.data.get("agent", ""))
-        if rid >= 0:
+        if ev.kind == EventKind.REMOVED:
+            self._forget(rid)
+        elif rid >= 0:
             kept = self.events.setdefault(rid, collections.deque(maxlen=EVENTS_KEPT))
             kept.append({"tick": ev.tick, "t_ns": ev.sim_time_ns, "kind": str(ev.kind), "reason": ev.reason})
         return [
             PageEvent(tick=ev.tick, t_ns=ev.sim_time_ns, kind=str(ev.kind), reason=ev.reason, robot_id=rid, where=where)
         ]
+
+    def _forget(self, rid: int) -> None:
+        """What was kept of a robot goes with it (a viewer runs for hours while robots come and go)."""
+        self.readings.pop(rid, None)
+        self.agents.pop(rid, None)
+        self.events.pop(rid, None)
+        self._sent_prox.pop(rid, None)
 
     # --- what a page asks ----------------------------------------------------------------------
 
