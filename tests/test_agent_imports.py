@@ -74,3 +74,29 @@ def test_an_agent_process_imports_only_its_own_program() -> None:
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120, check=False)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "['iw_zenoh.agents.waypoint']"
+
+
+WORLD_TICK = """
+import json, sys
+from iw_zenoh.nodes import world  # what `iwz world` imports
+from iw_zenoh.core.lab import Grid, GridPosition, Lab
+from iw_zenoh.messages import Proposed, RegisterRequest, RobotSpecMsg, Verdict
+from iw_zenoh.sim.config import WorldConfig
+from iw_zenoh.sim.world import WorldCore
+
+core = WorldCore(WorldConfig(sim="t"), Lab("t", 20.0, 10.0, ()), Grid((GridPosition(2, 5, 0),)))
+reply, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="a")), 0)
+assert reply.ok, reply.reason
+for n in range(3):
+    prop = next(m for _, m in core.begin_tick(n * 100_000_000) if isinstance(m, Proposed))
+    core.finish_tick(Verdict(tick=prop.tick, revision=prop.revision, ids=prop.ids, collided=[False]))
+print(json.dumps(sorted(sys.modules)))
+"""
+
+
+def test_the_world_process_steps_without_the_collision_kernel() -> None:
+    # the world holds the collision role's verdicts; the compiled contact test is the collision role's
+    done = subprocess.run([sys.executable, "-c", WORLD_TICK], capture_output=True, text=True, timeout=120, check=False)
+    assert done.returncode == 0, done.stderr
+    loaded = {m.split(".")[0] for m in json.loads(done.stdout.strip().splitlines()[-1])}
+    assert sorted(loaded.intersection({"numba", "llvmlite", "matplotlib", "mcap", "aiohttp", "foxglove"})) == []

@@ -20,7 +20,6 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 
-from iw_zenoh.core.contact import touching
 from iw_zenoh.core.geometry import to_world, wrap_rad
 from iw_zenoh.core.lab import Scene
 
@@ -120,6 +119,8 @@ def check_collisions(
     c_now = to_world(o, now[:, 0], now[:, 1], now[:, 2])
     c_mid = to_world(o, mid[:, 0], mid[:, 1], mid[:, 2])
     c_next = to_world(o, nxt[:, 0], nxt[:, 1], nxt[:, 2])
+    from iw_zenoh.core.contact import touching  # here: the world holds Collisions, never loads the kernel (numba)
+
     walls, robots = touching(scene, c_now, c_mid, c_next, wall_free)
     wall_pairs = np.stack([idx[walls[:, 0]], walls[:, 1]], axis=1) if len(walls) else empty
     robot_pairs = idx[robots] if len(robots) else empty
