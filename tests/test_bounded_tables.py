@@ -5,6 +5,8 @@ tests on the tables' owners, no processes)."""
 from __future__ import annotations
 
 import pytest
+from iw_zenoh.bridges.ciberrato import clients
+from iw_zenoh.bridges.ciberrato.transport import Viewer
 
 from iw_zenoh.convert import spec_from_msg
 from iw_zenoh.core.lab import Grid, GridPosition, Lab, Scene
@@ -27,6 +29,7 @@ from iw_zenoh.sim.sensors import SensorsNode
 from iw_zenoh.sim.view import WorldView
 from iw_zenoh.sim.world import ANSWERS_KEPT, WorldCore
 from iw_zenoh.viewer.feed import Feed
+from tests.bridges.fakes import FakeTransport
 
 COMERS = 5000  # robots, requests or keys that come and go in a long run
 
@@ -146,3 +149,25 @@ def test_a_robots_recent_events_are_a_bounded_history(kind: EventKind) -> None:
     for _ in range(COMERS):
         feed.on_event(_event(kind, 7))
     assert 0 < len(feed.events[7]) <= 20
+
+
+def test_legacy_viewers_that_come_and_go_leave_no_client_socket_or_muted_entry_behind() -> None:
+    table = clients.ClientTable(FakeTransport())
+    made: list[FakeTransport] = []
+    for n in range(COMERS // 2):
+        now = float(n)  # one new viewer a second, each silent after its reply
+        table.expire(now)
+        if table.full(now):
+            continue
+        t = FakeTransport()
+        made.append(t)
+        table.add(Viewer("viewer", ("127.0.0.1", 10_000 + n), t, since=now))
+        table.mute(t, table.get(("127.0.0.1", 10_000 + n)), until=now + 1_000.0)  # over its budget, then gone
+        assert len(table.by_peer) <= clients.MAX_VIEWERS
+    live = len(table.by_peer)
+    assert 0 < live <= clients.VIEWER_HANDSHAKE_S + 1
+    assert len(table._muted) == live
+    assert len(table.sel.get_map()) == 1  # the reception alone: every viewer's socket is muted or closed
+    assert sum(t.closed for t in made) == len(made) - live  # each viewer let go took its socket with it
+    table.close()
+    assert all(t.closed for t in made)
