@@ -62,6 +62,7 @@ logger = logging.getLogger(__name__)
 BATCH_FROM = 8  # robots in one host from which `iwz agent` reads and answers in batches
 SILENT_S = 2.0  # no readings this long: the host asks the world whether its robots are still there
 UNANSWERED_S = 0.3  # and asks again this soon when no world answered
+HEARD_KEPT = 64  # radio batches kept for ticks not answered yet (a host whose robots are gone answers none)
 
 
 class Agent(Protocol):
@@ -297,6 +298,9 @@ class AgentHost:
             b = self.io.decode(d, RadioBatch)
             if b is not None and self._in_window(d[0], b.tick):
                 self._heard[b.tick] = {h.robot_id: h.messages for h in b.hear}
+        if len(self._heard) > HEARD_KEPT:  # only the newest ticks are ever answered
+            for t in sorted(self._heard)[:-HEARD_KEPT]:
+                del self._heard[t]
         for d in self.readings.drain():
             rid = keys.robot_id_of(d[0])
             h = self.hosted.get(rid) if rid is not None else None

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import pytest
 
 from iw_zenoh import keys
-from iw_zenoh.agent import AgentHost, RegistrationRefused
+from iw_zenoh.agent import HEARD_KEPT, AgentHost, RegistrationRefused
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.hosting import Command
 from iw_zenoh.messages import (
@@ -183,3 +183,16 @@ def test_a_registration_answer_that_is_refused_refuses_the_registration_with_its
     host = AgentHost(bus, "t", "host")
     with pytest.raises(RegistrationRefused, match="width"):
         host.add(_Forward(), timeout_s=1.0)
+
+
+def test_radio_batches_of_ticks_not_answered_are_a_bounded_history() -> None:
+    host, bus = _host(world_tick=50)
+    for t in range(51, 51 + 5000):  # the radio goes on while the host has no reading to answer
+        host.radio.put((keys.radio("t"), encode(RadioBatch(tick=t, sim_time_ns=t)), 0))
+        host.step(timeout_s=0)
+    assert _bad(bus) == []
+    assert len(host._heard) <= HEARD_KEPT
+    assert max(host._heard) == 5050  # the newest kept
+    host.readings.put((keys.sensors("t", 1), encode(_reading(5050)), 0))
+    assert host.step(timeout_s=0)
+    assert _answered(bus) == [5050]
