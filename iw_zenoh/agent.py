@@ -153,25 +153,20 @@ class AgentHost:
         early = None
         if asked.id > 0 and not self.batched and asked.id not in self._subscribed:
             early = self.io.bus.subscribe(keys.sensors(self.sim, asked.id), self.readings)
-        # the world may still be starting: asked again until it answers
-        reg = WorldRegistration(
-            self.io.bus, self.sim, req, now=time.monotonic(), patience_s=timeout_s, query_timeout_s=min(1.0, timeout_s)
-        )
-        while not reg.poll(time.monotonic()) and not self.io.stop.is_set():
-            reg.wait(self.io.stop, time.monotonic())
+        reg = self._ask(req, timeout_s)
         try:
             reply = reg.reply()
             spec = spec_from_msg(reply.spec) if reply is not None and reply.ok and reply.spec is not None else None
         except IwError as e:  # an answer that does not decode, or a spec the world should not have sent
             if early is not None:
                 early.undeclare()
-            raise RegistrationRefused(f"the answer on {keys.register(self.sim)} is refused: {e}") from None
+            raise RegistrationRefused(f"the answer on {reg.key} is refused: {e}") from None
         if reply is None:
             if early is not None:
                 early.undeclare()
             raise RegistrationRefused(
-                f"no world answered on {keys.register(self.sim)} within {timeout_s:g} s; "
-                f"is `iwz world` running with --sim {self.sim}?"
+                f"no world answered on {reg.key} within {timeout_s:g} s; "
+                f"is `iwz world` running with --sim {self.sim}? (secured: does the policy name {self.name!r} an agent?)"
             )
         if early is not None and (not reply.ok or reply.robot_id != asked.id):
             early.undeclare()
@@ -195,6 +190,22 @@ class AgentHost:
         if callable(on_reg):
             on_reg(reply.robot_id, spec)
         return reply.robot_id
+
+    def _ask(self, req: RegisterRequest, timeout_s: float) -> WorldRegistration:
+        """Asks the world for a robot on this agent's own key (the one a secured router lets only
+        it ask on); the world may still be starting: asked again until it answers."""
+        reg = WorldRegistration(
+            self.io.bus,
+            self.sim,
+            req,
+            now=time.monotonic(),
+            patience_s=timeout_s,
+            query_timeout_s=min(1.0, timeout_s),
+            own_key=True,
+        )
+        while not reg.poll(time.monotonic()) and not self.io.stop.is_set():
+            reg.wait(self.io.stop, time.monotonic())
+        return reg
 
     def _in_window(self, key: str, tick: int) -> bool:
         """Whether a tick is within the window; one that is not is refused with a bad-message event."""

@@ -9,6 +9,7 @@ Everything is published with congestion control BLOCK: nothing that must arrive 
 from __future__ import annotations
 
 import collections
+import json
 import logging
 import threading
 import time
@@ -189,7 +190,7 @@ class _ZenohQueryInbox:
 
             def reply(data: bytes, q: zenoh.Query = q) -> None:
                 try:
-                    q.reply(self._key, data)
+                    q.reply(q.key_expr if "*" in self._key else self._key, data)  # a pattern answers on the key asked
                 finally:
                     q.drop()  # type: ignore[no-untyped-call]
 
@@ -197,6 +198,14 @@ class _ZenohQueryInbox:
 
     def undeclare(self) -> None:
         self._q.undeclare()  # type: ignore[no-untyped-call]
+
+
+def _endpoints(conf: zenoh.Config, key: str, mode: str) -> list[str]:
+    """The endpoints a configuration names at ``key`` (for ``mode`` when given per mode)."""
+    value = json.loads(conf.get_json(key))
+    if isinstance(value, dict):
+        value = value.get(mode, [])
+    return [str(v) for v in value or []]
 
 
 class ZenohBus:
@@ -208,10 +217,13 @@ class ZenohBus:
 
     def __init__(self, net: NetConfig | None = None) -> None:
         self.net = net or NetConfig()
+        conf = zenoh_config(self.net)
+        self.listening: list[str] = _endpoints(conf, "listen/endpoints", self.net.mode)
         try:
-            self.session = zenoh.open(zenoh_config(self.net))
+            self.session = zenoh.open(conf)
         except zenoh.ZError as e:
-            where = ", ".join(self.net.connect or self.net.listen) or "the default router"
+            named = self.net.connect or self.net.listen
+            where = ", ".join(named or _endpoints(conf, "connect/endpoints", self.net.mode))
             raise IwError(
                 f"cannot join the bus ({self.net.mode} of {where}): {e}. "
                 "Is `iwz router` running there (or use `iwz run`)? Is the port free, for a router?"

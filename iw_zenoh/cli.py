@@ -37,6 +37,7 @@ COMMANDS: dict[str, tuple[str, str] | tuple[str, str, str]] = {
         "iw_zenoh.nodes.viewer",
         "the web viewer: 2D and 3D of a live run, steered from the page, or a recording with a timeline",
     ),
+    "secure": ("iw_zenoh.secure.cli", "identities: a certificate authority, a certificate per process, the policy"),
     "record": ("iw_zenoh.nodes.recorder", "record every key of a simulation to MCAP"),
     "replay": ("iw_zenoh.nodes.replay", "play a recording back into Zenoh (rate, window, loop, seek)"),
     "incidents": ("iw_zenoh.record.incidents", "list a recording's collisions, near misses, stops and losses"),

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import argparse
 
-from iw_zenoh.net import DEFAULT_ENDPOINT, NetConfig
+from iw_zenoh.net import DEFAULT_ENDPOINT, DEFAULT_TLS_ENDPOINT, NetConfig
 
 __all__ = ["add_common_arguments", "add_zenoh_arguments", "net_from_args"]
 
 
 def add_zenoh_arguments(parser: argparse.ArgumentParser, *, default_mode: str = "client") -> None:
-    """Adds ``--mode --connect --listen --lan --zenoh-config --cfg`` (as zenoh-python's examples)."""
+    """Adds ``--mode --connect --listen --lan --zenoh-config --identity --cfg`` (as zenoh-python's examples)."""
     g = parser.add_argument_group("network (default: client of the router on " + DEFAULT_ENDPOINT + ", loopback only)")
     g.add_argument(
         "--mode",
@@ -39,7 +39,18 @@ def add_zenoh_arguments(parser: argparse.ArgumentParser, *, default_mode: str = 
         action="store_true",
         help="turn multicast scouting on, to find peers on the LAN without naming a router",
     )
-    g.add_argument("--zenoh-config", metavar="FILE", help="a Zenoh JSON5 configuration file, applied first")
+    g.add_argument(
+        "--zenoh-config",
+        metavar="FILE",
+        help="a Zenoh JSON5 configuration file: its values stand unless a flag here says otherwise "
+        "(each value a flag replaces is reported); the built-in defaults fill only what it leaves out",
+    )
+    g.add_argument(
+        "--identity",
+        metavar="DIR/NAME",
+        help="join over mutual TLS as the identity NAME (DIR/NAME.crt, DIR/NAME.key, DIR/ca.crt, made by "
+        "iwz secure): TLS only, no scouting; default endpoint " + DEFAULT_TLS_ENDPOINT,
+    )
     g.add_argument(
         "--cfg",
         action="append",
@@ -67,4 +78,6 @@ def net_from_args(args: argparse.Namespace) -> NetConfig:
         lan=bool(args.lan),
         config_file=args.zenoh_config,
         overrides=tuple(args.cfg),
+        identity=getattr(args, "identity", None),
+        policy=getattr(args, "policy", None),
     )

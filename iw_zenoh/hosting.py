@@ -129,13 +129,23 @@ class WorldRegistration:
         now: The time of asking, in seconds of a monotonic clock (the caller's).
         patience_s: How long a registration no world answers is asked again.
         query_timeout_s: How long one ask waits for its answers.
+        own_key: Ask on the agent's own registration key (``world/register/{agent}``, what a
+            secured router lets only that agent ask on) instead of the shared one.
     """
 
     def __init__(
-        self, bus: Bus, sim: str, request: RegisterRequest, *, now: float, patience_s: float, query_timeout_s: float
+        self,
+        bus: Bus,
+        sim: str,
+        request: RegisterRequest,
+        *,
+        now: float,
+        patience_s: float,
+        query_timeout_s: float,
+        own_key: bool = False,
     ) -> None:
         self.bus = bus
-        self.key = keys.register(sim)
+        self.key = keys.register(sim, request.agent if own_key else "")
         self.request = request
         self.payload = encode(request)
         self.since = now

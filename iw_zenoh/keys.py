@@ -5,6 +5,7 @@ one network::
 
     iw/{sim}/world/info              queryable: map, parameters, robots (for late joiners)
     iw/{sim}/world/register          queryable: RegisterRequest in, RegisterReply out
+    iw/{sim}/world/register/{agent}  the same, asked by the agent it names (attributable: secured runs)
     iw/{sim}/world/tick              clock
     iw/{sim}/world/proposed          next poses of all robots (batched)
     iw/{sim}/world/verdict           collision verdicts (batched)
@@ -27,9 +28,15 @@ one network::
 from __future__ import annotations
 
 import re
+from typing import NamedTuple
 
 __all__ = [
     "ROLES",
+    "POLICY_ROLES",
+    "Grants",
+    "all_registers",
+    "grants",
+    "register_agent_of",
     "actions",
     "agent_actions",
     "agent_of",
@@ -118,9 +125,22 @@ def info(sim: str) -> str:
     return f"iw/{chunk(sim)}/world/info"
 
 
-def register(sim: str) -> str:
-    """The registration queryable."""
-    return f"iw/{chunk(sim)}/world/register"
+def register(sim: str, agent: str = "") -> str:
+    """The registration queryable; with ``agent``, its key for that agent's own requests."""
+    return f"iw/{chunk(sim)}/world/register" + (f"/{chunk(agent)}" if agent else "")
+
+
+def all_registers(sim: str) -> str:
+    """Every registration key (the world serves them all)."""
+    return f"iw/{chunk(sim)}/world/register/**"
+
+
+def register_agent_of(key: str) -> str | None:
+    """The agent a registration key names (``""`` for the shared key), or ``None`` for another key."""
+    parts = str(key).split("/")
+    if len(parts) in (4, 5) and parts[0] == "iw" and parts[2:4] == ["world", "register"]:
+        return parts[4] if len(parts) == 5 else ""
+    return None
 
 
 def tick(sim: str) -> str:
@@ -326,3 +346,80 @@ def alive_parts(key: str) -> tuple[str, str] | None:
     if len(parts) == 5 and parts[0] == "iw" and parts[2] == "alive":
         return parts[3], parts[4]
     return None
+
+
+POLICY_ROLES = ("world", "collision", "sensors", "radio", "recorder", "bridge", "viewer", "operator", "agent")
+_TOKEN_ROLES = {"bridge": ("bridge", "agent"), "operator": ("viewer", "launcher")}  # else the role itself
+
+
+class Grants(NamedTuple):
+    """What one identity may do on a simulation's keys (the router's rules are made of them).
+
+    Attributes:
+        put: Key expressions it may publish on.
+        query: Those it may ask (queries).
+        serve: Those it may answer (queryables).
+        tokens: Liveliness tokens it may declare.
+        read: Those it may subscribe to, watch and be sent.
+    """
+
+    put: tuple[str, ...]
+    query: tuple[str, ...]
+    serve: tuple[str, ...]
+    tokens: tuple[str, ...]
+    read: tuple[str, ...]
+
+
+def _role_puts(role: str, sim: str, name: str, robots: tuple[int, ...], shard: tuple[int, int] | None) -> list[str]:
+    robot = f"iw/{chunk(sim)}/robot/*"
+    own = [k(sim, r) for r in robots for k in (actions, say, pose_report)]
+    return {
+        "world": [tick(sim), proposed(sim), state(sim), info(sim), all_events(sim), f"{robot}/spec"],
+        "collision": [verdict(sim), all_events(sim)],
+        "sensors": [sensor_batch(sim, shard) if shard else all_sensor_batches(sim), f"{robot}/sensors"]
+        + [all_events(sim)],
+        "radio": [radio(sim), f"{robot}/hear", all_events(sim)],
+        "recorder": [all_events(sim)],
+        "bridge": [agent_actions(sim, name), *(f"{robot}/{k}" for k in ("actions", "say", "pose_report", "chair"))]
+        + [all_events(sim)],
+        "agent": [agent_actions(sim, name), *own, event(sim, "bad-message")],
+        "viewer": [event(sim, "bad-message")],
+        "operator": [control(sim), event(sim, "bad-message")],
+    }[role]
+
+
+def grants(
+    roles: tuple[str, ...], sim: str, *, name: str, robots: tuple[int, ...] = (), shard: tuple[int, int] | None = None
+) -> Grants:
+    """What an identity playing ``roles`` may do (docs/security.md has the table).
+
+    The world alone publishes the clock, proposals, state and its description and answers
+    registration; collision alone publishes verdicts; sensors shards alone readings; the radio
+    alone what is heard; an agent publishes actions, say and pose reports only for ``robots``
+    and registers only on its own key; control only from an operator; every identity reads.
+
+    Args:
+        roles: Some of :data:`POLICY_ROLES`.
+        sim: The simulation.
+        name: The identity (certificate common name; its liveliness and agent name).
+        robots: The robots it drives (agents).
+        shard: The sensors shard ``(K, N)`` it computes (``None``: any).
+
+    Raises:
+        ValueError: An unknown role, or a bad name, robot id or shard.
+    """
+    put: list[str] = []
+    query, serve, tokens = [info(sim)], [], []
+    for role in roles:
+        if role not in POLICY_ROLES:
+            raise ValueError(f"unknown role {role!r}; one of {', '.join(POLICY_ROLES)}")
+        put += _role_puts(role, sim, name, tuple(_rid(r) for r in robots), shard)
+        tokens += [alive(sim, r, name) for r in _TOKEN_ROLES.get(role, (role,))]
+        if role == "world":
+            serve += [all_registers(sim), info(sim)]
+        if role in ("agent", "bridge"):
+            query.append(register(sim, name))
+        if role == "bridge":  # it registers legacy robots on the shared key, as a trusted registrar
+            query.append(register(sim))
+    put_, query_, serve_, tokens_ = (tuple(dict.fromkeys(x)) for x in (put, query, serve, tokens))
+    return Grants(put=put_, query=query_, serve=serve_, tokens=tokens_, read=(everything(sim),))

@@ -2,18 +2,30 @@
 
 Default: listens on tcp/127.0.0.1:7447 only, multicast scouting off. For several laptops:
 ``iwz router --listen tcp/0.0.0.0:7447`` on one, ``--connect tcp/HOST:7447`` on the others.
+Secured (docs/security.md): ``--identity DIR/router --policy POLICY.toml``: mutual TLS only, the
+policy's access control (default deny), and every refused message logged with who and which key.
 """
 
 from __future__ import annotations
 
+import argparse
 import logging
+import os
+import threading
+import time
 from collections.abc import Sequence
 
+import zenoh
+
 from iw_zenoh.runtime import Process, start_role
+from iw_zenoh.secure.denials import DenialLog
 
 __all__ = ["main"]
 
 logger = logging.getLogger(__name__)
+
+# Zenoh logs access-control decisions at trace level only; errors of everything else
+ZENOH_LOG = "error,zenoh::net::routing::interceptor::access_control=trace"
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -21,15 +33,66 @@ def main(argv: Sequence[str] | None = None) -> int:
     return start_role(
         argv,
         role="router",
-        description="A Zenoh router for the simulation's processes (loopback only unless --listen says otherwise).",
-        epilog="Example (serve a LAN):\n  iwz router --listen tcp/0.0.0.0:7447",
+        description=(
+            "A Zenoh router for the simulation's processes (loopback only unless --listen says otherwise). "
+            "With --identity and --policy it admits only mutual-TLS clients holding a certificate of the "
+            "policy's authority and lets each do only what its role may (docs/security.md)."
+        ),
+        epilog=(
+            "Examples:\n"
+            "  iwz router                                   (tcp/127.0.0.1:7447)\n"
+            "  iwz router --listen tcp/0.0.0.0:7447         (serve a LAN, unsecured)\n"
+            "  iwz router --zenoh-config router.json5       (its listen endpoints stand; flags given replace them)\n"
+            "  iwz router --identity ids/router --policy policy.toml --listen tls/0.0.0.0:7447"
+        ),
+        arguments=_arguments,
+        prepare=_prepare,
         run=_serve,
         default_mode="router",
     )
 
 
-def _serve(proc: Process) -> None:
+def _arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--policy",
+        metavar="TOML",
+        help="a security policy (docs/security.md): who may publish, ask and answer what; needs --identity",
+    )
+
+
+def _prepare(args: argparse.Namespace) -> None:
+    if args.policy and args.identity:
+        _report_denials()
+
+
+def _report_denials() -> None:
+    """Reads Zenoh's access-control log (it writes to standard output) and prints each refusal
+    with who and which key; every other line passes unchanged."""
+    zenoh.init_log_from_env_or(ZENOH_LOG)
+    read, write = os.pipe()
+    out = os.dup(1)
+    os.dup2(write, 1)
+    os.close(write)
+    threading.Thread(target=_pump, args=(read, out), name="denials", daemon=True).start()
+
+
+def _pump(read: int, out: int) -> None:
+    log = DenialLog()
+    rest = b""
+    while chunk := os.read(read, 65536):
+        *lines, rest = (rest + chunk).split(b"\n")
+        for line in lines:
+            if b"unauthorized" in line or b"access_control" in line:
+                denial = log.feed(line, time.monotonic_ns())
+                if denial is not None:
+                    os.write(out, f"iwz router: {denial}\n".encode())
+                continue
+            os.write(out, line + b"\n")
+
+
+def _serve(proc: Process, _: None = None) -> None:
     proc.io.alive()
-    print(f"iwz router: listening on {', '.join(proc.bus.net.listen) or 'tcp/127.0.0.1:7447'}", flush=True)
+    secured = " (mutual TLS, access control by policy)" if proc.args.policy else ""
+    print(f"iwz router: listening on {', '.join(proc.bus.listening)}{secured}", flush=True)
     while not proc.io.stop.is_set():
         proc.io.stop.wait(1.0)

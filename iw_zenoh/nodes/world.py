@@ -61,7 +61,7 @@ class _World:
         self.reports = self.io.inbox(keys.all_pose_reports(sim))
         self.control = self.io.inbox(keys.control(sim))
         self.verdicts = self.io.inbox(keys.verdict(sim))
-        self.register_q = bus.serve(keys.register(sim))
+        self.register_q = bus.serve(keys.all_registers(sim))  # the shared key and each agent's own
         self.info_q = bus.serve(keys.info(sim))
         self.alive_changes: list[tuple[str, bool]] = []
         self._unknown: dict[int, int] = {}  # robot the world does not have -> when last reported
@@ -107,6 +107,12 @@ class _World:
                     key=keys.register(core.cfg.sim),
                 )
                 q.reply(encode(RegisterReply(ok=False, reason=f"the request does not decode: {e}")))
+                continue
+            asker = keys.register_agent_of(q.key)
+            if asker and asker != req.agent:  # the router lets only that agent ask on its key
+                why = f"a registration for agent {req.agent!r} on agent {asker!r}'s key"
+                io.event(EventKind.REFUSED, why, RefusedData(name=req.spec.name, agent=req.agent), key=q.key)
+                q.reply(encode(RegisterReply(ok=False, reason=why)))
                 continue
             reply, out = core.register(req, now)
             q.reply(encode(reply))
@@ -279,6 +285,7 @@ def world_config(opts: WorldOptions, sim: str) -> WorldConfig:
         start_paused=opts.start_paused,
         motors_noise_pct=opts.motors_noise_pct,
         silence=opts.silence,
+        owners=None if opts.owners is None else {a: None if r is None else tuple(r) for a, r in opts.owners.items()},
     )
 
 

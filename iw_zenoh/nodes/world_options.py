@@ -16,6 +16,7 @@ from iw_zenoh.core.modes import Mode, Profile, Silence
 from iw_zenoh.errors import ConfigError, IwError
 from iw_zenoh.messages import Obstacle
 from iw_zenoh.runtime import Flag, add_option_flags, option, options_from_argv
+from iw_zenoh.secure.policy import load_policy, owners
 from iw_zenoh.sim.config import WorldConfig
 from iw_zenoh.sim.resume import WorldSnapshot
 
@@ -44,6 +45,8 @@ class WorldOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
         silence: What a robot whose actions stop coming does: ``stop`` (the watchdog) or
             ``keep`` (its last command for ever); None: the profile's (native stop, ciberrato keep).
         obstacles: Rectangular obstacles placed before the first tick.
+        owners: A secured run's agents and the robots each may register (from ``--policy``;
+            ``None`` for a bridge: any); None: every agent registers any robot.
         resume: Go on from this last committed state (``iwz run`` restarting a world that died;
             its obstacles replace ``obstacles``); None: a new run.
     """
@@ -63,6 +66,7 @@ class WorldOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     motors_noise_pct: float = _CORE.motors_noise_pct
     silence: Silence | None = _CORE.silence
     obstacles: tuple[Obstacle, ...] = ()
+    owners: dict[str, list[int] | None] | None = None
     resume: WorldSnapshot | None = None
 
 
@@ -80,6 +84,13 @@ def parse_obstacle(text: str) -> Obstacle:
     if not sep or not name or len(v) not in (4, 5):
         raise ValueError(f"--obstacle takes NAME:X0,Y0,X1,Y1[,HEIGHT], got {text!r}")
     return Obstacle(name=name, x0=v[0], y0=v[1], x1=v[2], y1=v[3], height=v[4] if len(v) == 5 else 1.0)
+
+
+def _owners_flag(path: str) -> dict[str, list[int] | None]:
+    try:
+        return {a: None if r is None else list(r) for a, r in owners(load_policy(path)).items()}
+    except IwError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
 
 
 def _obstacle_flag(text: str) -> Obstacle:
@@ -150,6 +161,12 @@ _FLAGS: tuple[Flag, ...] = (
         "motors_noise_pct",
         {"type": float, "metavar": "PCT"},
         "Ciber-Rato MotorsNoise, percent (legacy profile)",
+    ),
+    (
+        "--policy",
+        "owners",
+        {"type": _owners_flag, "metavar": "TOML"},
+        "a secured run's policy: each agent registers only its own robots, and only under its own name",
     ),
     (
         "--obstacle",

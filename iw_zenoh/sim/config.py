@@ -34,6 +34,8 @@ class WorldConfig:
         motors_noise_pct: Ciber-Rato MotorsNoise (legacy profile).
         silence: What a robot whose actions stop coming does (None: its profile's rule,
             :meth:`Silence.of`).
+        owners: A secured run's agents and the robots each may register (``None`` for any
+            robot: a trusted bridge); an agent not listed registers nothing. ``None``: open.
     """
 
     sim: str = "default"
@@ -50,6 +52,7 @@ class WorldConfig:
     start_paused: bool = False
     motors_noise_pct: float = 0.0
     silence: Silence | None = None
+    owners: dict[str, tuple[int, ...] | None] | None = None
 
     @property
     def silent_robots(self) -> Silence:

@@ -147,6 +147,10 @@ class WorldCore:
             spec = spec_from_msg(req.spec)
         except SpecError as e:
             return self._refuse(req, f"field {e.field}: {e.reason}")
+        owned = self._owned_id(req.agent, spec.id)
+        if isinstance(owned, str):
+            return self._refuse(req, owned)
+        spec = replace(spec, id=owned)
         instance = req.request_id.partition("-")[0]
         again = self.registry.reclaimable(spec, req.agent, instance)
         if again is not None:  # its agent restarted: the same robot, answered with where it is now
@@ -176,6 +180,24 @@ class WorldCore:
             ),
         ]
         return reply, out
+
+    def _owned_id(self, agent: str, robot_id: int) -> int | str:
+        """The id a secured run lets ``agent`` register (its own robots only; for id 0 the first of
+        them not taken), or why not. Open runs: ``robot_id`` as asked."""
+        owners = self.cfg.owners
+        if owners is None:
+            return robot_id
+        if agent not in owners:
+            return f"agent {agent!r} may register no robot: the policy does not name it an agent"
+        mine = owners[agent]
+        if mine is None:
+            return robot_id
+        if robot_id and robot_id not in mine:
+            return f"robot {robot_id} is not agent {agent!r}'s: the policy gives it {list(mine)}"
+        if robot_id:
+            return robot_id
+        free = [r for r in mine if r not in self.registry.entries or self.registry.entries[r].agent == agent]
+        return free[0] if free else f"agent {agent!r} has every robot the policy gives it ({list(mine)}) already"
 
     def _refuse(self, req: RegisterRequest, reason: str) -> tuple[RegisterReply, list[Outgoing]]:
         reply = RegisterReply(tick=self.tick, sim_time_ns=self.sim_time_ns(), ok=False, reason=reason)

@@ -1,0 +1,87 @@
+"""What the router's access control refused, read from Zenoh's own log: who, what, on which key.
+
+Zenoh logs its access-control decisions at trace level only, each naming the session id (and, on
+first sight, the identity: ``CertCommonName(alice)``) and the key. :class:`DenialLog` reads those
+lines and keeps the refusals of messages that were really sent: the permissions Zenoh works out
+in advance for a newly declared key (every kind of message, sent or not) are passed over, and a
+refusal repeated on the same key is reported once, then counted (a flood stays one line a second).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+__all__ = ["Denial", "DenialLog"]
+
+_ANSI = re.compile(rb"\x1b\[[0-9;]*m")
+_CACHING = re.compile(rb"ThreadId\((\d+)\).*caching permissions for `([^`]*)`")
+_DIRECT = re.compile(
+    rb"ThreadId\((\d+)\).* ([0-9a-f]+) on (\S+) is unauthorized to (.+?) \((ingress|egress)\) on (\S+)"
+)
+_CACHED = re.compile(rb"Using cached result: ([0-9a-f]+) is unauthorized to (.+?) \((ingress|egress)\) on (\S+)")
+_CN = re.compile(r"CertCommonName\(([^)]*)\)")
+REPEAT_NS = 1_000_000_000  # the same refusal again: counted, reported at most once a second
+
+
+@dataclass(frozen=True)
+class Denial:
+    """One refusal: who was refused what, on which key, and how often since the last report."""
+
+    identity: str
+    message: str
+    flow: str
+    key: str
+    times: int = 1
+
+    def __str__(self) -> str:
+        """As the router logs it."""
+        more = f" ({self.times} times)" if self.times > 1 else ""
+        side = "from" if self.flow == "ingress" else "to"
+        return f"access denied: {self.message} {side} {self.identity!r} on {self.key}{more}"
+
+
+@dataclass
+class DenialLog:
+    """Turns Zenoh's access-control log lines into :class:`Denial` reports."""
+
+    _names: dict[str, str] = field(default_factory=dict)  # session id -> identity
+    _caching: dict[str, str] = field(default_factory=dict)  # thread -> key whose permissions it works out
+    _last: dict[tuple[str, str, str, str], tuple[int, int]] = field(default_factory=dict)  # -> (reported at, count)
+
+    def feed(self, line: bytes, now_ns: int) -> Denial | None:
+        """One line of Zenoh's log; a refusal to report, or None.
+
+        Args:
+            line: The line (ANSI colours allowed).
+            now_ns: Now, in ns of any monotonic clock (for the once-a-second rule).
+        """
+        if b"unauthorized" not in line and b"caching permissions" not in line:
+            return None
+        line = _ANSI.sub(b"", line)
+        m = _CACHING.search(line)
+        if m:
+            self._caching[m[1].decode()] = m[2].decode()
+            return None
+        m = _DIRECT.search(line)
+        if m:
+            thread, zid, subject, message, flow, key = (g.decode(errors="replace") for g in m.groups())
+            cn = _CN.search(subject)
+            self._names[zid] = cn[1] if cn else subject
+            if self._caching.get(thread) == key:
+                return None  # worked out in advance for a declared key, not a message sent
+            return self._report(self._names[zid], message, flow, key, now_ns)
+        m = _CACHED.search(line)
+        if m:
+            zid, message, flow, key = (g.decode(errors="replace") for g in m.groups())
+            return self._report(self._names.get(zid, f"session {zid}"), message, flow, key, now_ns)
+        return None
+
+    def _report(self, identity: str, message: str, flow: str, key: str, now_ns: int) -> Denial | None:
+        what = (identity, message, flow, key)
+        at, count = self._last.get(what, (now_ns - REPEAT_NS, 0))
+        if now_ns - at < REPEAT_NS:
+            self._last[what] = (at, count + 1)
+            return None
+        self._last[what] = (now_ns, 0)
+        return Denial(identity, message, flow, key, times=count + 1)
