@@ -147,17 +147,16 @@ class WorldCore:
             spec = spec_from_msg(req.spec)
         except SpecError as e:
             return self._refuse(req, f"field {e.field}: {e.reason}")
-        owned = self._owned_id(req.agent, spec.id)
-        if isinstance(owned, str):
-            return self._refuse(req, owned)
-        spec = replace(spec, id=owned)
         instance = req.request_id.partition("-")[0]
         again = self.registry.reclaimable(spec, req.agent, instance)
         if again is not None:  # its agent restarted: the same robot, answered with where it is now
             entry, placed = self.registry.reclaim(again, self.state, now_ns)
         else:
+            owned = self._owned_id(req.agent, spec.id)
+            if isinstance(owned, str):
+                return self._refuse(req, owned)
             try:
-                placed = self.registry.place(spec, self.registry.poses(self.state))
+                placed = self.registry.place(replace(spec, id=owned), self.registry.poses(self.state))
             except Refused as e:
                 return self._refuse(req, str(e))
             entry = self.registry.add(placed, req.agent, now_ns)
@@ -196,7 +195,7 @@ class WorldCore:
             return f"robot {robot_id} is not agent {agent!r}'s: the policy gives it {list(mine)}"
         if robot_id:
             return robot_id
-        free = [r for r in mine if r not in self.registry.entries or self.registry.entries[r].agent == agent]
+        free = [r for r in mine if r not in self.registry.entries]
         return free[0] if free else f"agent {agent!r} has every robot the policy gives it ({list(mine)}) already"
 
     def _refuse(self, req: RegisterRequest, reason: str) -> tuple[RegisterReply, list[Outgoing]]:
