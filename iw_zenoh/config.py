@@ -34,6 +34,7 @@ __all__ = [
     "RolesSection",
     "Scenario",
     "ScenarioFile",
+    "SecuritySection",
     "WorldSection",
     "load_scenario",
     "parse_scenario",
@@ -144,6 +145,18 @@ class ChairSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     spec: Path | None = None  # a spec file (docs/spec.md) the bridge and the emulator both read
 
 
+class SecuritySection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """``[security]``: run every role with an identity of its own (docs/security.md), and where.
+
+    ``hosts`` maps a host's name to the processes it runs (``world``, ``collision``,
+    ``sensors-1``, ``recorder``, an agent's name...); ``iwz run --host NAME`` starts only those.
+    A process no host names runs on the router's host (the one started without ``--host``).
+    """
+
+    enabled: bool = True
+    hosts: dict[str, list[str]] = {}
+
+
 class ScenarioFile(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """A scenario file's tables, as written (paths still relative to the file)."""
 
@@ -155,6 +168,7 @@ class ScenarioFile(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     criteria: Criteria = msgspec.field(default_factory=Criteria)
     bridge: BridgeSection | None = None
     chair: ChairSection | None = None
+    security: SecuritySection | None = None
 
 
 class Scenario(ScenarioFile, frozen=True, forbid_unknown_fields=True, kw_only=True):

@@ -34,10 +34,12 @@ from iw_zenoh.nodes.child import Child, stop_in_order
 from iw_zenoh.nodes.restarts import MAX_RESTARTS, Restarts
 from iw_zenoh.nodes.role_options import BridgeOptions, RadioOptions, RecorderOptions, SensorsOptions
 from iw_zenoh.nodes.run_args import build_parser, default_recording
+from iw_zenoh.nodes.secure_run import LAUNCHER, ROUTER, agent_name, agent_robots, identities, on_host
 from iw_zenoh.nodes.tally import Tally
 from iw_zenoh.nodes.world_options import world_options
 from iw_zenoh.record.parts import recording_parts
 from iw_zenoh.runtime import options_json, setup_logging
+from iw_zenoh.secure.cli import POLICY_FILE
 
 __all__ = ["Child", "Launcher", "main", "world_options"]
 
@@ -64,15 +66,27 @@ class Launcher:
         log_dir: Path | None = None,
         status: bool = True,
         record: Path | None = None,
+        secure: bool = False,
+        ids: Path | None = None,
+        host: str = "",
+        connect: str = "",
+        listen: str = "",
     ) -> None:
         self.sc = scenario
         self.sim = keys.chunk(sim)
+        if listen:
+            port = int(listen.rsplit(":", 1)[1])
         if port == 0:
             port = DEFAULT_PORT if not port_in_use(DEFAULT_PORT) else free_port()
         self.port = port
-        self.endpoint = f"tcp/127.0.0.1:{port}"
+        self.listen = listen or f"{'tls' if secure else 'tcp'}/127.0.0.1:{port}"
+        self.endpoint = connect or self.listen.replace("0.0.0.0", "127.0.0.1")
+        self.remote_router = bool(connect)
+        self.host = host
         self.log_dir = log_dir or Path(tempfile.mkdtemp(prefix=f"iwz-{scenario.name}-"))
         self.log_dir.mkdir(parents=True, exist_ok=True)
+        self.ids = (ids or self.log_dir / "ids") if secure else None  # every process's identity (docs/security.md)
+        self.world_seen = self.world_alive = False  # a host without the world ends when it is gone
         self.status = status
         self.record = record
         self.children: list[Child] = []
@@ -89,13 +103,28 @@ class Launcher:
     def _cmd(self, *args: str) -> list[str]:
         return [sys.executable, "-m", "iw_zenoh.cli", *args]
 
+    def _net(self) -> NetConfig:
+        """How the launcher itself joins (secured: as ``launcher``, an operator)."""
+        return NetConfig(connect=(self.endpoint,), identity=str(self.ids / LAUNCHER) if self.ids else None)
+
     def _child(
-        self, role: str, name: str, *args: str, options: msgspec.Struct | None = None, client: bool = True
+        self,
+        role: str,
+        name: str,
+        *args: str,
+        options: msgspec.Struct | None = None,
+        client: bool = True,
+        token: str = "",
     ) -> Child:
-        """A child of ``role``: its ``args``, then its typed ``options`` (passed whole, ``--options JSON``)."""
-        common = ["--sim", self.sim, "-e", self.endpoint] if client else ["--sim", self.sim, "--listen", self.endpoint]
+        """A child of ``role``: its ``args``, then its typed ``options`` (passed whole, ``--options JSON``);
+        secured, its identity is its liveliness name (``token``, or ``name``)."""
+        common = ["--sim", self.sim, "-e", self.endpoint] if client else ["--sim", self.sim, "--listen", self.listen]
+        if self.ids is not None:
+            who = ["--identity", str(self.ids / (token or name if client else ROUTER))]
+            common += who if client else [*who, "--policy", str(self.ids / POLICY_FILE)]
         given = ["--options", options_json(options)] if options is not None else []
         c = Child(role, name, self._cmd(role, *args, *given, *common), self.log_dir / f"{name}.log", options=options)
+        c.token = token
         self.children.append(c)
         return c
 
@@ -111,13 +140,18 @@ class Launcher:
             rec = RecorderOptions(output=str(self.record), meta=meta, quiet=True, continue_run=uuid.uuid4().hex)
             self._child("record", "recorder", options=rec)
         options, rest = self.world_options
+        robots = agent_robots(sc)
+        if self.ids is not None:  # each agent registers its own robots only; a bridge any
+            owners: dict[str, list[int] | None] = {n: list(r) for n, r in robots.items()}
+            owners.update({b: None for b in ("bridge", "bridge-serial")})
+            options = msgspec.structs.replace(options, owners=owners)
         self._child("world", "world", *rest, options=options)
         self._child("collision", "collision")
         shards = sc.roles.sensors_shards
         for k in range(1, shards + 1):
             self._child(
-                "sensors", f"sensors-{k}", options=SensorsOptions(shard=(k, shards))
-            ).token = f"sensors-{k}-{shards}"
+                "sensors", f"sensors-{k}", options=SensorsOptions(shard=(k, shards)), token=f"sensors-{k}-{shards}"
+            )
         if sc.roles.radio:
             self._child("radio", "radio", options=RadioOptions())
         if sc.bridge is not None:
@@ -127,10 +161,16 @@ class Launcher:
         if sc.chair is not None:
             self._plan_chair()
         for i, a in enumerate(sc.agents):
-            name = a.name or f"agent-{i + 1}-{program_label(a.program)}"
+            name = agent_name(i, a)
             spec = ["--spec-json", json.dumps(a.spec)] if a.spec is not None else []  # read and checked: a table
             c = self._child("agent", name, a.program, *a.argv, *spec, "--name", name)
             c.cwd, c.token = sc.base.resolve(), keys.chunk(name)
+        if self.ids is not None:
+            identities(self.ids, self.sim, self.children, robots, [self.listen.rsplit(":", 1)[0].split("/")[-1]])
+        hosts = self.sc.security.hosts if self.sc.security is not None else {}
+        self.children = [
+            c for c in on_host(self.children, hosts, self.host) if not (self.remote_router and c.role == "router")
+        ]
 
     def _plan_chair(self) -> None:
         """A real chair's serial bridge; without a port, the chair emulator on a pty (docs/serial.md)."""
@@ -167,21 +207,21 @@ class Launcher:
         return False
 
     def start(self) -> None:
-        """Starts the router, waits for it, then every other role.
+        """Starts the router (unless another host runs it), waits for it, then every other role.
 
         Raises:
             IwError: When the router does not come up.
         """
         self.plan()
-        router = self.children[0]
-        router.start(self.env)
-        if not self._wait_router():
-            raise IwError(f"the router did not start on {self.endpoint}:\n{router.tail()}")
+        rest = [c for c in self.children if c.role != "router"]
+        for router in self.children[: len(self.children) - len(rest)]:
+            router.start(self.env)
+            if not self._wait_router():
+                raise IwError(f"the router did not start on {self.endpoint}:\n{router.tail()}")
         # the launcher listens before any other role starts: it hears every registration (who
         # drives each robot) and the world's description, what a restarted world resumes from
-        self.bus = ZenohBus(NetConfig(connect=(self.endpoint,)))
+        self.bus = ZenohBus(self._net())
         self._inboxes = self.observe(self.bus)
-        rest = self.children[1:]
         if rest and rest[0].role == "record":
             rest[0].start(self.env)  # first, and heard from, so it misses nothing of the run
             if not self._wait_roles({"recorder": 1}, timeout_s=30.0):
@@ -218,7 +258,7 @@ class Launcher:
                 if all(len(seen[r]) >= n for r, n in roles.items()):
                     done.set()
 
-        bus = ZenohBus(NetConfig(connect=(self.endpoint,)))
+        bus = ZenohBus(self._net())
         try:
             bus.watch_alive(keys.all_alive(self.sim), on_alive)
             deadline = time.monotonic() + timeout_s
@@ -243,6 +283,8 @@ class Launcher:
             parts = keys.alive_parts(key)
             if parts and parts[0] == "agent":
                 (self.tally.agents_alive.add if alive else self.tally.agents_alive.discard)(parts[1])
+            if parts and parts[0] == "world":
+                self.world_seen, self.world_alive = self.world_seen or alive, alive
             if parts and alive:
                 for c in self.children:
                     c.seen = c.seen or c.owns_token(parts[0], parts[1])
@@ -276,7 +318,7 @@ class Launcher:
         inboxes = self._inboxes if self._inboxes is not None and bus is self.bus else self.observe(bus)
         started = time.monotonic()
         last_print = 0.0
-        world = next(c for c in self.children if c.role == "world")
+        world = next((c for c in self.children if c.role == "world"), None)
         agents = [c for c in self.children if c.role == "agent"]
         limit = self.sc.world.duration_s * (1.0 if self.sc.world.mode == Mode.REALTIME else 5.0) + 60.0
         code: int | None = None
@@ -300,7 +342,7 @@ class Launcher:
             print()
         return code or 0
 
-    def _ended(self, bus: ZenohBus, world: Child) -> int | None:
+    def _ended(self, bus: ZenohBus, world: Child | None) -> int | None:
         """0 when every goal is reached (the world is told to stop) or the world ended; 3 when it failed."""
         crit = self.sc.criteria
         if (
@@ -311,12 +353,14 @@ class Launcher:
         ):
             self._say("every goal reached" + (" and every door opened and closed" if crit.doors else "") + ": stopping")
             bus.publish(keys.control(self.sim), encode(Control(command="stop")))
-            if world.proc is not None:
+            if world is not None and world.proc is not None:
                 try:
                     world.proc.wait(10)
                 except subprocess.TimeoutExpired:
                     self._say("the world did not stop by itself")
             return 0
+        if world is None:  # another host runs it: the run is over when it is gone
+            return 0 if self.world_seen and not self.world_alive else None
         if not world.alive() and world.proc is not None and world.proc.returncode == 0:
             return 0  # the world ended the run (its duration, a stop); one that died is restarted
         return None
@@ -416,13 +460,18 @@ def main(argv: Sequence[str] | None = None) -> int:
             log_dir=Path(args.log_dir) if args.log_dir else None,
             status=not args.no_status,
             record=None if args.no_record else Path(args.record) if args.record else default_recording(sc.name),
+            secure=args.secure or bool(sc.security and sc.security.enabled),
+            ids=Path(args.ids) if args.ids else None,
+            host=args.host,
+            connect=args.connect,
+            listen=args.listen,
         )
     except (IwError, ValueError) as e:
         print(f"iwz run: {e}")
         return 2
     print(
         f"iwz run: scenario {sc.name!r} on {sc.world.map.name}, {sc.world.mode}, {sc.robots} robots, "
-        f"router {launcher.endpoint}, logs in {launcher.log_dir}",
+        f"router {launcher.endpoint}{' (secured)' if launcher.ids else ''}, logs in {launcher.log_dir}",
         flush=True,
     )
 

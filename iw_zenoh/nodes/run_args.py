@@ -22,7 +22,14 @@ def build_parser() -> argparse.ArgumentParser:
             "Start a whole simulation from a scenario file: the router, world, collision, sensors, "
             "radio and every agent, each its own process on this machine."
         ),
-        epilog="Example: iwz run maps/demo.toml    (Ctrl-C stops everything cleanly)",
+        epilog=(
+            "Examples:\n"
+            "  iwz run maps/demo.toml              (Ctrl-C stops everything cleanly)\n"
+            "  iwz run maps/demo.toml --secure     (every process its certificate; the router enforces the roles)\n"
+            "  iwz run lab.toml --listen tls/10.0.0.1:7447 --ids ids          (host with the router)\n"
+            "  iwz run lab.toml --host laptop2 --connect tls/10.0.0.1:7447 --ids ids   (another host)"
+        ),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("scenario", help="scenario TOML file (see docs/scenarios.md)")
     p.add_argument(
@@ -34,5 +41,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--record", metavar="FILE", help="record the run here (default recordings/SCENARIO-DATE-TIME.mcap)")
     p.add_argument("--no-record", action="store_true", help="do not record the run")
     p.add_argument("--lockstep", action="store_true", help="run in lock-step whatever the scenario says (reproducible)")
+    g = p.add_argument_group("security and several hosts (docs/security.md)")
+    g.add_argument(
+        "--secure",
+        action="store_true",
+        help="every process with an identity of its own (certificates in --ids), the router enforcing over "
+        "mutual TLS what each role may do (as [security] in the scenario)",
+    )
+    g.add_argument("--ids", metavar="DIR", help="the run's identities, made there if missing (default LOG_DIR/ids)")
+    g.add_argument("--host", default="", help="start only the processes [security] hosts gives this host")
+    g.add_argument(
+        "--connect", default="", metavar="ENDPOINT", help="the router another host runs, e.g. tls/10.0.0.1:7447"
+    )
+    g.add_argument("--listen", default="", metavar="ENDPOINT", help="where the router listens (default loopback)")
     p.add_argument("-v", "--verbose", action="count", default=0, help="log more")
     return p

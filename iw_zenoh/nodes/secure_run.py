@@ -1,0 +1,118 @@
+"""``iwz run --secure``: an identity for every process of a scenario, the policy made from it,
+and which host runs which process (docs/security.md).
+
+Each process's identity is its liveliness name (``world``, ``sensors-1-2``, an agent's name...); the launcher
+itself is ``launcher``, an operator (it stops the world when the goals are reached). An agent's
+robots are its ``--id`` (or, without one, the lowest ids no other agent names), so the router lets
+it publish for those alone and the world registers no other for it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+from iw_zenoh.agent_programs import program_label
+from iw_zenoh.config import AgentEntry, Scenario
+from iw_zenoh.errors import ConfigError
+from iw_zenoh.nodes.child import Child
+from iw_zenoh.nodes.role_options import SensorsOptions
+from iw_zenoh.secure.certs import CA_CERT, init_ca, issue
+from iw_zenoh.secure.cli import HEADER, POLICY_FILE, add_identity
+from iw_zenoh.secure.policy import load_policy
+
+__all__ = ["LAUNCHER", "ROUTER", "agent_name", "agent_robots", "identities", "on_host"]
+
+LAUNCHER = "launcher"
+ROUTER = "router"
+_ROLES = {"record": ("recorder",), "bridge": ("bridge", "operator")}  # a legacy viewer starts and pauses
+
+
+def agent_name(index: int, entry: AgentEntry) -> str:
+    """The name of the scenario's ``index``-th agent process (its liveliness, log and identity)."""
+    return entry.name or f"agent-{index + 1}-{program_label(entry.program)}"
+
+
+def _asked_id(argv: Sequence[str]) -> int | None:
+    for flag, value in zip(argv, argv[1:], strict=False):
+        if flag == "--id" and value.isdigit() and int(value) > 0:
+            return int(value)
+    return None
+
+
+def agent_robots(sc: Scenario) -> dict[str, tuple[int, ...]]:
+    """Each agent process's robots: its ``--id``, or the lowest ids no other agent asks for."""
+    asked = {agent_name(i, a): _asked_id(a.argv) for i, a in enumerate(sc.agents)}
+    taken = {r for r in asked.values() if r is not None}
+    if sc.chair is not None:
+        taken.add(sc.chair.robot)
+    out: dict[str, tuple[int, ...]] = {}
+    free = (r for r in range(1, 100_000) if r not in taken)
+    for i, a in enumerate(sc.agents):
+        name = agent_name(i, a)
+        mine = asked[name]
+        out[name] = (mine,) if mine is not None else tuple(next(free) for _ in range(a.robots))
+    return out
+
+
+def identities(
+    ids: Path, sim: str, children: Sequence[Child], robots: dict[str, tuple[int, ...]], hosts: Sequence[str]
+) -> Path:
+    """Makes (or reuses) the run's authority and an identity per process in ``ids``, and the policy.
+
+    Identities already there are kept (the same folder copied to every host of a run).
+
+    Args:
+        ids: The folder.
+        sim: The simulation the policy guards.
+        children: The processes (the chair emulator, on no bus, gets none).
+        robots: Each agent's robots (:func:`agent_robots`).
+        hosts: Names or addresses the router is reached at, beside loopback.
+
+    Returns:
+        The policy file.
+
+    Raises:
+        ConfigError: A serial chair (not secured yet), or a refused identity.
+    """
+    if any(c.role == "bridge" and "serial" in c.argv for c in children):
+        raise ConfigError("chair", "a serial chair's run cannot be secured yet: run it without --secure")
+    if not (ids / CA_CERT).exists():
+        init_ca(ids)
+    policy = ids / POLICY_FILE
+    if not policy.exists():
+        policy.write_text(HEADER.format(sim=sim), encoding="utf-8")
+    elif load_policy(policy).sim != sim:
+        raise ConfigError(str(policy), f"guards another simulation than {sim!r}: use another --ids folder")
+    wanted = [(ROUTER, ()), (LAUNCHER, ("operator",))]
+    wanted += [
+        (c.token or c.name, _ROLES.get(c.role, (c.role,))) for c in children if c.role not in ("router", "chair")
+    ]
+    shards = {c.token or c.name: c.options.shard for c in children if isinstance(c.options, SensorsOptions)}
+    for name, roles in wanted:
+        if not (ids / f"{name}.crt").exists():
+            issue(ids, name, server=name == ROUTER, hosts=tuple(hosts) if name == ROUTER else ())
+        shard = "{}/{}".format(*shards[name]) if name in shards else ""
+        if roles:
+            add_identity(policy, name, roles, robots=robots.get(name, ()) if "agent" in roles else (), shard=shard)
+    return policy
+
+
+def on_host(children: Sequence[Child], hosts: dict[str, list[str]], host: str) -> list[Child]:
+    """The processes ``host`` runs: those ``hosts[host]`` names; without a host, every process
+    no host names (the router's host).
+
+    Raises:
+        ConfigError: An unknown host, or a host naming a process the scenario does not have.
+    """
+    names = {c.name for c in children}
+    for h, mine in hosts.items():
+        unknown = sorted(set(mine) - names)
+        if unknown:
+            raise ConfigError(f"security.hosts.{h}", f"no such process {unknown}; the processes are {sorted(names)}")
+    if host and host not in hosts:
+        raise ConfigError("--host", f"the scenario names no host {host!r}; its hosts are {sorted(hosts)}")
+    if host:
+        return [c for c in children if c.name in hosts[host]]
+    elsewhere = {n for mine in hosts.values() for n in mine}
+    return [c for c in children if c.name not in elsewhere]
