@@ -199,7 +199,7 @@ class Launcher:
         deadline = time.monotonic() + timeout_s
         router = next(c for c in self.children if c.role == "router")
         while time.monotonic() < deadline:
-            if port_in_use(self.port):
+            if port_in_use(self.port, self.endpoint.rsplit(":", 1)[0].split("/")[-1]):
                 return True
             if not router.alive():
                 return False
