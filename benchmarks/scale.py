@@ -3,6 +3,8 @@
     python benchmarks/scale.py            # all four measurements (several minutes)
     python benchmarks/scale.py --json     # the same figures as one JSON object
     python benchmarks/scale.py --only lockstep10 rt100
+    python benchmarks/scale.py --secure   # each figure with TLS and access control beside without, as a ratio
+    python benchmarks/scale.py --secure --quick   # lockstep10 (5 s) and rt10 only: about a minute
 
 Measures, on the core benchmark's floor (hospital wings, chairs about a metre apart, eight
 60-degree cones of 4 m each, 100 ms ticks; every chair creeps back and forth, turning back when
@@ -13,6 +15,10 @@ something is 0.3 m ahead, so poses change every tick; ``--pushing``: they push o
 * lockstep1000 lock-step real-time factor with 1,000 chairs in 4 agent-host processes
 * rt100       real time, 100 chairs: p50 / p99 delay from a tick's start to its sensor message
               at an agent
+* rt10        the same with 10 chairs in 2 agent processes (the quick mode's)
+
+``--secure``: every process with its own certificate, the router enforcing the policy over mutual
+TLS (docs/security.md), each figure beside the unsecured one and their ratio (goal: within 10 %).
 
 Targets: 10 processes >= 50x, 100 >= 5x, 1,000 chairs >= 1x, tick-to-sensors p99 < 10 ms.
 (Anchor: a ROS 2 lock-step swarm simulator runs 10 vehicles at 30x and 100 at 4x.)
@@ -43,6 +49,8 @@ from iw_zenoh.core.lab import Grid, GridPosition  # noqa: E402
 from iw_zenoh.maps import grid_to_xml, lab_to_xml  # noqa: E402
 from iw_zenoh.messages import WorldState, decode  # noqa: E402
 from iw_zenoh.net import NetConfig, free_port, port_in_use  # noqa: E402
+from iw_zenoh.secure.certs import init_ca, issue  # noqa: E402
+from iw_zenoh.secure.cli import add_identity  # noqa: E402
 
 DEBUG = bool(os.environ.get("IWZ_BENCH_DEBUG"))  # world and sensors log each tick's timings (-vv)
 PUSHING = False  # chairs push into whatever they meet instead of creeping back and forth
@@ -53,10 +61,11 @@ TARGETS = {"lockstep10_rtf": 50.0, "lockstep100_rtf": 5.0, "lockstep1000_rtf": 1
 class Run:
     """Processes of one measurement; stopped (by pid) when done."""
 
-    def __init__(self, tmp: Path, n: int) -> None:
+    def __init__(self, tmp: Path, n: int, *, secure: bool = False) -> None:
         self.tmp = tmp
         self.port = free_port()
-        self.endpoint = f"tcp/127.0.0.1:{self.port}"
+        self.ids = tmp / "ids" if secure else None
+        self.endpoint = f"{'tls' if secure else 'tcp'}/127.0.0.1:{self.port}"
         self.procs: list[subprocess.Popen[bytes]] = []
         self.names: list[str] = []
         scene, _, pose = crowded_floor(n)
@@ -66,8 +75,34 @@ class Run:
         starts = tuple(GridPosition(float(x), float(y), float(wrap_deg(math.degrees(h)))) for x, y, h in pose)
         self.grid.write_bytes(grid_to_xml(Grid(starts)))
 
+    def identities(self, shards: int, per_host: list[int]) -> None:
+        """Secured: the authority, every process's identity and the policy (each agent its chairs)."""
+        assert self.ids is not None
+        init_ca(self.ids)
+        issue(self.ids, "router", server=True)
+        policy = self.ids / "policy.toml"
+        policy.write_text('sim = "bench"\n')
+        named = [("world", "world"), ("collision", "collision"), ("observer", "recorder")]
+        named += [(f"sensors{k}", "sensors") for k in range(1, shards + 1)]
+        first = 1
+        for i, c in enumerate(per_host):
+            issue(self.ids, f"probe{i}")
+            add_identity(policy, f"probe{i}", ["agent"], robots=list(range(first, first + c)))
+            first += c
+        for name, role in named:
+            issue(self.ids, name)
+            add_identity(policy, name, [role])
+
+    def net(self, name: str) -> NetConfig:
+        """How the measuring session joins (secured: as ``name``)."""
+        return NetConfig(connect=(self.endpoint,), identity=str(self.ids / name) if self.ids else None)
+
     def spawn(self, name: str, *args: str, client: bool = True) -> subprocess.Popen[bytes]:
         net = ["-e", self.endpoint] if client else ["--listen", self.endpoint]
+        if self.ids is not None:
+            who = name if name.startswith(("probe", "sensors", "world", "collision")) else "router"
+            net += ["--identity", str(self.ids / who), "--name", who] if client else ["--identity", str(self.ids / who)]
+            net += ["--policy", str(self.ids / "policy.toml")] if name == "router" else []
         log = (self.tmp / f"{name}.log").open("wb")
         p = subprocess.Popen(
             [sys.executable, "-m", "iw_zenoh.cli", *args, "--sim", "bench", *net],
@@ -88,7 +123,7 @@ class Run:
                 fields = Path(f"/proc/{p.pid}/stat").read_text().rsplit(")", 1)[1].split()
             except OSError:
                 continue  # gone (the world ends the run)
-            role = "agents" if name.startswith("agent") else name.rstrip("0123456789") or name
+            role = "agents" if name.startswith("probe") else name.rstrip("0123456789") or name
             out[role] = out.get(role, 0.0) + (int(fields[11]) + int(fields[12])) / tick
         return out
 
@@ -102,6 +137,9 @@ class Run:
         shards: int = 1,
         probe_out: str | None = None,
     ) -> subprocess.Popen[bytes]:
+        per = [chairs // hosts + (1 if i < chairs % hosts else 0) for i in range(hosts)]
+        if self.ids is not None:
+            self.identities(shards, per)
         self.spawn("router", "router", client=False)
         deadline = time.monotonic() + 20
         while not port_in_use(self.port):
@@ -121,6 +159,8 @@ class Run:
         ]
         if lockstep:
             world_args += ["--lockstep", "--lockstep-timeout-ms", "10000"]
+        if self.ids is not None:
+            world_args += ["--policy", str(self.ids / "policy.toml")]
         world = self.spawn("world", *world_args)
         self.spawn("collision", "collision", *(["-vv"] if DEBUG else []))
         for k in range(1, shards + 1):
@@ -131,11 +171,10 @@ class Run:
                 f"{k}/{shards}",
                 *(["-vv"] if DEBUG else []),
             )
-        per = [chairs // hosts + (1 if i < chairs % hosts else 0) for i in range(hosts)]
         for i, c in enumerate(per):
             extra = ["--latency-out", f"{probe_out}.{i}"] if probe_out else []
             self.spawn(
-                f"agent{i}",
+                f"probe{i}",
                 "agent",
                 "probe",
                 "--count",
@@ -163,13 +202,15 @@ def _workdir(logs: str | None, name: str) -> contextlib.AbstractContextManager[s
     return tempfile.TemporaryDirectory(prefix="iwz-scale-")
 
 
-def measure_lockstep(chairs: int, hosts: int, duration_s: float, logs: str | None = None) -> dict[str, float]:
+def measure_lockstep(
+    chairs: int, hosts: int, duration_s: float, logs: str | None = None, *, secure: bool = False
+) -> dict[str, float]:
     """Lock-step real-time factor, from the first to the last state an observer sees."""
-    with _workdir(logs, f"lockstep{chairs}") as tmp:
-        run = Run(Path(tmp), chairs)
+    with _workdir(logs, f"lockstep{chairs}{'-secure' if secure else ''}") as tmp:
+        run = Run(Path(tmp), chairs, secure=secure)
         try:
             world = run.start(lockstep=True, chairs=chairs, hosts=hosts, duration_s=duration_s)
-            bus = ZenohBus(NetConfig(connect=(run.endpoint,)))
+            bus = ZenohBus(run.net("observer"))
             box = Inbox()
             bus.subscribe(keys.state("bench"), box)
             first = last = None
@@ -214,10 +255,12 @@ def measure_lockstep(chairs: int, hosts: int, duration_s: float, logs: str | Non
             run.stop()
 
 
-def measure_rt(chairs: int, hosts: int, duration_s: float, logs: str | None = None) -> dict[str, float]:
+def measure_rt(
+    chairs: int, hosts: int, duration_s: float, logs: str | None = None, *, secure: bool = False
+) -> dict[str, float]:
     """Real time: delay from the world's tick start to the sensor message at an agent."""
-    with _workdir(logs, f"rt{chairs}") as tmp:
-        run = Run(Path(tmp), chairs)
+    with _workdir(logs, f"rt{chairs}{'-secure' if secure else ''}") as tmp:
+        run = Run(Path(tmp), chairs, secure=secure)
         out = str(Path(tmp) / "latency")
         try:
             world = run.start(lockstep=False, chairs=chairs, hosts=hosts, duration_s=duration_s, probe_out=out)
@@ -242,12 +285,27 @@ def measure_rt(chairs: int, hosts: int, duration_s: float, logs: str | None = No
         }
 
 
+def _ratio(plain: dict[str, float], secure: dict[str, float]) -> dict[str, float]:
+    """Secured over plain for each figure both have (rtf below 1, ms above 1: security's cost)."""
+    wanted = ("rtf", "ms_per_tick", "p50_ms", "p99_ms", "cpu_ms_router", "cpu_ms_world")
+    return {k: secure[k] / plain[k] for k in wanted if isinstance(plain.get(k), float) and plain[k] and k in secure}
+
+
 def main(argv: list[str] | None = None) -> int:
     """Runs the measurements and prints figures with their targets."""
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument(
-        "--only", nargs="+", choices=["lockstep10", "lockstep100", "lockstep1000", "rt100"], help="run these only"
+        "--only",
+        nargs="+",
+        choices=["lockstep10", "lockstep100", "lockstep1000", "rt100", "rt10"],
+        help="run these only",
     )
+    ap.add_argument(
+        "--secure",
+        action="store_true",
+        help="each measurement without, then with TLS and access control (docs/security.md), and their ratio",
+    )
+    ap.add_argument("--quick", action="store_true", help="lockstep10 for 5 s and rt10 only (about a minute)")
     ap.add_argument(
         "--duration", type=float, default=20.0, help="simulated seconds per lock-step measurement (default 20)"
     )
@@ -271,20 +329,28 @@ def main(argv: list[str] | None = None) -> int:
     global DEBUG, PUSHING
     DEBUG = DEBUG or args.debug
     PUSHING = args.pushing
-    todo = args.only or ["lockstep10", "lockstep100", "lockstep1000", "rt100"]
+    todo = args.only or (
+        ["lockstep10", "rt10"] if args.quick else ["lockstep10", "lockstep100", "lockstep1000", "rt100"]
+    )
+    duration = 5.0 if args.quick else args.duration
     res: dict[str, dict[str, float]] = {}
     plans = {
-        "lockstep10": lambda: measure_lockstep(10, 10, args.duration, args.logs),
-        "lockstep100": lambda: measure_lockstep(100, 100, args.duration, args.logs),
-        "lockstep1000": lambda: measure_lockstep(1000, 4, min(args.duration, 10.0), args.logs),
-        "rt100": lambda: measure_rt(100, 4, 20.0, args.logs),
+        "lockstep10": lambda s: measure_lockstep(10, 10, duration, args.logs, secure=s),
+        "lockstep100": lambda s: measure_lockstep(100, 100, duration, args.logs, secure=s),
+        "lockstep1000": lambda s: measure_lockstep(1000, 4, min(duration, 10.0), args.logs, secure=s),
+        "rt100": lambda s: measure_rt(100, 4, 20.0, args.logs, secure=s),
+        "rt10": lambda s: measure_rt(10, 2, 10.0, args.logs, secure=s),
     }
     for name in todo:
-        print(f"  measuring {name} ...", file=sys.stderr, flush=True)
-        try:
-            res[name] = plans[name]()
-        except Exception as e:  # a failed measurement is reported, the others still run
-            res[name] = {"error": str(e)}  # type: ignore[dict-item]
+        for secure in (False, True) if args.secure else (False,):
+            key = f"{name}_secure" if secure else name
+            print(f"  measuring {key} ...", file=sys.stderr, flush=True)
+            try:
+                res[key] = plans[name](secure)
+            except Exception as e:  # a failed measurement is reported, the others still run
+                res[key] = {"error": str(e)}  # type: ignore[dict-item]
+        if args.secure:
+            res[f"{name}_ratio"] = _ratio(res[name], res[f"{name}_secure"])
     if args.json:
         print(json.dumps({"benchmark": "scale", "targets": TARGETS, "results": res}))
         return 0
