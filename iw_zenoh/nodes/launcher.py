@@ -23,7 +23,6 @@ from pathlib import Path
 import msgspec
 
 from iw_zenoh import keys
-from iw_zenoh.agent_programs import program_label
 from iw_zenoh.bus import Inbox, ZenohBus
 from iw_zenoh.config import Scenario, load_scenario
 from iw_zenoh.core.modes import Mode
