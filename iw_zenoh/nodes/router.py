@@ -15,6 +15,7 @@ import threading
 import time
 from collections.abc import Sequence
 
+import json5
 import zenoh
 
 from iw_zenoh.runtime import Process, start_role
@@ -61,8 +62,21 @@ def _arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _prepare(args: argparse.Namespace) -> None:
-    if args.policy and args.identity:
+    if (args.policy and args.identity) or _enforces(args.zenoh_config):
         _report_denials()
+
+
+def _enforces(config_file: str | None) -> bool:
+    """Whether a Zenoh configuration file turns access control on (``iwz secure config`` writes one)."""
+    if not config_file:
+        return False
+    try:
+        with open(config_file, encoding="utf-8") as f:
+            doc = json5.load(f)
+    except (OSError, ValueError):
+        return False  # joining the bus says what is wrong with it
+    acl = doc.get("access_control") if isinstance(doc, dict) else None
+    return isinstance(acl, dict) and bool(acl.get("enabled"))
 
 
 def _report_denials() -> None:
@@ -92,7 +106,7 @@ def _pump(read: int, out: int) -> None:
 
 def _serve(proc: Process, _: None = None) -> None:
     proc.io.alive()
-    secured = " (mutual TLS, access control by policy)" if proc.args.policy else ""
+    secured = " (access control by policy)" if proc.args.policy or _enforces(proc.args.zenoh_config) else ""
     print(f"iwz router: listening on {', '.join(proc.bus.listening)}{secured}", flush=True)
     while not proc.io.stop.is_set():
         proc.io.stop.wait(1.0)

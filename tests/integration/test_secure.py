@@ -248,3 +248,26 @@ def test_a_process_without_a_certificate_cannot_even_start_a_role(secured: Secur
     done = subprocess.run([*argv, "--cfg", QUICK[0]], capture_output=True, text=True, timeout=60)
     assert done.returncode == 2
     assert "cannot join the bus" in done.stdout
+
+
+def test_the_router_listens_where_its_config_file_says_and_reports_a_flag_replacing_it(tmp_path: Path) -> None:
+    net = Net(tmp_path, sim="cf")
+    try:
+        port, other = free_port(), free_port()
+        conf = tmp_path / "router.json5"
+        conf.write_text(f'{{ listen: {{ endpoints: ["tcp/127.0.0.1:{port}"] }} }} // as zenohd reads it\n')
+        cli = [sys.executable, "-m", "iw_zenoh.cli", "router", "--zenoh-config", str(conf)]
+        first = net.launch("router-file", cli)
+        second = net.launch("router-flag", [*cli, "--listen", f"tcp/127.0.0.1:{other}"])
+        deadline = time.monotonic() + 30
+        while not (port_in_use(port) and port_in_use(other)):
+            assert first.popen.poll() is None, first.output()
+            assert second.popen.poll() is None, second.output()
+            assert time.monotonic() < deadline, f"{first.output()}\n{second.output()}"
+            time.sleep(0.05)  # polling a port: there is no event to wait on
+        while "listening on" not in second.output():
+            assert time.monotonic() < deadline, second.output()
+            time.sleep(0.05)  # polling a log file: there is no event to wait on
+        assert f'listen/endpoints = ["tcp/127.0.0.1:{port}"] is overridden by --listen' in second.output()
+    finally:
+        net.close()
