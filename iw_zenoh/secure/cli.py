@@ -75,8 +75,12 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-def add_identity(policy: Path, name: str, roles: Sequence[str], *, robots: Sequence[int] = (), shard: str = "") -> bool:
+def add_identity(
+    policy: Path, name: str, roles: Sequence[str], *, robots: Sequence[int] = (), shard: str = "", write: bool = True
+) -> bool:
     """Adds ``[identities.NAME]`` to a policy file (made if missing); False when NAME is there already.
+
+    With ``write`` false, only checks that the policy would take it.
 
     Raises:
         ConfigError: When the policy, with it, is refused.
@@ -89,7 +93,8 @@ def add_identity(policy: Path, name: str, roles: Sequence[str], *, robots: Seque
     entry += f"robots = {json.dumps(list(robots))}\n" if robots else ""
     entry += f'shard = "{shard}"\n' if shard else ""
     parse_policy(text + entry, str(policy))  # refused before anything is written
-    policy.write_text(text + entry, encoding="utf-8")
+    if write:
+        policy.write_text(text + entry, encoding="utf-8")
     return True
 
 
@@ -99,11 +104,13 @@ def _issue(args: argparse.Namespace) -> None:
     except ValueError:
         raise IwError(f"--robots takes robot ids, e.g. 1,2; got {args.robots!r}") from None
     d = Path(args.dir)
+    roles = [r for r in args.role if r != "router"]
+    policy = Path(args.policy) if args.policy else d / POLICY_FILE
+    if roles:  # a refused entry is refused before any file is made
+        add_identity(policy, args.name, roles, robots=robots, shard=args.shard, write=False)
     ident = issue(d, args.name, server="router" in args.role, hosts=tuple(args.host))
     print(f"iwz secure: {ident.cert} and {ident.key} (CN {args.name})")
-    roles = [r for r in args.role if r != "router"]
     if roles:
-        policy = Path(args.policy) if args.policy else d / POLICY_FILE
         added = add_identity(policy, args.name, roles, robots=robots, shard=args.shard)
         print(f"iwz secure: {args.name} {'added to' if added else 'already in'} {policy}")
 
