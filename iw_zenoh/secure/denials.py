@@ -21,6 +21,7 @@ _DIRECT = re.compile(
 )
 _CACHED = re.compile(rb"Using cached result: ([0-9a-f]+) is unauthorized to (.+?) \((ingress|egress)\) on (\S+)")
 _CN = re.compile(r"CertCommonName\(([^)]*)\)")
+_STRANGER = re.compile(rb"([0-9a-f]+) did not match any configured ACL subject")
 REPEAT_NS = 1_000_000_000  # the same refusal again: counted, reported at most once a second
 
 
@@ -56,9 +57,12 @@ class DenialLog:
             line: The line (ANSI colours allowed).
             now_ns: Now, in ns of any monotonic clock (for the once-a-second rule).
         """
-        if b"unauthorized" not in line and b"caching permissions" not in line:
+        if b"unauthorized" not in line and b"caching permissions" not in line and b"ACL subject" not in line:
             return None
         line = _ANSI.sub(b"", line)
+        m = _STRANGER.search(line)
+        if m:  # a certificate of the authority the policy does not name: everything refused, unlogged
+            return Denial(f"session {m[1].decode()} (no identity of the policy)", "every message", "ingress", "any key")
         m = _CACHING.search(line)
         if m:
             self._caching[m[1].decode()] = m[2].decode()

@@ -77,6 +77,7 @@ def _identities(ids: Path) -> None:
     for name, robot in (("victim", 1), ("rogue", 2)):
         issue(ids, name)
         add_identity(ids / "policy.toml", name, ["agent"], robots=[robot])
+    issue(ids, "stranger")  # of the authority, but no identity of the policy
     text = (ids / "policy.toml").read_text().replace('sim = "default"', 'sim = "sec"')
     (ids / "policy.toml").write_text(text)
 
@@ -224,6 +225,22 @@ def test_the_router_logs_each_refused_publication_with_identity_and_key(secured:
         else:
             time.sleep(0.1)  # polling a log file: there is no event to wait on
     assert seen.is_set(), secured.router.output()[-2000:]
+
+
+def test_a_certificate_the_policy_does_not_name_may_do_nothing_and_is_logged(secured: Secured) -> None:
+    stranger = secured.session("stranger")
+    box = Inbox()
+    stranger.subscribe(keys.state("sec"), box)
+    states = Inbox(maxlen=1)
+    secured.observer.subscribe(keys.state("sec"), states)
+    _flood(1.0, (stranger, keys.control("sec"), encode(Control(command="pause"))))
+    t0 = wait_msg(states, WorldState).tick
+    wait_msg(states, WorldState, lambda m: m.tick >= t0 + 10, timeout_s=20)  # the world runs on
+    assert len(box) == 0  # and the stranger is sent nothing of it
+    deadline = time.monotonic() + 20
+    while "(no identity of the policy)" not in secured.router.output():
+        assert time.monotonic() < deadline, secured.router.output()[-2000:]
+        time.sleep(0.1)  # polling a log file: there is no event to wait on
 
 
 def test_a_process_without_a_certificate_cannot_connect(secured: Secured) -> None:

@@ -43,3 +43,9 @@ def test_permissions_worked_out_in_advance_for_a_declared_key_are_no_refusal() -
 
 def test_other_lines_are_no_refusal() -> None:
     assert DenialLog().feed(HEAD + b"is authorized to Put (ingress) on x", 0) is None
+
+
+def test_a_session_no_identity_of_the_policy_matches_is_reported_once() -> None:
+    line = HEAD + f"{ZID} did not match any configured ACL subject. Default permission `Deny` will be applied".encode()
+    d = DenialLog().feed(line, 0)
+    assert str(d) == f"access denied: every message from 'session {ZID} (no identity of the policy)' on any key"
