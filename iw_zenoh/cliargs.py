@@ -79,5 +79,5 @@ def net_from_args(args: argparse.Namespace) -> NetConfig:
         config_file=args.zenoh_config,
         overrides=tuple(args.cfg),
         identity=getattr(args, "identity", None),
-        policy=getattr(args, "policy", None),
+        policy=getattr(args, "security_policy", None),  # the router's --policy
     )

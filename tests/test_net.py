@@ -89,3 +89,18 @@ def test_a_secured_process_cannot_go_around_the_router(tmp_path: Path, net: NetC
     with pytest.raises(ConfigError) as e:
         build_config(NetConfig(**{**net.__dict__, "identity": str(tmp_path / "alice")}))
     assert e.value.field == flag
+
+
+def test_an_agents_own_policy_option_is_not_the_routers_security_policy() -> None:
+    # the door agent's --policy negotiate once reached the network configuration and ended the
+    # agent with "only the router enforces a policy": every door scenario failed to start
+    import argparse
+
+    from iw_zenoh.cliargs import add_common_arguments, net_from_args
+
+    door = argparse.ArgumentParser()
+    add_common_arguments(door)
+    door.add_argument("--policy", choices=["automatic", "negotiate"], default="automatic")
+    args = door.parse_args(["--policy", "negotiate"])
+    assert net_from_args(args).policy is None
+    build_config(net_from_args(args))  # and the agent's network configuration builds

@@ -56,13 +56,14 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--policy",
+        dest="security_policy",  # not "policy": an agent's own --policy (the door's) must not read as this
         metavar="TOML",
         help="a security policy (docs/security.md): who may publish, ask and answer what; needs --identity",
     )
 
 
 def _prepare(args: argparse.Namespace) -> None:
-    if (args.policy and args.identity) or _enforces(args.zenoh_config):
+    if (args.security_policy and args.identity) or _enforces(args.zenoh_config):
         _report_denials()
 
 
@@ -106,7 +107,7 @@ def _pump(read: int, out: int) -> None:
 
 def _serve(proc: Process, _: None = None) -> None:
     proc.io.alive()
-    secured = " (access control by policy)" if proc.args.policy or _enforces(proc.args.zenoh_config) else ""
+    secured = " (access control by policy)" if proc.args.security_policy or _enforces(proc.args.zenoh_config) else ""
     print(f"iwz router: listening on {', '.join(proc.bus.listening)}{secured}", flush=True)
     while not proc.io.stop.is_set():
         proc.io.stop.wait(1.0)
