@@ -1,0 +1,134 @@
+"""Where each role spends a lock-step tick: scale.py's lock-step run, some roles under py-spy.
+
+    python benchmarks/profile_tick.py                      # 10 one-chair agent processes, 10 s simulated
+    python benchmarks/profile_tick.py --roles world sensors1 --duration 5 --top 40
+    python benchmarks/profile_tick.py --chairs 100 --processes 100 --out /tmp/prof100
+
+Starts the run ``benchmarks/scale.py`` measures as ``lockstep10`` (router, world, collision,
+sensors, one probe agent per process), the named processes as children of the py-spy sampling
+profiler (``pip install -e '.[dev]'`` installs it; every thread is sampled, Zenoh's callback
+threads included, and only while it runs Python: waiting is left out). For each profiled
+process it writes ``OUT/<name>.txt``, py-spy's collapsed stacks (``flamegraph.pl`` or
+speedscope draw them), and prints the functions that cost most, in CPU milliseconds per tick,
+self and with what they call. Stacks of start-up (imports, kernel compilation) are left out.
+
+The profiler slows the processes it samples, so the real-time factor printed is not a figure
+to quote (``scale.py`` is); compare a function's share before and after a change.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import os
+import signal
+import subprocess
+import sys
+from collections import Counter
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks import exit_on_sigterm  # noqa: E402
+from benchmarks.scale import Run, measure_lockstep  # noqa: E402
+
+ROLES = ("world", "collision", "sensors1", "agent0", "router")
+
+
+def _children(pid: int) -> list[int]:
+    """Child processes of ``pid`` (from /proc)."""
+    try:
+        return [int(c) for c in Path(f"/proc/{pid}/task/{pid}/children").read_text().split()]
+    except OSError:
+        return []
+
+
+def profiled_run(out: Path, roles: set[str], rate: int) -> type[Run]:
+    """A :class:`~benchmarks.scale.Run` that starts the processes named in ``roles`` under
+    py-spy, each writing its collapsed stacks to ``out/<name>.txt``."""
+
+    class Profiled(Run):
+        def command(self, name: str) -> list[str]:
+            if name not in roles:
+                return super().command(name)
+            spy = [str(Path(sys.executable).with_name("py-spy")), "record", "-r", str(rate), "-f", "raw"]
+            return [*spy, "-o", str(out / f"{name}.txt"), "--", *super().command(name)]
+
+        def stop(self) -> None:
+            # py-spy writes when its child ends: the child is asked to stop, not py-spy
+            for name, p in zip(self.names, self.procs, strict=True):
+                if name in roles and p.poll() is None:
+                    for child in _children(p.pid):
+                        with contextlib.suppress(OSError):
+                            os.kill(child, signal.SIGTERM)
+            for name, p in zip(self.names, self.procs, strict=True):
+                if name in roles:
+                    with contextlib.suppress(subprocess.TimeoutExpired):
+                        p.wait(30)
+            super().stop()
+
+    return Profiled
+
+
+STARTUP = ("_find_and_load", "warm_up")  # frames of start-up, not per-tick work
+
+
+def summarise(stacks: Path, rate: int, ticks: int, top: int) -> list[str]:
+    """The ``top`` functions by CPU ms per tick in py-spy's collapsed ``stacks`` file, self time
+    and time with what they call; stacks of start-up are left out."""
+    self_n: Counter[str] = Counter()
+    total_n: Counter[str] = Counter()
+    for line in stacks.read_text().splitlines():
+        stack, _, count = line.rpartition(" ")
+        frames = stack.split(";")
+        if not frames or any(s in stack for s in STARTUP):
+            continue
+        n = int(count)
+        self_n[frames[-1]] += n
+        for f in set(frames):
+            total_n[f] += n
+    ms = 1000 / rate / max(1, ticks)
+    rows = [f"{'self':>7} {'total':>7}  ms per tick"]
+    for f, n in self_n.most_common(top):
+        rows.append(f"{n * ms:7.3f} {total_n[f] * ms:7.3f}  {f}")
+    return rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Runs one profiled lock-step run and prints where its reports are."""
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--chairs", type=int, default=10, help="chairs (default 10)")
+    ap.add_argument("--processes", type=int, default=10, help="agent processes sharing them (default 10)")
+    ap.add_argument("--duration", type=float, default=10.0, help="simulated seconds (default 10: 100 ticks)")
+    ap.add_argument(
+        "--roles",
+        nargs="+",
+        default=list(ROLES[:4]),
+        metavar="NAME",
+        help=f"processes to profile, among {', '.join(ROLES)} (agentK, sensorsK for others); default "
+        "world collision sensors1 agent0",
+    )
+    ap.add_argument("--rate", type=int, default=1000, help="samples a second (default 1000)")
+    ap.add_argument("--top", type=int, default=25, help="functions listed for each process (default 25)")
+    ap.add_argument("--out", default="/tmp/iwz-profile", metavar="DIR", help="reports and logs (default %(default)s)")
+    args = ap.parse_args(argv)
+    exit_on_sigterm()
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    run_class = profiled_run(out.resolve(), set(args.roles), args.rate)
+    res = measure_lockstep(args.chairs, args.processes, args.duration, str(out), make_run=run_class)
+    ticks = int(res["ticks"])
+    print(f"{ticks} ticks, {res['ms_per_tick']:.2f} ms a tick under the profiler; CPU ms per tick by role:")
+    print("  " + ", ".join(f"{k[7:]} {v:.2f}" for k, v in res.items() if k.startswith("cpu_ms_")))
+    for name in args.roles:
+        stacks = out / f"{name}.txt"
+        if not stacks.exists():
+            print(f"{name}: no profile (see {out}/lockstep{args.chairs}/{name}.log)")
+            continue
+        print(f"{name} ({stacks}):")
+        print("\n".join("  " + r for r in summarise(stacks, args.rate, ticks, args.top)))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
