@@ -51,7 +51,8 @@ def profiled_run(out: Path, roles: set[str], rate: int) -> type[Run]:
         def command(self, name: str) -> list[str]:
             if name not in roles:
                 return super().command(name)
-            spy = [str(Path(sys.executable).with_name("py-spy")), "record", "-r", str(rate), "-f", "raw"]
+            spy = [str(Path(sys.executable).with_name("py-spy")), "record", "--nonblocking", "-r", str(rate)]
+            spy += ["-f", "raw"]
             return [*spy, "-o", str(out / f"{name}.txt"), "--", *super().command(name)]
 
         def stop(self) -> None:
@@ -71,17 +72,20 @@ def profiled_run(out: Path, roles: set[str], rate: int) -> type[Run]:
 
 
 STARTUP = ("_find_and_load", "warm_up")  # frames of start-up, not per-tick work
+# leaves py-spy samples as busy while the thread waits in native code (a lock, Zenoh's own
+# threads between two callbacks, which show no Python frame at all)
+WAITING = ("", "Condition.wait (threading.py", "Event.wait (threading.py", "Thread.run (threading.py")
 
 
 def summarise(stacks: Path, rate: int, ticks: int, top: int) -> list[str]:
     """The ``top`` functions by CPU ms per tick in py-spy's collapsed ``stacks`` file, self time
-    and time with what they call; stacks of start-up are left out."""
+    and time with what they call; stacks of start-up, and of threads waiting, are left out."""
     self_n: Counter[str] = Counter()
     total_n: Counter[str] = Counter()
     for line in stacks.read_text().splitlines():
         stack, _, count = line.rpartition(" ")
         frames = stack.split(";")
-        if not frames or any(s in stack for s in STARTUP):
+        if any(s in stack for s in STARTUP) or frames[-1].startswith(WAITING[1:]) or not frames[-1]:
             continue
         n = int(count)
         self_n[frames[-1]] += n
