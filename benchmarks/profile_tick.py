@@ -3,6 +3,7 @@
     python benchmarks/profile_tick.py                      # 10 one-chair agent processes, 10 s simulated
     python benchmarks/profile_tick.py --roles world sensors1 --duration 5 --top 40
     python benchmarks/profile_tick.py --chairs 100 --processes 100 --out /tmp/prof100
+    python benchmarks/profile_tick.py --roles --publish-times  # no profiler: how long each publish takes
 
 Starts the run ``benchmarks/scale.py`` measures as ``lockstep10`` (router, world, collision,
 sensors, one probe agent per process), the named processes as children of the py-spy sampling
@@ -12,6 +13,11 @@ process it writes ``OUT/<name>.txt``, py-spy's collapsed stacks (``flamegraph.pl
 speedscope draw them), and prints the functions that cost most, in CPU milliseconds per tick,
 self and with what they call. Stacks of start-up (imports, kernel compilation) are left out.
 
+``--publish-times`` also times every publish of every process (``benchmarks/pubtimes/``): per
+role and key, the calls, their mean wall time and the CPU they used. Where wall time is far
+above CPU, the publishing thread waited inside Zenoh's ``put`` (its transmission thread, the
+other processes on the cores): time on the tick's critical path that no Python change removes.
+
 The profiler slows the processes it samples, so the real-time factor printed is not a figure
 to quote (``scale.py`` is); compare a function's share before and after a change.
 """
@@ -20,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import json
 import os
 import signal
 import subprocess
@@ -98,6 +105,21 @@ def summarise(stacks: Path, rate: int, ticks: int, top: int) -> list[str]:
     return rows
 
 
+def publish_times(folder: Path) -> list[str]:
+    """Each role's publishes by key (agents summed): calls, mean wall and CPU microseconds."""
+    sums: dict[tuple[str, str], list[int]] = {}
+    for f in sorted(folder.glob("*.json")):
+        got = json.loads(f.read_text())
+        role = "agent" if got["process"].startswith("agent") else got["process"]
+        for key, (n, wall, cpu) in got["keys"].items():
+            s = sums.setdefault((role, key), [0, 0, 0])
+            s[0], s[1], s[2] = s[0] + n, s[1] + wall, s[2] + cpu
+    rows = [f"{'calls':>7} {'wall us':>8} {'cpu us':>7}  role: key"]
+    for (role, key), (n, wall, cpu) in sorted(sums.items()):
+        rows.append(f"{n:7d} {wall / n / 1e3:8.1f} {cpu / n / 1e3:7.1f}  {role}: {key}")
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     """Runs one profiled lock-step run and prints where its reports are."""
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -106,12 +128,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--duration", type=float, default=10.0, help="simulated seconds (default 10: 100 ticks)")
     ap.add_argument(
         "--roles",
-        nargs="+",
+        nargs="*",
         default=list(ROLES[:4]),
         metavar="NAME",
         help=f"processes to profile, among {', '.join(ROLES)} (agentK, sensorsK for others); default "
         "world collision sensors1 agent0",
     )
+    ap.add_argument("--publish-times", action="store_true", help="time every publish of every process")
     ap.add_argument("--rate", type=int, default=1000, help="samples a second (default 1000)")
     ap.add_argument("--top", type=int, default=25, help="functions listed for each process (default 25)")
     ap.add_argument("--out", default="/tmp/iwz-profile", metavar="DIR", help="reports and logs (default %(default)s)")
@@ -119,6 +142,14 @@ def main(argv: list[str] | None = None) -> int:
     exit_on_sigterm()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    if args.publish_times:
+        times = (out / "publish").resolve()
+        times.mkdir(exist_ok=True)
+        for old in times.glob("*.json"):
+            old.unlink()
+        os.environ["IWZ_PUBLISH_TIMES_DIR"] = str(times)
+        here = str(Path(__file__).resolve().parent / "pubtimes")
+        os.environ["PYTHONPATH"] = os.pathsep.join(filter(None, [here, os.environ.get("PYTHONPATH")]))
     run_class = profiled_run(out.resolve(), set(args.roles), args.rate)
     res = measure_lockstep(args.chairs, args.processes, args.duration, str(out), make_run=run_class)
     ticks = int(res["ticks"])
@@ -131,6 +162,8 @@ def main(argv: list[str] | None = None) -> int:
             continue
         print(f"{name} ({stacks}):")
         print("\n".join("  " + r for r in summarise(stacks, args.rate, ticks, args.top)))
+    if args.publish_times:
+        print("\n".join(publish_times(out / "publish")))
     return 0
 
 
