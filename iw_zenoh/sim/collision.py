@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.collision import Collisions, check_collisions, check_collisions_ciberrato
 from iw_zenoh.core.modes import Profile
 from iw_zenoh.core.spec import RobotType
@@ -17,6 +18,15 @@ __all__ = ["CollisionNode"]
 
 class CollisionNode:
     """Turns a proposal into a verdict (logic only)."""
+
+    def __init__(self) -> None:
+        self._doors: tuple[Bodies, npt.NDArray[np.bool_]] | None = None  # per roster, not per tick
+
+    def _doors_of(self, bodies: Bodies) -> npt.NDArray[np.bool_]:
+        """Which of these bodies are doors (computed again only when the roster's bodies change)."""
+        if self._doors is None or self._doors[0] is not bodies:
+            self._doors = (bodies, np.asarray([t == RobotType.DOOR for t in bodies.types], dtype=bool))
+        return self._doors[1]
 
     def warm(self, view: WorldView) -> None:
         """Checks the view's robots once, where they were placed, and forgets the verdict, so
@@ -56,7 +66,7 @@ class CollisionNode:
             col = check_collisions_ciberrato(view.scene, now, nxt, np.asarray(msg.linear), active=active)
             hits = [Hit(robot_id=ids[i], other=ids[j]) for i, j in col.robot_pairs]
         else:
-            doors = np.asarray([t == RobotType.DOOR for t in bodies.types], dtype=bool)
+            doors = self._doors_of(bodies)
             col = _doors_pass_doors(
                 check_collisions(view.scene, bodies.outline, now, nxt, active=active, ignore_walls=doors), doors
             )
