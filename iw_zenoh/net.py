@@ -116,7 +116,11 @@ def build_config(net: NetConfig) -> tuple[zenoh.Config, list[str]]:
             return
         if had is not _MISSING and had != value:
             notes.append(f"{net.config_file}: {key} = {json.dumps(had)} is overridden by {why}: {json.dumps(value)}")
-        conf.insert_json5(key, json.dumps(value))
+        try:
+            conf.insert_json5(key, json.dumps(value))
+        except Exception:  # zenoh.ZError, whose text is a Rust debug dump with a source path
+            form = "; an endpoint is PROTOCOL/ADDRESS:PORT, e.g. tcp/127.0.0.1:7447" if "endpoints" in key else ""
+            raise ConfigError(why, f"Zenoh refuses {json.dumps(value)} for {key}{form}") from None
 
     put("mode", net.mode, given=True, why="the role's mode (--mode)")
     for key, value, given, why in _flag_values(net):

@@ -104,3 +104,14 @@ def test_an_agents_own_policy_option_is_not_the_routers_security_policy() -> Non
     args = door.parse_args(["--policy", "negotiate"])
     assert net_from_args(args).policy is None
     build_config(net_from_args(args))  # and the agent's network configuration builds
+
+
+@pytest.mark.parametrize(
+    ("net", "flag"),
+    [(NetConfig(connect=("garbage",)), "--connect"), (NetConfig(mode="router", listen=("tcp",)), "--listen")],
+)
+def test_an_endpoint_zenoh_refuses_is_a_config_error_naming_the_flag(net: NetConfig, flag: str) -> None:
+    with pytest.raises(ConfigError) as e:
+        build_config(net)
+    assert e.value.field == flag
+    assert "PROTOCOL/ADDRESS:PORT" in e.value.reason

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import time
 from collections.abc import Callable, Sequence
 
@@ -24,6 +25,7 @@ __all__ = ["EXIT_NO_ANSWER", "EXIT_REFUSED", "main"]
 
 EXIT_REFUSED = 1  # the world answered: it cannot do it (bad-control, with its reason)
 EXIT_NO_ANSWER = 3  # no world answered within the timeout
+TIMEOUT_MAX_S = 86_400.0  # a day: the router's connect timeout is given to Zenoh in ms
 POLL_S = 0.05  # how long one wait for an inbox lasts before the deadline is looked at again
 
 EPILOG = """Commands:
@@ -69,8 +71,8 @@ def _arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _prepare(args: argparse.Namespace) -> Request:
-    if args.timeout <= 0:
-        raise IwError(f"--timeout must be positive, got {args.timeout:g}")
+    if not (math.isfinite(args.timeout) and 0 < args.timeout <= TIMEOUT_MAX_S):
+        raise IwError(f"--timeout must be a positive number of seconds up to {TIMEOUT_MAX_S:g}, got {args.timeout:g}")
     req = parse_request(args.command, args.words, height_m=args.height)
     # a one-shot command waits for its router no longer than for its world (a --cfg given wins)
     args.cfg = [f'connect/timeout_ms:{{"client": {int(args.timeout * 1000)}}}', *args.cfg]

@@ -8,6 +8,7 @@ reason); a step has no event of its own: it is done when the tick has advanced b
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Literal
@@ -16,6 +17,7 @@ import msgspec
 
 from iw_zenoh.errors import DecodeError
 from iw_zenoh.messages import Control, Event, EventKind, Obstacle, ObstacleData, event_payload
+from iw_zenoh.messages.wire import INT64_MAX
 
 __all__ = ["COMMANDS", "Answer", "Request", "answer_to", "parse_request", "resolve_move"]
 
@@ -84,11 +86,25 @@ def _numbers(text: str, what: str, counts: tuple[int, ...]) -> list[float]:
         v = [float(x) for x in text.split(",")]
     except ValueError:
         v = []
-    if len(v) not in counts:
+    if len(v) not in counts or not all(math.isfinite(x) for x in v):
         raise ValueError(
-            f"{what}: expected {' or '.join(str(c) for c in counts)} numbers separated by commas, got {text!r}"
+            f"{what}: expected {' or '.join(str(c) for c in counts)} numbers separated by commas, each finite, "
+            f"got {text!r}"
         )
     return v
+
+
+def _height(h: float | None, what: str) -> None:
+    if h is not None and not (math.isfinite(h) and h > 0):
+        raise ValueError(f"{what}: an obstacle's height is a positive number of metres, got {h:g}")
+
+
+def _count(words: Sequence[str], least: int) -> int | None:
+    """The one integer of ``words`` when it is in least..INT64_MAX (what the wire carries), else None."""
+    if len(words) != 1 or not words[0].isdigit():
+        return None
+    n = int(words[0])
+    return n if least <= n <= INT64_MAX else None
 
 
 def _obstacle(words: Sequence[str], height_m: float | None) -> Request:
@@ -105,11 +121,15 @@ def _obstacle(words: Sequence[str], height_m: float | None) -> Request:
         form = "X0,Y0,X1,Y1[,HEIGHT] or X,Y (a new centre)" if verb == "move" else "X0,Y0,X1,Y1[,HEIGHT]"
         raise ValueError(f"obstacle {verb} takes NAME {form}, got {' '.join(rest) or 'nothing'!r}")
     name, corners = rest
+    if not name:
+        raise ValueError(f"obstacle {verb} takes a NAME that is not empty")
+    _height(height_m, f"obstacle {verb} {name}")
     v = _numbers(corners, f"obstacle {verb} {name}", (2, 4, 5) if verb == "move" else (4, 5))
     if len(v) == 2:
         ob = Obstacle(name=name, x0=v[0], y0=v[1], x1=v[0], y1=v[1], height=height_m or DEFAULT_HEIGHT_M)
         return Request(Control(command=command, obstacle=ob), f"move obstacle {name!r}", move_to=(v[0], v[1]))
     h = v[4] if len(v) == 5 else height_m or DEFAULT_HEIGHT_M
+    _height(h, f"obstacle {verb} {name}")
     ob = Obstacle(name=name, x0=v[0], y0=v[1], x1=v[2], y1=v[3], height=h)
     return Request(Control(command=command, obstacle=ob), f"{verb} obstacle {name!r}")
 
@@ -134,14 +154,14 @@ def parse_request(command: str, words: Sequence[str], *, height_m: float | None 
             raise ValueError(f"{command} takes nothing more, got {' '.join(words)!r}")
         return Request(Control(command=plain), command)
     if command == "step":
-        if len(words) > 1 or (words and not (words[0].isdigit() and int(words[0]) >= 1)):
+        n = _count(words, 1) if words else 1
+        if n is None:
             raise ValueError(f"step takes one count N >= 1 (default 1), got {' '.join(words)!r}")
-        n = int(words[0]) if words else 1
         return Request(Control(command="step", steps=n), f"step {n}")
     if command == "remove":
-        if len(words) != 1 or not words[0].isdigit():
+        rid = _count(words, 0)
+        if rid is None:
             raise ValueError(f"remove takes one robot ID (an integer), got {' '.join(words) or 'nothing'!r}")
-        rid = int(words[0])
         return Request(Control(command="remove", robot_id=rid), f"remove robot {rid}")
     if command == "obstacle":
         return _obstacle(words, height_m)

@@ -3,12 +3,16 @@ with the map's own walls."""
 
 from __future__ import annotations
 
+import math
+
 import msgspec
 
 from iw_zenoh.core.lab import Lab, Wall, check_wall
 from iw_zenoh.messages import Obstacle
 
-__all__ = ["Obstacles"]
+__all__ = ["NAME_MAX", "Obstacles"]
+
+NAME_MAX = 64  # characters of an obstacle's name: a label on a page and a key in the world's table
 
 
 class Obstacles:
@@ -36,6 +40,10 @@ class Obstacles:
             if self.by_name.pop(ob.name, None) is None:
                 return f"no obstacle named {ob.name!r}"
             return ""
+        if not 1 <= len(ob.name) <= NAME_MAX:
+            return f"an obstacle's name is 1 to {NAME_MAX} characters, got {len(ob.name)}"
+        if not (math.isfinite(ob.height) and ob.height > 0):
+            return f"obstacle {ob.name!r}: its height must be a positive number of metres, got {ob.height:g}"
         x0, x1 = sorted((ob.x0, ob.x1))
         y0, y1 = sorted((ob.y0, ob.y1))
         corners = ((x0, y0), (x1, y0), (x1, y1), (x0, y1))

@@ -53,11 +53,24 @@ def test_an_obstacle_takes_its_corners_and_a_height() -> None:
         ("obstacle", ["move", "A", "x,y"], "expected 2 or 4 or 5 numbers"),
         ("obstacle", ["remove"], "obstacle remove takes one NAME"),
         ("fly", [], "no command 'fly'"),
+        ("step", [str(2**63)], "step takes one count N >= 1"),
+        ("remove", [str(2**64)], "remove takes one robot ID"),
+        ("obstacle", ["add", "A", "nan,2,3,4"], "4 or 5 numbers separated by commas, each finite"),
+        ("obstacle", ["add", "A", "1,2,3,inf"], "4 or 5 numbers separated by commas, each finite"),
+        ("obstacle", ["move", "A", "nan,2"], "2 or 4 or 5 numbers separated by commas, each finite"),
+        ("obstacle", ["add", "A", "1,2,3,4,-1"], "height is a positive number"),
+        ("obstacle", ["add", "", "1,2,3,4"], "a NAME that is not empty"),
     ],
 )
 def test_a_bad_command_line_says_what_the_command_takes(command: str, words: list[str], says: str) -> None:
     with pytest.raises(ValueError, match=says):
         parse_request(command, words)
+
+
+@pytest.mark.parametrize("height", [-1.0, 0.0, float("nan"), float("inf")])
+def test_a_height_that_is_no_positive_number_is_refused_before_anything_is_sent(height: float) -> None:
+    with pytest.raises(ValueError, match="height is a positive number"):
+        parse_request("obstacle", ["add", "A", "1,2,3,4"], height_m=height)
 
 
 def test_a_move_to_a_centre_keeps_the_size_and_height() -> None:

@@ -279,6 +279,25 @@ def test_obstacles_are_added_moved_and_refused_outside_the_lab() -> None:
     assert len(core.scene.lab.walls) == 1
 
 
+@pytest.mark.parametrize(
+    ("ob", "says"),
+    [
+        (Obstacle(name="A", x0=12, y0=4, x1=13, y1=5, height=-1.0), "height must be a positive number"),
+        (Obstacle(name="A", x0=12, y0=4, x1=13, y1=5, height=float("nan")), "height must be a positive number"),
+        (Obstacle(name="", x0=12, y0=4, x1=13, y1=5), "name is 1 to 64 characters, got 0"),
+        (Obstacle(name="x" * 5000, x0=12, y0=4, x1=13, y1=5), "name is 1 to 64 characters, got 5000"),
+    ],
+)
+def test_an_obstacle_without_a_height_or_a_name_is_refused_with_the_reason(ob: Obstacle, says: str) -> None:
+    core = _core()
+    rev = core.revision
+    for command in ("add_obstacle", "move_obstacle"):
+        out = core.on_control(Control(command=command, obstacle=ob))
+        assert _kinds(out) == ["bad-control"]
+        assert [says in m.reason for _, m in out if isinstance(m, Event)] == [True]
+    assert core.revision == rev
+
+
 def test_pause_step_and_start() -> None:
     core = _core(expect=0)
     core.on_control(Control(command="pause"))
