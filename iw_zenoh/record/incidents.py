@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from typing import IO
@@ -25,7 +26,7 @@ from iw_zenoh.errors import DecodeError, IwError
 from iw_zenoh.messages import CollisionData, Event, EventKind, WorldInfo, WorldState, event_payload
 from iw_zenoh.record.reader import RecordingReader, file_error, open_recording, print_notes
 
-__all__ = ["Incident", "find_incidents", "main"]
+__all__ = ["Incident", "clearance_arg", "find_incidents", "main"]
 
 EVENT_KINDS = {
     EventKind.COLLISION: "collision",
@@ -161,6 +162,17 @@ def find_incidents(f: IO[bytes] | RecordingReader, *, near_m: float = 0.2) -> li
     return finder.out
 
 
+def clearance_arg(text: str) -> float:
+    """An argparse type: the near-miss clearance, a positive finite number of metres."""
+    try:
+        v = float(text)
+    except ValueError:
+        v = math.nan
+    if not (math.isfinite(v) and v > 0):
+        raise argparse.ArgumentTypeError(f"a clearance is a positive number of metres, e.g. 0.3; got {text!r}")
+    return v
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Runs ``iwz incidents``."""
     p = argparse.ArgumentParser(
@@ -168,7 +180,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         description="List the incidents of a recording: collisions, near misses, stops, losses, refusals, drops.",
     )
     p.add_argument("file", help="MCAP recording")
-    p.add_argument("--near", type=float, default=0.2, help="near-miss clearance, m (default 0.2)")
+    p.add_argument("--near", type=clearance_arg, default=0.2, help="near-miss clearance, m (default 0.2)")
     p.add_argument("--json", action="store_true", help="one JSON array")
     args = p.parse_args(argv)
     try:

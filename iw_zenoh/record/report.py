@@ -17,6 +17,7 @@ from pathlib import Path
 
 from iw_zenoh.errors import IwError, RecordingError
 from iw_zenoh.messages import Event, WorldInfo, WorldState
+from iw_zenoh.record.incidents import clearance_arg
 from iw_zenoh.record.metrics import Goal, RunMeter, RunReport, parse_goals
 from iw_zenoh.record.reader import file_error, open_recording, print_notes
 
@@ -139,7 +140,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("files", nargs="+", metavar="FILE", help="one MCAP recording, or two to compare")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     p.add_argument("--html", metavar="OUT", help="also write an HTML page with plots (self-contained)")
-    p.add_argument("--near", type=float, default=0.2, help="near-miss clearance, m (default 0.2)")
+    p.add_argument("--near", type=clearance_arg, default=0.2, help="near-miss clearance, m (default 0.2)")
     p.add_argument("--goal", action="append", default=[], metavar="ID=X,Y[,WITHIN]", help="a chair's goal (repeatable)")
     args = p.parse_args(argv)
     if len(args.files) > 2:
@@ -159,7 +160,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.html:
         from iw_zenoh.record.report_page import write_page  # matplotlib only when a page is asked for
 
-        write_page(Path(args.html), reports)
+        try:
+            write_page(Path(args.html), reports)
+        except OSError as e:
+            print(
+                f"iwz report: --html {args.html}: cannot write it ({e.strerror or e}); give a writable path",
+                file=sys.stderr,
+            )
+            return 2
     if args.json:
         print(json.dumps({"runs": [{"file": f, **_as_json(r)} for f, r in reports]}))
     else:

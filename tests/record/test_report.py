@@ -182,3 +182,28 @@ def test_goals_parse_and_refuse() -> None:
     for bad in ("1=2", "x=1,2", "1=1,2,-1", "-1=1,2", "1=nan,2"):
         with pytest.raises(ValueError, match="ID=X,Y"):
             parse_goals(bad)
+
+
+@pytest.mark.parametrize("near", ["-1", "0", "nan", "inf", "close"])
+@pytest.mark.parametrize("command", ["report", "incidents"])
+def test_a_near_miss_clearance_that_is_no_positive_number_is_a_usage_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], near: str, command: str
+) -> None:
+    path = tmp_path / "a.mcap"
+    _record(path)
+    with pytest.raises(SystemExit) as e:
+        iwz([command, str(path), "--near", near])
+    assert e.value.code == 2
+    assert f"--near: a clearance is a positive number of metres, e.g. 0.3; got {near!r}" in capsys.readouterr().err
+
+
+def test_a_page_that_cannot_be_written_is_named_without_a_traceback(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "a.mcap"
+    _record(path)
+    out = tmp_path / "no-such-folder" / "page.html"
+    assert iwz(["report", str(path), "--html", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"iwz report: --html {out}: cannot write it" in err
+    assert "Traceback" not in err
