@@ -13,7 +13,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from iw_zenoh import keys
-from iw_zenoh.errors import IwError
+from iw_zenoh.errors import ConfigError, IwError
 from iw_zenoh.net import DEFAULT_TLS_ENDPOINT, NetConfig, config_values
 from iw_zenoh.secure.certs import init_ca, issue
 from iw_zenoh.secure.policy import load_policy, parse_policy
@@ -78,7 +78,7 @@ def _parser() -> argparse.ArgumentParser:
 def add_identity(
     policy: Path, name: str, roles: Sequence[str], *, robots: Sequence[int] = (), shard: str = "", write: bool = True
 ) -> bool:
-    """Adds ``[identities.NAME]`` to a policy file (made if missing); False when NAME is there already.
+    """Adds ``[identities.NAME]`` to a policy file (made if missing); False when NAME is there already, as asked.
 
     With ``write`` false, only checks that the policy would take it.
 
@@ -86,7 +86,15 @@ def add_identity(
         ConfigError: When the policy, with it, is refused.
     """
     text = policy.read_text(encoding="utf-8") if policy.exists() else HEADER.format(sim="default")
-    if name in parse_policy(text, str(policy)).identities:
+    had = parse_policy(text, str(policy)).identities.get(name)
+    if had is not None:
+        if (had.roles, had.robots, had.shard) != (tuple(roles), list(robots), shard):
+            said = f"role {list(had.roles)}, robots {had.robots}, shard {had.shard!r}"
+            raise ConfigError(
+                f"{policy}: identities.{name}",
+                f"{name!r} is there already ({said}), not as asked now: edit or remove its table "
+                "in the policy first, or issue under another name",
+            )
         return False
     role = json.dumps(roles[0]) if len(roles) == 1 else json.dumps(list(roles))
     entry = f'\n[identities."{name}"]\nrole = {role}\n'

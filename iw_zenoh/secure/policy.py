@@ -31,10 +31,13 @@ import msgspec
 
 from iw_zenoh import keys
 from iw_zenoh.errors import ConfigError
+from iw_zenoh.messages.wire import INT64_MAX
 
 __all__ = ["IdentityEntry", "Policy", "access_control", "load_policy", "owners", "parse_policy"]
 
-Name = Annotated[str, msgspec.Meta(pattern=r"^[^/*$?#\s]+$")]
+NAME_PATTERN = r"^[^/*$?#\s]+$"
+SHARD_PATTERN = r"^(\d+/\d+)?$"
+Name = Annotated[str, msgspec.Meta(pattern=NAME_PATTERN)]
 
 
 class IdentityEntry(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -49,8 +52,8 @@ class IdentityEntry(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_
     """
 
     role: str | list[str]
-    robots: list[Annotated[int, msgspec.Meta(ge=1)]] = []
-    shard: Annotated[str, msgspec.Meta(pattern=r"^(\d+/\d+)?$")] = ""
+    robots: list[Annotated[int, msgspec.Meta(ge=1, le=INT64_MAX)]] = []
+    shard: Annotated[str, msgspec.Meta(pattern=SHARD_PATTERN)] = ""
     hosts: list[str] = []
 
     @property
@@ -74,6 +77,21 @@ class Policy(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=Tr
     identities: dict[Name, IdentityEntry] = {}
 
 
+_PATTERNS = {  # what a refused pattern means, in the words of the policy's reader
+    NAME_PATTERN: "a name (an identity's, or sim) is text without /, *, $, ?, # or spaces, e.g. alice or sensors-1",
+    SHARD_PATTERN: 'a shard is "K/N", e.g. "1/2" (or "" for any)',
+}
+
+
+def _readable(reason: str) -> str:
+    """A msgspec refusal with the regular expression it quotes replaced by what it means."""
+    for pattern, says in _PATTERNS.items():
+        quoted = f"Expected `str` matching regex {pattern!r}"
+        if quoted in reason:
+            return reason.replace(quoted, says)
+    return reason
+
+
 def parse_policy(text: str, name: str = "policy") -> Policy:
     """Reads a policy from TOML text.
 
@@ -87,10 +105,12 @@ def parse_policy(text: str, name: str = "policy") -> Policy:
     try:
         policy = msgspec.convert(doc, Policy)
     except msgspec.ValidationError as e:
-        raise ConfigError(name, str(e).replace("$.", "")) from None
+        raise ConfigError(name, _readable(str(e).replace("$.", ""))) from None
     owner: dict[int, str] = {}
     for ident, entry in policy.identities.items():
         where = f"{name}: identities.{ident}"
+        if not entry.roles:
+            raise ConfigError(f"{where}.role", f"no role; give one of {', '.join(keys.POLICY_ROLES)}")
         for role in entry.roles:
             if role not in keys.POLICY_ROLES:
                 raise ConfigError(f"{where}.role", f"unknown role {role!r}; one of {', '.join(keys.POLICY_ROLES)}")
@@ -102,7 +122,8 @@ def parse_policy(text: str, name: str = "policy") -> Policy:
             raise ConfigError(f"{where}.robots", "only an agent drives robots of its own")
         for r in entry.robots:
             if r in owner:
-                raise ConfigError(f"{where}.robots", f"robot {r} is driven by {owner[r]!r} already")
+                who = "listed twice" if owner[r] == ident else f"driven by {owner[r]!r} already"
+                raise ConfigError(f"{where}.robots", f"robot {r} is {who}")
             owner[r] = ident
     return policy
 

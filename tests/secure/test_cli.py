@@ -49,3 +49,42 @@ def test_a_refused_command_says_what_and_exits_2(
     assert main(argv) == 2
     assert said in capsys.readouterr().out
     assert not (tmp_path / "bob.crt").exists()  # nothing is made for a refused identity
+
+
+@pytest.mark.parametrize(
+    "again",
+    [
+        ["--role", "agent", "--robots", "3"],
+        ["--role", "operator"],
+        ["--role", "sensors", "--shard", "1/2"],
+    ],
+)
+def test_issuing_a_name_again_otherwise_is_refused_before_its_certificate_is_replaced(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], again: list[str]
+) -> None:
+    main(["init", str(tmp_path)])
+    assert main(["issue", "alice", "--role", "agent", "--robots", "1,2", "--dir", str(tmp_path)]) == 0
+    cert = (tmp_path / "alice.crt").read_bytes()
+    capsys.readouterr()
+    assert main(["issue", "alice", *again, "--dir", str(tmp_path)]) == 2
+    out = capsys.readouterr().out
+    assert "identities.alice: 'alice' is there already (role ['agent'], robots [1, 2], shard '')" in out
+    assert "edit or remove its table in the policy first" in out
+    assert (tmp_path / "alice.crt").read_bytes() == cert
+    assert load_policy(tmp_path / "policy.toml").identities["alice"].robots == [1, 2]
+    assert main(["issue", "alice", "--role", "agent", "--robots", "1,2", "--dir", str(tmp_path)]) == 0  # as it is
+
+
+@pytest.mark.parametrize(
+    ("name", "said"),
+    [("a b", "a name (an identity's, or sim) is text without /, *, $, ?, # or spaces")],
+)
+def test_a_refused_name_says_what_a_name_is(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], name: str, said: str
+) -> None:
+    main(["init", str(tmp_path)])
+    capsys.readouterr()
+    assert main(["issue", name, "--role", "world", "--dir", str(tmp_path)]) == 2
+    out = capsys.readouterr().out
+    assert said in out
+    assert "regex" not in out

@@ -100,9 +100,28 @@ def test_owners_are_the_agents_robots_and_any_for_a_bridge() -> None:
         ),
         ('[identities.a]\nrole = "sensors"\nshard = "3/2"', "identities.a.shard"),
         ('[identities."a/b"]\nrole = "world"', "policy"),
+        ("[identities.a]\nrole = []", "identities.a.role"),
+        ('[identities.a]\nrole = "agent"\nrobots = [1, 1]', "identities.a.robots"),
+        (f'[identities.a]\nrole = "agent"\nrobots = [{2**64}]', "policy"),
     ],
 )
 def test_a_bad_policy_is_refused_naming_the_field(text: str, field: str) -> None:
     with pytest.raises(ConfigError) as e:
         parse_policy(text)
     assert field in e.value.field
+
+
+@pytest.mark.parametrize(
+    ("text", "says"),
+    [
+        ("[identities.a]\nrole = []", "no role; give one of world"),
+        ('[identities.a]\nrole = "agent"\nrobots = [1, 1]', "robot 1 is listed twice"),
+        ('[identities.a]\nrole = "sensors"\nshard = "x"', 'a shard is "K/N", e.g. "1/2"'),
+        ('sim = "a b"', "a name (an identity's, or sim) is text without"),
+    ],
+)
+def test_a_bad_policy_says_what_is_wrong_in_words(text: str, says: str) -> None:
+    with pytest.raises(ConfigError) as e:
+        parse_policy(text)
+    assert says in e.value.reason
+    assert "regex" not in e.value.reason
