@@ -15,6 +15,7 @@ from iw_zenoh.errors import SpecError
 
 __all__ = [
     "LEGACY_MAX_IR",
+    "MAX_SPEED_MPS",
     "NAME_MAX_CHARS",
     "BodyShape",
     "BumperSpec",
@@ -35,6 +36,7 @@ LEGACY_MAX_IR = 8  # Intellwheels registers at most 8 proximity sensors (ids 0..
 DEFAULT_IR_RANGE_M = 4.0  # choice: a sonar's useful range; the seed gives none
 LASER_MAX_BEAMS = 4096  # a 0.1-degree scanner over 360 degrees is 3,600 beams
 LASER_MAX_RANGE_M = 100.0  # beyond any indoor scanner's (and any lab's diagonal here)
+MAX_SPEED_MPS = 100.0  # far past any wheelchair's; a faster one's poses overflow to beyond the wire's limits
 
 
 class RobotType(enum.StrEnum):
@@ -309,7 +311,7 @@ class RobotSpec:
         x_m: Start x (> 0), or ``None`` for the grid position.
         y_m: Start y (> 0), or ``None`` for the grid position.
         dir_deg: Start heading in [-180;180], or ``None`` for the grid's.
-        max_speed_mps: Top speed at power 0.15 on both wheels, > 0.
+        max_speed_mps: Top speed at power 0.15 on both wheels, in ]0;100] m/s.
         acceleration_curve: Motor inertia, in ]0;1].
         ir_sensors: Proximity sensors; empty means the four defaults of Table 4.5.
         bumpers: Contact sensors.
@@ -366,7 +368,7 @@ class RobotSpec:
                 _positive(name, v)
         if self.dir_deg is not None:
             _within("dir", self.dir_deg, -180.0, 180.0, lo_open=False, hi_open=False)
-        _positive("max_speed", self.max_speed_mps)
+        _within("max_speed", self.max_speed_mps, 0.0, MAX_SPEED_MPS, lo_open=True, hi_open=False)
         _within("acceleration_curve", self.acceleration_curve, 0.0, 1.0, lo_open=True, hi_open=False)
         ids = [s.id for s in self.ir_sensors]
         if len(set(ids)) != len(ids):

@@ -60,6 +60,7 @@ def test_registration_takes_the_first_free_grid_slot_and_announces_it() -> None:
         (RobotSpecMsg(name="e", x=2.5, y=5.0), "robot 1"),
         (RobotSpecMsg(name="f", x=25.0, y=5.0), "outside the lab"),
         (RobotSpecMsg(name="g", max_speed=-1.0), "max_speed"),
+        (RobotSpecMsg(name="h", max_speed=1e12), "max_speed: must be in ]0;100], got 1000000000000.0"),
     ],
 )
 def test_refusals_say_why(spec: RobotSpecMsg, reason: str) -> None:
@@ -69,6 +70,16 @@ def test_refusals_say_why(spec: RobotSpecMsg, reason: str) -> None:
     assert not reply.ok
     assert reason in reply.reason
     assert "refused" in _kinds(out)
+
+
+def test_the_fastest_chair_at_full_power_keeps_its_poses_within_the_wire_s_limits() -> None:
+    core = _core()
+    reply, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="a", max_speed=100.0)), 0)
+    assert reply.ok
+    core.collision_alive.add("c")
+    for k in range(20):  # full power on both wheels for 20 ticks: each proposal must encode
+        core.on_actions(Actions(tick=core.tick + 1, robot_id=reply.robot_id, left=0.15, right=0.15), k * MS)
+        _tick(core, k * 100 * MS)
 
 
 def test_actions_move_the_chair_at_the_next_tick_and_stale_ones_trip_the_watchdog() -> None:
