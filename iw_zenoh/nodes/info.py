@@ -37,14 +37,33 @@ class InfoCache:
         self._scene: Scene | None = None
 
     def get(self, revision: int) -> WorldView | None:
-        """The view at ``revision`` (or newer); None when the world does not answer."""
-        if self.view is not None and self.view.info.revision >= revision:
-            return self.view
+        """The view at ``revision`` (or newer); None when the world does not answer.
+
+        A revision older than the view's is a late message, or a world started afresh (by hand,
+        its revisions from 1 again): the world is asked, and a view older than the one kept is
+        taken as the new world's, else the one kept serves.
+        """
+        kept = self.view
+        if kept is not None and kept.info.revision == revision:
+            return kept
+        view = self._ask()
+        if kept is not None and kept.info.revision > revision:
+            if view is not None and view.info.revision < kept.info.revision:
+                logger.info("world/info: revision %d after %d: a new world", view.info.revision, kept.info.revision)
+                self.view = view
+                return view if view.info.revision >= revision else None
+            return kept
+        if view is not None:
+            self.view = view
+            return view if view.info.revision >= revision else None
+        return None
+
+    def _ask(self) -> WorldView | None:
+        """The world's answer to ``world/info``, or None."""
         for data in self.bus.query(keys.info(self.sim), timeout_s=self.timeout_s):
             view = self._build(data, "answer")
             if view is not None:
-                self.view = view
-                return view if view.info.revision >= revision else None
+                return view
         return None
 
     def take(self, data: bytes) -> WorldView | None:

@@ -76,3 +76,25 @@ def test_warming_an_empty_world_checks_nothing() -> None:
     assert view is not None
     CollisionNode().warm(view)
     assert view._bodies == {}
+
+
+def test_a_world_started_afresh_is_taken_though_its_revision_is_older() -> None:
+    bus = _CountingBus()
+    cache = InfoCache(bus, "s")
+    assert cache.take(encode(_info(9, robots=1))) is not None  # the world that was
+    bus.info.append(encode(_info(2, robots=2)))  # a new world, started by hand, at revision 2
+    view = cache.get(2)
+    assert view is not None
+    assert view.info.revision == 2
+    assert list(view.specs) == [1, 2]
+    assert cache.get(2) is view
+    assert bus.queries == 1
+
+
+def test_a_late_message_of_an_older_revision_keeps_the_view() -> None:
+    bus = _CountingBus()
+    cache = InfoCache(bus, "s")
+    kept = cache.take(encode(_info(5, robots=1)))
+    bus.info.append(encode(_info(5, robots=1)))  # the world is still at 5
+    assert cache.get(4) is kept
+    assert cache.view is kept
