@@ -181,19 +181,27 @@ class _Pages:
         self._ask(client, None)
         try:
             async for msg in ws:
+                if msg.type == WSMsgType.BINARY:
+                    _refuse(client, "a command is a JSON text message, not binary (docs/viewer.md)")
+                    continue
                 if msg.type != WSMsgType.TEXT:
                     continue
                 try:
                     self._ask(client, _COMMAND.decode(msg.data))
                 except msgspec.DecodeError as e:  # ValidationError is one
-                    client.waiting.append(_ENCODER.encode(PageError(error=f"command refused: {e}")).decode())
-                    client.ready.set()
+                    _refuse(client, str(e))
         finally:
             client.closed = True
             self.clients.discard(client)
             client.ready.set()
             await sender
         return ws
+
+
+def _refuse(client: Client, why: str) -> None:
+    """Tells a page its command was refused, and why."""
+    client.waiting.append(_ENCODER.encode(PageError(error=f"command refused: {why}")).decode())
+    client.ready.set()
 
 
 async def _send(client: Client) -> None:
