@@ -25,6 +25,7 @@ from foxglove.websocket import ChannelView, Client, ServerListener
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Asked, Delivery, Handle, Inbox
+from iw_zenoh.errors import IwError
 from iw_zenoh.messages import encode
 from iw_zenoh.record.channels import ENCODING, SCHEMA_ENCODING, ChannelSpec, Derivation, key_channel
 from iw_zenoh.record.foxglove import SCENE_TOPIC, TF_TOPIC
@@ -206,7 +207,13 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"TCP port (default {DEFAULT_PORT}; 0: any free)")
 
 
-def _run(proc: Process) -> int:
+def _check(args: argparse.Namespace) -> argparse.Namespace:
+    if not 0 <= args.port <= 65535:
+        raise IwError(f"--port {args.port} is no TCP port: give 0..65535 (0: any free port)")
+    return args
+
+
+def _run(proc: Process, _args: argparse.Namespace) -> int:
     args = proc.args
     try:
         live = start_foxglove_live(proc.io, args.host, args.port)
@@ -240,5 +247,6 @@ def main(argv: Sequence[str] | None = None) -> int:
             "  iwz foxglove --host 0.0.0.0 --connect tcp/10.0.0.5:7447    (a viewer on another machine)"
         ),
         arguments=_arguments,
+        prepare=_check,  # before joining the bus
         run=_run,
     )
