@@ -49,9 +49,10 @@ Examples:
   iwz ctl obstacle remove box
   iwz ctl stop --connect tcp/10.0.0.5:7447 --timeout 10
 
-Exit status: 0 done, 1 the world refused (its reason is printed), 3 no world answered within
---timeout, 2 a bad command line or no bus. --json prints one object: ok, command, event,
-reason, tick, sim_time_s (and steps, from_tick for a step)."""
+Exit status: 0 done, 1 the world refused (its reason is printed), 3 no world
+answered within --timeout, 2 a bad command line or no bus. --json prints one
+object: ok, command, event, reason, tick, sim_time_s (and steps, from_tick
+for a step)."""
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:

@@ -34,11 +34,13 @@ EPILOG = """Examples:
   iwz view --foxglove-port 9765                Foxglove / Lichtblick live on ws://127.0.0.1:9765
   iwz view --no-foxglove                       the page only
 
-A live viewer also serves the Foxglove WebSocket protocol (default ws://127.0.0.1:8765): Foxglove
-or Lichtblick connects to it and sees the same channels as in a recording (docs/foxglove.md).
+A live viewer also serves the Foxglove WebSocket protocol (default
+ws://127.0.0.1:8765): Foxglove or Lichtblick connects to it and sees the same
+channels as in a recording (docs/foxglove.md).
 
-On the page: drag to pan, wheel to zoom, click a robot for its panel; the buttons start, pause,
-step, stop; docs/viewer.md explains every control and the WebSocket messages."""
+On the page: drag to pan, wheel to zoom, click a robot for its panel; the
+buttons start, pause, step, stop; docs/viewer.md explains every control and
+the WebSocket messages."""
 
 
 def main(argv: Sequence[str] | None = None) -> int:
