@@ -45,6 +45,9 @@ __all__ = [
     "recovered_copy",
 ]
 
+# the least a whole file holds: its magic, the header record (opcode, length, two empty strings),
+# the footer record (opcode, length, two offsets, a CRC) and the closing magic
+WHOLE_MIN_BYTES = len(MAGIC) + (1 + 8 + 4 + 4) + (1 + 8 + 8 + 8 + 4) + len(MAGIC)
 PART_META = "iw.part"  # metadata: part (number), recording (id), previous (the part before, by name)
 
 _PART = re.compile(r"^(?P<stem>.+)\.part(?P<n>[0-9]+)$")
@@ -219,6 +222,8 @@ class Part:
     def _ends_cut(self) -> bool:
         if not self.stream.seekable():
             return False
+        if self.size < WHOLE_MIN_BYTES:  # a magic, and nothing after it that ends a file
+            return True
         self.stream.seek(self.size - len(MAGIC))
         cut = self.stream.read(len(MAGIC)) != MAGIC
         self.stream.seek(0)

@@ -207,3 +207,12 @@ def test_a_page_that_cannot_be_written_is_named_without_a_traceback(
     err = capsys.readouterr().err
     assert f"iwz report: --html {out}: cannot write it" in err
     assert "Traceback" not in err
+
+
+def test_a_file_of_only_the_mcap_magic_is_a_recording_cut_off_at_its_start(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "started.mcap"
+    path.write_bytes(b"\x89MCAP0\r\n")  # a recorder killed right after it opened the file
+    assert iwz(["report", str(path)]) == 2
+    assert "cut off after 8 bytes (a crash, or still being written): iwz recover rebuilds it" in capsys.readouterr().err
