@@ -7,9 +7,10 @@ from dataclasses import dataclass
 
 from iw_zenoh.core.modes import Mode, Profile, Silence
 
-__all__ = ["MS", "WorldConfig"]
+__all__ = ["MS", "VERDICT_MARGIN_MS", "WorldConfig"]
 
 MS = 1_000_000
+VERDICT_MARGIN_MS = 5.0  # real time: the verdict wait ends this long before the next tick is due
 
 
 @dataclass(frozen=True)
@@ -64,13 +65,13 @@ class WorldConfig:
         """How long a tick waits for its collision verdict before it holds every robot still (a
         held tick changes a run): lock-step as long as it waits for actions (``verdict_timeout_ms``
         at least), so a slow machine changes how long a run takes, never what happens in it; real
-        time half a period, or in the ciberrato profile as much of the cycle as it leaves, nine
-        tenths (the legacy simulator never holds a robot)."""
+        time, in every profile, as long as the period allows: until :data:`VERDICT_MARGIN_MS` (a
+        tenth of a short period) before the next tick is due, time enough to commit and publish
+        (the legacy simulator never holds a robot, and a native run should not either while a
+        collision process answers)."""
         if self.mode == Mode.LOCKSTEP:
             return int(max(self.verdict_timeout_ms, self.lockstep_timeout_ms) * MS)
-        if self.profile == Profile.CIBERRATO:
-            return self.period_ns * 9 // 10
-        return self.period_ns // 2
+        return self.period_ns - min(self.period_ns // 10, int(VERDICT_MARGIN_MS * MS))
 
     @property
     def period_ns(self) -> int:

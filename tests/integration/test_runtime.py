@@ -195,6 +195,31 @@ def test_without_collision_process_every_chair_is_held_until_it_returns(net: Net
     assert state_of(moving, 1)[0] > state_of(held, 1)[0]
 
 
+def test_real_time_with_a_collision_process_answering_never_holds_a_robot(net: Net) -> None:
+    # issue #22 item 3: the world waits for the verdict as long as the period allows, so a
+    # collision process that answers within the period holds nobody, from the robot's first
+    # tick on (the collision process warms the new roster before its first proposal)
+    lab, grid = _maps(net.tmp)
+    bus = net.client()
+    events = subscribe(bus, keys.all_events(net.sim))
+    states = subscribe(bus, keys.state(net.sim))
+    net.spawn("world", lab, "--grid", grid)
+    net.spawn("collision")
+    net.spawn("sensors")
+    wait_alive(bus, keys.alive(net.sim, "collision", "collision"))
+    wait_alive(bus, keys.alive(net.sim, "world", "world"))
+    net.spawn("agent", "waypoint", "--waypoints", "18,5", "--id", "1", "--name", "driver")
+    first = wait_msg(states, WorldState, lambda m: 1 in m.ids)
+    seen = [first]
+    while len(seen) < 30:
+        seen.append(wait_msg(states, WorldState, lambda m: 1 in m.ids, timeout_s=10))
+    held = [m.tick for m in seen if m.held]
+    assert not held, f"robots held at ticks {held} with a collision process alive"
+    assert state_of(seen[-1], 1)[0] > state_of(first, 1)[0]  # it drove meanwhile
+    holds = [e.reason for e in (decode(d, Event) for _, d, _ in events.drain()) if e.kind == "holding"]
+    assert not holds, holds
+
+
 def test_demo_scenario_runs_meets_its_criteria_and_is_recorded(tmp_path: Path) -> None:
     # lock-step, so the verdict does not depend on how loaded the machine is
     argv = iwz_run_argv(MAPS / "demo.toml", tmp_path, "demo", record=tmp_path / "demo.mcap", extra=("--lockstep",))
