@@ -42,23 +42,26 @@ def run(
     io: NodeIO | None = None,
     ahead: bool = True,
 ) -> None:
-    """Computes readings for every committed state until stopped; computes ahead on proposals
-    (unless ``ahead`` is false)."""
+    """Computes readings for every committed state until stopped, ahead on proposals (unless ``ahead`` is false)."""
     io = io or NodeIO(bus, sim, "sensors", name)
     inbox = io.inbox(keys.state(sim))
     proposals = io.inbox(keys.proposed(sim)) if ahead else Inbox()
-    window = ViewWindow(InfoCache(bus, sim).get)
+    infos = io.inbox(keys.info(sim))  # published at every revision: the view is ready before it is asked for
+    cache = InfoCache(bus, sim)
+    window = ViewWindow(cache.get)
     node: SensorsNode | None = None
     early: Computed | None = None
     ahead_from = 0  # compute ahead from this tick on
     io.alive()
     while not io.stop.is_set():
+        fresh = [cache.take(data) for _, data, _ in infos.drain()[-1:]]
         pending = inbox.drain()
         if not pending:
             props = proposals.drain()
             if props and node is not None and node.last_tick + 1 >= ahead_from:
                 early = _ahead(io, window, node, props[-1], early)
                 continue
+            _warm(fresh, node, sim, shard)  # idle: the new roster computed once
             io.wait(0.2)
             continue
         # one tick of backlog (a slow tick: a new robot's bodies, a busy machine) is caught up,
@@ -90,6 +93,14 @@ def run(
                     (c1 - c0) * 1e3,
                     (time.perf_counter() - t1) * 1e3,
                 )
+
+
+def _warm(fresh: list[WorldView | None], node: SensorsNode | None, sim: str, shard: tuple[int, int]) -> None:
+    """Computes a new roster once, taken from the world's description as it is published, so its
+    first state does not wait on what its first readings build (a state waiting computes it anyway)."""
+    for view in fresh:
+        if view is not None:
+            (node or SensorsNode(sim, view.info.seed, shard)).warm(view)
 
 
 def _checked(io: NodeIO, window: ViewWindow[WorldView], key: str, msg: WorldState | Proposed) -> WorldView | None:

@@ -91,6 +91,31 @@ class SensorsNode:
         self._enc = np.zeros((0, 2))
         self._keys: dict[int, str] = {}  # robot id -> its sensors key (built once)
 
+    def warm(self, view: WorldView) -> None:
+        """Computes the view's robots once, where they were placed, in a throwaway node (its own
+        noise streams and encoder counts: this node's stay untouched, so a run is the same warm
+        or not), so that what a roster's first readings build (its bodies, the lab's structures
+        for the rays) is built before the revision's first state waits on it: in real time the
+        first readings after a robot registered came about a second late."""
+        robots = [r for r in view.info.robots if r.id in view.specs]
+        if not robots:
+            return
+        n = len(robots)
+        probe = WorldState(
+            tick=0,
+            sim_time_ns=0,
+            revision=view.info.revision,
+            ids=[r.id for r in robots],
+            x=[view.info.lab.width / 2 if r.x is None else r.x for r in robots],
+            y=[view.info.lab.height / 2 if r.y is None else r.y for r in robots],
+            heading=[0.0] * n,
+            collided=[False] * n,
+            rolled_left=[0.0] * n,
+            rolled_right=[0.0] * n,
+            speed=[0.0] * n,
+        )
+        SensorsNode(self.sim, self.seed, self.shard).compute(probe, view)
+
     def on_state(self, msg: WorldState, view: WorldView) -> list[Outgoing]:
         """Every reading of this shard's robots for tick n (computed and committed)."""
         c = self.compute(msg, view)

@@ -169,3 +169,14 @@ def test_a_robot_with_a_laser_scanner_gets_its_scan_and_one_without_reads_as_bef
     assert 0.4 < scan.ranges[2] < 1.0
     assert without.lasers is msgspec.UNSET
     assert b"lasers" not in encode(without)
+
+
+def test_warming_a_roster_builds_its_bodies_and_changes_no_reading() -> None:
+    cold, warm = SensorsNode("t", seed=5), SensorsNode("t", seed=5)
+    view = _view([1, 2], 1)
+    warm.warm(view)
+    assert (1, 2) in view._bodies  # built before the first state waits on it
+    assert warm.last_tick == -1  # nothing committed
+    for tick in (1, 2):
+        st = _state(tick, [1, 2], 1)
+        assert warm.on_state(st, view) == cold.on_state(st, _view([1, 2], 1))  # noise and encoders too
