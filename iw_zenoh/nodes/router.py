@@ -44,7 +44,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             "  iwz router                                   (tcp/127.0.0.1:7447)\n"
             "  iwz router --listen tcp/0.0.0.0:7447         (serve a LAN, unsecured)\n"
             "  iwz router --zenoh-config router.json5       (its listen endpoints stand; flags given replace them)\n"
-            "  iwz router --identity ids/router --policy policy.toml --listen tls/0.0.0.0:7447"
+            "  iwz router --identity ids/router --policy policy.toml --listen tls/0.0.0.0:7447\n"
+            "  iwz router --identity ids/router --policy policy.toml --no-audit   (refusals enforced, not logged)"
         ),
         arguments=_arguments,
         prepare=_prepare,
@@ -60,10 +61,17 @@ def _arguments(p: argparse.ArgumentParser) -> None:
         metavar="TOML",
         help="a security policy (docs/security.md): who may publish, ask and answer what; needs --identity",
     )
+    p.add_argument(
+        "--no-audit",
+        dest="audit",
+        action="store_false",
+        help="enforce the policy but do not log refusals (spares reading Zenoh's per-message "
+        "access-control log; docs/security.md gives what each costs)",
+    )
 
 
 def _prepare(args: argparse.Namespace) -> None:
-    if (args.security_policy and args.identity) or _enforces(args.zenoh_config):
+    if args.audit and ((args.security_policy and args.identity) or _enforces(args.zenoh_config)):
         _report_denials()
 
 
@@ -94,15 +102,16 @@ def _report_denials() -> None:
 def _pump(read: int, out: int) -> None:
     log = DenialLog()
     rest = b""
-    while chunk := os.read(read, 65536):
-        *lines, rest = (rest + chunk).split(b"\n")
-        for line in lines:
-            if b"unauthorized" in line or b"access_control" in line:
-                denial = log.feed(line, time.monotonic_ns())
-                if denial is not None:
-                    os.write(out, f"iwz router: {denial}\n".encode())
-                continue
-            os.write(out, line + b"\n")
+    while chunk := os.read(read, 1 << 20):
+        cut = chunk.rfind(b"\n") + 1
+        if not cut:
+            rest += chunk
+            continue
+        other, denials = log.read(rest + chunk[:cut], time.monotonic_ns())
+        rest = chunk[cut:]
+        report = b"".join(f"iwz router: {d}\n".encode() for d in denials)
+        if other or report:
+            os.write(out, other + report)
 
 
 def _serve(proc: Process, _: None = None) -> None:

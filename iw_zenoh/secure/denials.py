@@ -5,6 +5,10 @@ first sight, the identity: ``CertCommonName(alice)``) and the key. :class:`Denia
 lines and keeps the refusals of messages that were really sent: the permissions Zenoh works out
 in advance for a newly declared key (every kind of message, sent or not) are passed over, and a
 refusal repeated on the same key is reported once, then counted (a flood stays one line a second).
+
+Zenoh writes a trace line for every message it lets through as well (``Using cached result: ...
+is authorized``): :meth:`DenialLog.read` takes a whole block of lines at once and looks at the
+few that can matter with regular expressions, so the allowed traffic costs no Python per line.
 """
 
 from __future__ import annotations
@@ -22,6 +26,8 @@ _DIRECT = re.compile(
 _CACHED = re.compile(rb"Using cached result: ([0-9a-f]+) is unauthorized to (.+?) \((ingress|egress)\) on (\S+)")
 _CN = re.compile(r"CertCommonName\(([^)]*)\)")
 _STRANGER = re.compile(rb"([0-9a-f]+) did not match any configured ACL subject")
+_NOTABLE = re.compile(rb"[^\n]*(?:unauthorized|caching permissions|ACL subject)[^\n]*")
+_OTHER = re.compile(rb"^(?![^\n]*(?:access_control|unauthorized))[^\n]*\n", re.MULTILINE)
 REPEAT_NS = 1_000_000_000  # the same refusal again: counted, reported at most once a second
 
 
@@ -49,6 +55,24 @@ class DenialLog:
     _names: dict[str, str] = field(default_factory=dict)  # session id -> identity
     _caching: dict[str, str] = field(default_factory=dict)  # thread -> key whose permissions it works out
     _last: dict[tuple[str, str, str, str], tuple[int, int]] = field(default_factory=dict)  # -> (reported at, count)
+
+    def read(self, block: bytes, now_ns: int) -> tuple[bytes, list[Denial]]:
+        """Whole lines of Zenoh's log at once: the lines that are not about access control (to
+        pass on unchanged) and the refusals to report, in order.
+
+        Args:
+            block: Complete lines, each ending in a newline (ANSI colours allowed).
+            now_ns: Now, in ns of any monotonic clock (for the once-a-second rule).
+        """
+        found: list[Denial] = []
+        if b"unauthorized" in block or b"caching permissions" in block or b"ACL subject" in block:
+            for m in _NOTABLE.finditer(block):
+                denial = self.feed(m[0], now_ns)
+                if denial is not None:
+                    found.append(denial)
+        if b"access_control" not in block and b"unauthorized" not in block:
+            return block, found
+        return b"".join(_OTHER.findall(block)), found
 
     def feed(self, line: bytes, now_ns: int) -> Denial | None:
         """One line of Zenoh's log; a refusal to report, or None.

@@ -49,3 +49,18 @@ def test_a_session_no_identity_of_the_policy_matches_is_reported_once() -> None:
     line = HEAD + f"{ZID} did not match any configured ACL subject. Default permission `Deny` will be applied".encode()
     d = DenialLog().feed(line, 0)
     assert str(d) == f"access denied: every message from 'session {ZID} (no identity of the policy)' on any key"
+
+
+ALLOWED = HEAD + f"Using cached result: {ZID} is authorized to Put (ingress) on iw/s/world/state".encode()
+
+
+def test_a_block_of_lines_drops_allowed_traffic_keeps_other_lines_and_finds_refusals_in_order() -> None:
+    other = b"\x1b[31mERROR\x1b[0m zenoh::net::runtime: something else went wrong"
+    block = b"\n".join([ALLOWED, other, FIRST, ALLOWED, CACHING, WORKED_OUT, b"iwz router: listening", b""])
+    passed, found = DenialLog().read(block * 2, 0)
+    assert passed == (other + b"\n" + b"iwz router: listening\n") * 2
+    assert [str(d) for d in found] == ["access denied: Put from 'rogue' on iw/s/world/control"]  # the 2nd: counted
+
+
+def test_a_block_of_allowed_traffic_only_passes_nothing_on() -> None:
+    assert DenialLog().read((ALLOWED + b"\n") * 100, 0) == (b"", [])
