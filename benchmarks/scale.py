@@ -63,6 +63,7 @@ from iw_zenoh.secure.cli import add_identity  # noqa: E402
 
 DEBUG = bool(os.environ.get("IWZ_BENCH_DEBUG"))  # world and sensors log each tick's timings (-vv)
 PUSHING = False  # chairs push into whatever they meet instead of creeping back and forth
+SECURITY = "audit"  # --secure as: "tls" (no access control), "acl" (no refusal log), "audit" (all)
 
 TARGETS = {
     "lockstep10_floor_ratio": 0.4,
@@ -79,6 +80,7 @@ class Run:
         self.tmp = tmp
         self.port = free_port()
         self.ids = tmp / "ids" if secure else None
+        self.level = SECURITY if secure else None
         self.endpoint = f"{'tls' if secure else 'tcp'}/127.0.0.1:{self.port}"
         self.procs: list[subprocess.Popen[bytes]] = []
         self.names: list[str] = []
@@ -122,7 +124,9 @@ class Run:
         if self.ids is not None:
             who = name if name.startswith(("probe", "sensors", "world", "collision")) else "router"
             net += ["--identity", str(self.ids / who), "--name", who] if client else ["--identity", str(self.ids / who)]
-            net += ["--policy", str(self.ids / "policy.toml")] if name == "router" else []
+            if name == "router" and self.level != "tls":
+                net += ["--policy", str(self.ids / "policy.toml")]
+                net += ["--no-audit"] if self.level == "acl" else []
         log = (self.tmp / f"{name}.log").open("wb")
         p = subprocess.Popen(
             [*self.command(name), *args, "--sim", "bench", *net],
@@ -179,7 +183,7 @@ class Run:
         ]
         if lockstep:
             world_args += ["--lockstep", "--lockstep-timeout-ms", "10000"]
-        if self.ids is not None:
+        if self.ids is not None and self.level != "tls":
             world_args += ["--policy", str(self.ids / "policy.toml")]
         world = self.spawn("world", *world_args)
         self.spawn("collision", "collision", *(["-vv"] if DEBUG else []))
@@ -356,6 +360,14 @@ def main(argv: list[str] | None = None) -> int:
         help="each measurement without, then with TLS and access control (docs/security.md), and their ratio",
     )
     ap.add_argument(
+        "--security",
+        choices=["tls", "acl", "audit"],
+        default="audit",
+        help="with --secure, how much of it: tls = mutual TLS only; acl = and the policy's access control "
+        "(router --no-audit: refusals not logged); audit = and the router logs each refusal (the default, "
+        "what iwz run --secure does)",
+    )
+    ap.add_argument(
         "--quick",
         action="store_true",
         help="lockstep10 for 5 s and rt10 only, a quarter of the floor's rounds (about a minute): to compare "
@@ -384,9 +396,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = ap.parse_args(argv)
     exit_on_sigterm()
-    global DEBUG, PUSHING
+    global DEBUG, PUSHING, SECURITY
     DEBUG = DEBUG or args.debug
     PUSHING = args.pushing
+    SECURITY = args.security
     todo = args.only or (
         ["lockstep10", "rt10"] if args.quick else ["lockstep10", "lockstep100", "lockstep1000", "rt100"]
     )
