@@ -9,6 +9,8 @@ policy's access control (default deny), and every refused message logged with wh
 from __future__ import annotations
 
 import argparse
+import contextlib
+import fcntl
 import logging
 import os
 import threading
@@ -27,6 +29,8 @@ logger = logging.getLogger(__name__)
 
 # Zenoh logs access-control decisions at trace level only; errors of everything else
 ZENOH_LOG = "error,zenoh::net::routing::interceptor::access_control=trace"
+PIPE_BYTES = 1 << 20  # the pipe Zenoh's log goes through: a batch of its lines fits
+BATCH_S = 0.02  # a refusal is reported at most this late
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -93,6 +97,8 @@ def _report_denials() -> None:
     with who and which key; every other line passes unchanged."""
     zenoh.init_log_from_env_or(ZENOH_LOG)
     read, write = os.pipe()
+    with contextlib.suppress(OSError, AttributeError):  # Linux: room for a batch of lines (below)
+        fcntl.fcntl(write, fcntl.F_SETPIPE_SZ, PIPE_BYTES)
     out = os.dup(1)
     os.dup2(write, 1)
     os.close(write)
@@ -100,18 +106,20 @@ def _report_denials() -> None:
 
 
 def _pump(read: int, out: int) -> None:
+    """Zenoh writes a line per message it lets through: read them in batches, every BATCH_S at
+    most, so that its writes land in the pipe without waking this thread each time."""
     log = DenialLog()
     rest = b""
-    while chunk := os.read(read, 1 << 20):
-        cut = chunk.rfind(b"\n") + 1
-        if not cut:
-            rest += chunk
-            continue
-        other, denials = log.read(rest + chunk[:cut], time.monotonic_ns())
-        rest = chunk[cut:]
+    while chunk := os.read(read, PIPE_BYTES):
+        data = rest + chunk
+        cut = data.rfind(b"\n") + 1
+        block, rest = data[:cut], data[cut:]
+        other, denials = log.read(block, time.monotonic_ns())
         report = b"".join(f"iwz router: {d}\n".encode() for d in denials)
         if other or report:
             os.write(out, other + report)
+        if len(chunk) < PIPE_BYTES // 2:
+            time.sleep(BATCH_S)
 
 
 def _serve(proc: Process, _: None = None) -> None:

@@ -26,8 +26,8 @@ _DIRECT = re.compile(
 _CACHED = re.compile(rb"Using cached result: ([0-9a-f]+) is unauthorized to (.+?) \((ingress|egress)\) on (\S+)")
 _CN = re.compile(r"CertCommonName\(([^)]*)\)")
 _STRANGER = re.compile(rb"([0-9a-f]+) did not match any configured ACL subject")
-_NOTABLE = re.compile(rb"[^\n]*(?:unauthorized|caching permissions|ACL subject)[^\n]*")
-_OTHER = re.compile(rb"^(?![^\n]*(?:access_control|unauthorized))[^\n]*\n", re.MULTILINE)
+_ACCESS_CONTROL = re.compile(rb"access_control|unauthorized")
+_NOTABLE = (b"unauthorized", b"caching permissions", b"ACL subject")  # words of the lines that matter
 REPEAT_NS = 1_000_000_000  # the same refusal again: counted, reported at most once a second
 
 
@@ -65,14 +65,14 @@ class DenialLog:
             now_ns: Now, in ns of any monotonic clock (for the once-a-second rule).
         """
         found: list[Denial] = []
-        if b"unauthorized" in block or b"caching permissions" in block or b"ACL subject" in block:
-            for m in _NOTABLE.finditer(block):
-                denial = self.feed(m[0], now_ns)
-                if denial is not None:
-                    found.append(denial)
-        if b"access_control" not in block and b"unauthorized" not in block:
-            return block, found
-        return b"".join(_OTHER.findall(block)), found
+        for start in sorted({s for word in _NOTABLE for s in _line_starts(block, word)}):
+            denial = self.feed(block[start : block.find(b"\n", start)], now_ns)
+            if denial is not None:
+                found.append(denial)
+        if block.count(b"access_control") == block.count(b"\n"):
+            return b"", found  # Zenoh's access-control lines only (each names its target once)
+        lines = block.split(b"\n")  # complete lines: the last piece is empty
+        return b"".join(line + b"\n" for line in lines[:-1] if not _ACCESS_CONTROL.search(line)), found
 
     def feed(self, line: bytes, now_ns: int) -> Denial | None:
         """One line of Zenoh's log; a refusal to report, or None.
@@ -113,3 +113,15 @@ class DenialLog:
             return None
         self._last[what] = (now_ns, 0)
         return Denial(identity, message, flow, key, times=count + 1)
+
+
+def _line_starts(block: bytes, word: bytes) -> list[int]:
+    """Where each line of ``block`` holding ``word`` starts (bytes.find: no Python per other line)."""
+    out = []
+    at = block.find(word)
+    while at >= 0:
+        start = block.rfind(b"\n", 0, at) + 1
+        out.append(start)
+        end = block.find(b"\n", at)
+        at = block.find(word, end) if end >= 0 else -1
+    return out
