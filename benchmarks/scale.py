@@ -6,6 +6,7 @@
     python benchmarks/scale.py --secure   # each figure with TLS and access control beside without, as a ratio
     python benchmarks/scale.py --secure --quick   # lockstep10 (5 s) and rt10 only: about a minute
     python benchmarks/scale.py --quick --json --only lockstep10   # a before/after check, about a minute
+    python benchmarks/scale.py --secure --security acl --only lockstep10   # access control, no refusal log
 
 Measures, on the core benchmark's floor (hospital wings, chairs about a metre apart, eight
 60-degree cones of 4 m each, 100 ms ticks; every chair creeps back and forth, turning back when
@@ -20,6 +21,9 @@ something is 0.3 m ahead, so poses change every tick; ``--pushing``: they push o
 
 ``--secure``: every process with its own certificate, the router enforcing the policy over mutual
 TLS (docs/security.md), each figure beside the unsecured one and their ratio (goal: within 10 %).
+``--security`` says how much of it, to see what each part costs: ``tls`` (mutual TLS only),
+``acl`` (and the policy, the router started with ``--no-audit``), ``audit`` (and the router
+logging every refusal, as ``iwz run --secure`` does; the default).
 
 Each lock-step measurement also runs the bus floor (``benchmarks/bus_floor.py``, zenoh FIFO
 receive) with as many echo processes as it has agent processes, in the same run, and gives its
@@ -362,8 +366,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--security",
         choices=["tls", "acl", "audit"],
-        default="audit",
-        help="with --secure, how much of it: tls = mutual TLS only; acl = and the policy's access control "
+        help="implies --secure; how much of it: tls = mutual TLS only; acl = and the policy's access control "
         "(router --no-audit: refusals not logged); audit = and the router logs each refusal (the default, "
         "what iwz run --secure does)",
     )
@@ -399,7 +402,8 @@ def main(argv: list[str] | None = None) -> int:
     global DEBUG, PUSHING, SECURITY
     DEBUG = DEBUG or args.debug
     PUSHING = args.pushing
-    SECURITY = args.security
+    SECURITY = args.security or SECURITY
+    args.secure = args.secure or args.security is not None
     todo = args.only or (
         ["lockstep10", "rt10"] if args.quick else ["lockstep10", "lockstep100", "lockstep1000", "rt100"]
     )
