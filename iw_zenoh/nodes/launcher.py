@@ -7,7 +7,6 @@ refused; 3 a role could not start; 130 interrupted.
 
 from __future__ import annotations
 
-import json
 import logging
 import os
 import signal
@@ -16,7 +15,6 @@ import sys
 import tempfile
 import threading
 import time
-import uuid
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -31,14 +29,14 @@ from iw_zenoh.messages import Control, Event, WorldInfo, WorldState, decode, enc
 from iw_zenoh.net import DEFAULT_PORT, NetConfig, free_port, port_in_use
 from iw_zenoh.nodes.child import Child, stop_in_order
 from iw_zenoh.nodes.restarts import MAX_RESTARTS, Restarts
-from iw_zenoh.nodes.role_options import BridgeOptions, RadioOptions, RecorderOptions, SensorsOptions
 from iw_zenoh.nodes.run_args import build_parser, default_recording
-from iw_zenoh.nodes.secure_run import LAUNCHER, ROUTER, agent_name, agent_robots, identities, on_host
+from iw_zenoh.nodes.run_plan import RunPlan
+from iw_zenoh.nodes.run_summary import print_summary
+from iw_zenoh.nodes.run_waits import wait_listening, wait_roles
+from iw_zenoh.nodes.secure_run import LAUNCHER
 from iw_zenoh.nodes.tally import Tally
 from iw_zenoh.nodes.world_options import world_options
-from iw_zenoh.record.parts import recording_parts
 from iw_zenoh.runtime import options_json, setup_logging
-from iw_zenoh.secure.cli import POLICY_FILE
 
 __all__ = ["Child", "Launcher", "main", "world_options"]
 
@@ -99,111 +97,28 @@ class Launcher:
         self.world_options = world_options(scenario)
         self.tally.running = not self.world_options[0].start_paused
 
-    def _cmd(self, *args: str) -> list[str]:
-        return [sys.executable, "-m", "iw_zenoh.cli", *args]
-
     def _net(self) -> NetConfig:
         """How the launcher itself joins (secured: as ``launcher``, an operator)."""
         return NetConfig(connect=(self.endpoint,), identity=str(self.ids / LAUNCHER) if self.ids else None)
 
-    def _child(
-        self,
-        role: str,
-        name: str,
-        *args: str,
-        options: msgspec.Struct | None = None,
-        client: bool = True,
-        token: str = "",
-    ) -> Child:
-        """A child of ``role``: its ``args``, then its typed ``options`` (passed whole, ``--options JSON``);
-        secured, its identity is its liveliness name (``token``, or ``name``)."""
-        common = ["--sim", self.sim, "-e", self.endpoint] if client else ["--sim", self.sim, "--listen", self.listen]
-        if self.ids is not None:
-            who = ["--identity", str(self.ids / (token or name if client else ROUTER))]
-            common += who if client else [*who, "--policy", str(self.ids / POLICY_FILE)]
-        given = ["--options", options_json(options)] if options is not None else []
-        c = Child(role, name, self._cmd(role, *args, *given, *common), self.log_dir / f"{name}.log", options=options)
-        c.token = token
-        self.children.append(c)
-        return c
-
     def plan(self) -> None:
-        """Builds the list of processes, each role handed its options as a typed Struct."""
-        sc = self.sc
-        self._child("router", "router", client=False)
-        if self.record is not None:
-            meta = {"scenario": sc.name, "seed": str(sc.world.seed), "map": str(sc.world.map)}
-            if sc.criteria.reach:  # iwz report's time to goal (record/metrics.py parse_goals reads it)
-                meta["goals"] = ";".join(f"{r.robot}={r.x!r},{r.y!r},{r.within!r}" for r in sc.criteria.reach)
-            # restarted with these same options, it continues this run's recording in its next part
-            rec = RecorderOptions(output=str(self.record), meta=meta, quiet=True, continue_run=uuid.uuid4().hex)
-            self._child("record", "recorder", options=rec)
-        options, rest = self.world_options
-        robots = agent_robots(sc)
-        if self.ids is not None:  # each agent registers its own robots only; a bridge any
-            owners: dict[str, list[int] | None] = {n: list(r) for n, r in robots.items()}
-            owners.update({b: None for b in ("bridge", "bridge-serial")})
-            options = msgspec.structs.replace(options, owners=owners)
-        self._child("world", "world", *rest, options=options)
-        self._child("collision", "collision")
-        shards = sc.roles.sensors_shards
-        for k in range(1, shards + 1):
-            self._child(
-                "sensors", f"sensors-{k}", options=SensorsOptions(shard=(k, shards)), token=f"sensors-{k}-{shards}"
-            )
-        if sc.roles.radio:
-            self._child("radio", "radio", options=RadioOptions())
-        if sc.bridge is not None:
-            b = sc.bridge
-            bridge = BridgeOptions(port=b.port, param=str(b.params) if b.params else "", scoring=b.scoring)
-            self._child("bridge", "bridge", "ciberrato", options=bridge)
-        if sc.chair is not None:
-            self._plan_chair()
-        for i, a in enumerate(sc.agents):
-            name = agent_name(i, a)
-            spec = ["--spec-json", json.dumps(a.spec)] if a.spec is not None else []  # read and checked: a table
-            c = self._child("agent", name, a.program, *a.argv, *spec, "--name", name)
-            c.cwd, c.token = sc.base.resolve(), keys.chunk(name)
-        if self.ids is not None:
-            identities(self.ids, self.sim, self.children, robots, [self.listen.rsplit(":", 1)[0].split("/")[-1]])
-        hosts = self.sc.security.hosts if self.sc.security is not None else {}
-        self.children = [
-            c for c in on_host(self.children, hosts, self.host) if not (self.remote_router and c.role == "router")
-        ]
-
-    def _plan_chair(self) -> None:
-        """A real chair's serial bridge; without a port, the chair emulator on a pty (docs/serial.md)."""
-        ch, sc = self.sc.chair, self.sc
-        assert ch is not None
-        port = ch.port
-        if not port:
-            port = str(self.log_dir / "chair-pty")  # a stable link to the emulator's pty
-            emulate = ["emulate", "--pty", "--link", port, "--map", str(sc.world.map), "--start", ch.start]
-            emulate += ["--spec", str(ch.spec)] if ch.spec is not None else []
-            emulate += [
-                "--room",
-                ch.room,
-                "--seed",
-                str(ch.seed),
-                "--wheels-log",
-                str(self.log_dir / "chair-wheels.log"),
-            ]
-            self.children.append(Child("chair", "chair", self._cmd("chair", *emulate), self.log_dir / "chair.log"))
-        bridge = ["serial", "--port", port, "--robot", ch.name, "--id", str(ch.robot), "--start", ch.start]
-        bridge += ["--baud", str(ch.baud), "--log", str(self.log_dir / "bridge-serial.csv")]
-        bridge += ["--spec", str(ch.spec)] if ch.spec is not None else []
-        self._child("bridge", "bridge-serial", *bridge)
+        """Builds the list of processes this host starts (:class:`RunPlan`), each role handed its
+        options as a typed Struct; secured, writes every identity and the policy."""
+        plan = RunPlan(
+            self.sc,
+            self.world_options,
+            sim=self.sim,
+            listen=self.listen,
+            endpoint=self.endpoint,
+            log_dir=self.log_dir,
+            ids=self.ids,
+            record=self.record,
+        )
+        self.children = plan.build(host=self.host, remote_router=self.remote_router)
 
     def _wait_router(self, timeout_s: float = 15.0) -> bool:
-        deadline = time.monotonic() + timeout_s
         router = next(c for c in self.children if c.role == "router")
-        while time.monotonic() < deadline:
-            if port_in_use(self.port, self.endpoint.rsplit(":", 1)[0].split("/")[-1]):
-                return True
-            if not router.alive():
-                return False
-            time.sleep(0.05)
-        return False
+        return wait_listening(router, self.port, self.endpoint.rsplit(":", 1)[0].split("/")[-1], timeout_s)
 
     def start(self) -> None:
         """Starts the router (unless another host runs it), waits for it, then every other role.
@@ -247,26 +162,7 @@ class Launcher:
 
     def _wait_roles(self, roles: dict[str, int], timeout_s: float) -> bool:
         """Waits until at least ``roles[role]`` processes of each role are alive."""
-        seen: dict[str, set[str]] = {r: set() for r in roles}
-        done = threading.Event()
-
-        def on_alive(key: str, alive: bool) -> None:
-            parts = keys.alive_parts(key)
-            if parts and parts[0] in seen and alive:
-                seen[parts[0]].add(parts[1])
-                if all(len(seen[r]) >= n for r, n in roles.items()):
-                    done.set()
-
-        bus = ZenohBus(self._net())
-        try:
-            bus.watch_alive(keys.all_alive(self.sim), on_alive)
-            deadline = time.monotonic() + timeout_s
-            while not done.wait(0.1):
-                if self.stop_event.is_set() or time.monotonic() > deadline or self._start_failed():
-                    return False
-            return True
-        finally:
-            bus.close()
+        return wait_roles(self._net(), self.sim, roles, timeout_s, stop=self.stop_event, failed=self._start_failed)
 
     def observe(self, bus: ZenohBus) -> tuple[Inbox, Inbox, Inbox]:
         """Subscribes to state, events and the world's description, and watches liveliness
@@ -494,26 +390,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         launcher.shutdown()
     if launcher.failed is not None:
         return 3  # no verdict: the run never ran
-    ok = _summary(launcher)
+    ok = print_summary(
+        launcher.tally, launcher.sc.criteria, recovered=launcher.restarts.recovered, record=launcher.record
+    )
     if code:
         return code
     return 0 if ok else 1
-
-
-def _summary(launcher: Launcher) -> bool:
-    """Prints how the run ended and each criterion; whether every criterion is met."""
-    ok, lines = launcher.verdict()
-    t = launcher.tally
-    print(
-        f"iwz run: ended at t={t.sim_s:.1f} s (tick {t.tick}), {t.robots} robots, {t.collisions} collisions, "
-        f"events {dict(sorted(t.events.items()))}"
-    )
-    for line in lines:
-        print(f"  {line}")
-    for name, took in launcher.restarts.recovered.items():
-        print(f"iwz run: {name} restarted {len(took)} time(s), back after " + ", ".join(f"{s:.2f} s" for s in took))
-    if launcher.record is not None and launcher.record.exists():
-        parts = recording_parts(launcher.record)
-        more = f" in {len(parts)} parts ({', '.join(p.name for p in parts)})" if len(parts) > 1 else ""
-        print(f"iwz run: recorded to {launcher.record}{more} (see iwz replay, iwz incidents, iwz doctor)")
-    return ok
