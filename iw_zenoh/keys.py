@@ -28,14 +28,10 @@ one network::
 from __future__ import annotations
 
 import re
-from typing import NamedTuple
 
 __all__ = [
     "ROLES",
-    "POLICY_ROLES",
-    "Grants",
     "all_registers",
-    "grants",
     "register_agent_of",
     "actions",
     "agent_actions",
@@ -44,6 +40,7 @@ __all__ = [
     "all_actions",
     "all_agent_actions",
     "all_alive",
+    "all_chairs",
     "all_events",
     "all_hear",
     "all_pose_reports",
@@ -51,6 +48,7 @@ __all__ = [
     "all_say",
     "all_sensor_batches",
     "all_sensors",
+    "all_specs",
     "chair",
     "chunk",
     "control",
@@ -71,6 +69,7 @@ __all__ = [
     "sim_of",
     "tick",
     "topic_kind",
+    "valid_robot_id",
     "verdict",
     "with_sim",
 ]
@@ -109,7 +108,18 @@ def chunk(name: str) -> str:
     return name
 
 
-def _rid(robot_id: int) -> int:
+def valid_robot_id(robot_id: int) -> int:
+    """Validates a robot id (every builder of a robot's key does).
+
+    Args:
+        robot_id: The id.
+
+    Returns:
+        The same id.
+
+    Raises:
+        ValueError: When it is not a non-negative integer.
+    """
     if isinstance(robot_id, bool) or not isinstance(robot_id, int) or robot_id < 0:
         raise ValueError(f"robot id must be a non-negative integer, got {robot_id!r}")
     return robot_id
@@ -216,12 +226,12 @@ def all_events(sim: str) -> str:
 
 def spec(sim: str, robot_id: int) -> str:
     """A robot's accepted spec."""
-    return f"iw/{chunk(sim)}/robot/{_rid(robot_id)}/spec"
+    return f"iw/{chunk(sim)}/robot/{valid_robot_id(robot_id)}/spec"
 
 
 def actions(sim: str, robot_id: int) -> str:
     """A robot's actions."""
-    return f"iw/{chunk(sim)}/robot/{_rid(robot_id)}/actions"
+    return f"iw/{chunk(sim)}/robot/{valid_robot_id(robot_id)}/actions"
 
 
 def all_actions(sim: str) -> str:
@@ -231,7 +241,7 @@ def all_actions(sim: str) -> str:
 
 def pose_report(sim: str, robot_id: int) -> str:
     """A Real robot's pose report."""
-    return f"iw/{chunk(sim)}/robot/{_rid(robot_id)}/pose_report"
+    return f"iw/{chunk(sim)}/robot/{valid_robot_id(robot_id)}/pose_report"
 
 
 def all_pose_reports(sim: str) -> str:
@@ -239,14 +249,24 @@ def all_pose_reports(sim: str) -> str:
     return f"iw/{chunk(sim)}/robot/*/pose_report"
 
 
+def all_specs(sim: str) -> str:
+    """Every robot's accepted spec."""
+    return f"iw/{chunk(sim)}/robot/*/spec"
+
+
 def chair(sim: str, robot_id: int) -> str:
     """A real chair's own readings (its serial bridge publishes them)."""
-    return f"iw/{chunk(sim)}/robot/{_rid(robot_id)}/chair"
+    return f"iw/{chunk(sim)}/robot/{valid_robot_id(robot_id)}/chair"
+
+
+def all_chairs(sim: str) -> str:
+    """Every real chair's own readings."""
+    return f"iw/{chunk(sim)}/robot/*/chair"
 
 
 def sensors(sim: str, robot_id: int) -> str:
     """A robot's sensor readings."""
-    return f"iw/{chunk(sim)}/robot/{_rid(robot_id)}/sensors"
+    return f"iw/{chunk(sim)}/robot/{valid_robot_id(robot_id)}/sensors"
 
 
 def all_sensors(sim: str) -> str:
@@ -256,7 +276,7 @@ def all_sensors(sim: str) -> str:
 
 def say(sim: str, robot_id: int) -> str:
     """A robot's outgoing radio message."""
-    return f"iw/{chunk(sim)}/robot/{_rid(robot_id)}/say"
+    return f"iw/{chunk(sim)}/robot/{valid_robot_id(robot_id)}/say"
 
 
 def all_say(sim: str) -> str:
@@ -266,7 +286,7 @@ def all_say(sim: str) -> str:
 
 def hear(sim: str, robot_id: int) -> str:
     """Radio messages a robot heard."""
-    return f"iw/{chunk(sim)}/robot/{_rid(robot_id)}/hear"
+    return f"iw/{chunk(sim)}/robot/{valid_robot_id(robot_id)}/hear"
 
 
 def all_hear(sim: str) -> str:
@@ -346,80 +366,3 @@ def alive_parts(key: str) -> tuple[str, str] | None:
     if len(parts) == 5 and parts[0] == "iw" and parts[2] == "alive":
         return parts[3], parts[4]
     return None
-
-
-POLICY_ROLES = ("world", "collision", "sensors", "radio", "recorder", "bridge", "viewer", "operator", "agent")
-_TOKEN_ROLES = {"bridge": ("bridge", "agent"), "operator": ("viewer", "launcher")}  # else the role itself
-
-
-class Grants(NamedTuple):
-    """What one identity may do on a simulation's keys (the router's rules are made of them).
-
-    Attributes:
-        put: Key expressions it may publish on.
-        query: Those it may ask (queries).
-        serve: Those it may answer (queryables).
-        tokens: Liveliness tokens it may declare.
-        read: Those it may subscribe to, watch and be sent.
-    """
-
-    put: tuple[str, ...]
-    query: tuple[str, ...]
-    serve: tuple[str, ...]
-    tokens: tuple[str, ...]
-    read: tuple[str, ...]
-
-
-def _role_puts(role: str, sim: str, name: str, robots: tuple[int, ...], shard: tuple[int, int] | None) -> list[str]:
-    robot = f"iw/{chunk(sim)}/robot/*"
-    own = [k(sim, r) for r in robots for k in (actions, say, pose_report)]
-    return {
-        "world": [tick(sim), proposed(sim), state(sim), info(sim), all_events(sim), f"{robot}/spec"],
-        "collision": [verdict(sim), all_events(sim)],
-        "sensors": [sensor_batch(sim, shard) if shard else all_sensor_batches(sim), f"{robot}/sensors"]
-        + [all_events(sim)],
-        "radio": [radio(sim), f"{robot}/hear", all_events(sim)],
-        "recorder": [all_events(sim)],
-        "bridge": [agent_actions(sim, name), *(f"{robot}/{k}" for k in ("actions", "say", "pose_report", "chair"))]
-        + [all_events(sim)],
-        "agent": [agent_actions(sim, name), *own, event(sim, "bad-message")],
-        "viewer": [event(sim, "bad-message")],
-        "operator": [control(sim), event(sim, "bad-message")],
-    }[role]
-
-
-def grants(
-    roles: tuple[str, ...], sim: str, *, name: str, robots: tuple[int, ...] = (), shard: tuple[int, int] | None = None
-) -> Grants:
-    """What an identity playing ``roles`` may do (docs/security.md has the table).
-
-    The world alone publishes the clock, proposals, state and its description and answers
-    registration; collision alone publishes verdicts; sensors shards alone readings; the radio
-    alone what is heard; an agent publishes actions, say and pose reports only for ``robots``
-    and registers only on its own key; control only from an operator; every identity reads.
-
-    Args:
-        roles: Some of :data:`POLICY_ROLES`.
-        sim: The simulation.
-        name: The identity (certificate common name; its liveliness and agent name).
-        robots: The robots it drives (agents).
-        shard: The sensors shard ``(K, N)`` it computes (``None``: any).
-
-    Raises:
-        ValueError: An unknown role, or a bad name, robot id or shard.
-    """
-    put: list[str] = []
-    query, serve, tokens = [info(sim)], [], []
-    for role in roles:
-        if role not in POLICY_ROLES:
-            raise ValueError(f"unknown role {role!r}; one of {', '.join(POLICY_ROLES)}")
-        put += _role_puts(role, sim, name, tuple(_rid(r) for r in robots), shard)
-        tokens += [alive(sim, r, name) for r in _TOKEN_ROLES.get(role, (role,))]
-        if role == "world":
-            serve += [all_registers(sim), info(sim)]
-        if role in ("agent", "bridge"):
-            query.append(register(sim, name))
-        if role == "bridge":  # it registers legacy robots on the shared key, as a trusted registrar
-            query.append(register(sim))
-    put_, query_, serve_, tokens_ = (tuple(dict.fromkeys(x)) for x in (put, query, serve, tokens))
-    return Grants(put=put_, query=query_, serve=serve_, tokens=tokens_, read=(everything(sim),))

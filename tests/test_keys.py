@@ -18,6 +18,8 @@ from iw_zenoh import keys
         (keys.alive("s", "agent", "a1"), keys.all_alive("s")),
         (keys.state("s"), keys.everything("s")),
         (keys.spec("s", 1), keys.everything("s")),
+        (keys.spec("s", 1), keys.all_specs("s")),
+        (keys.chair("s", 1), keys.all_chairs("s")),
         (keys.radio("s"), keys.everything("s")),
         (keys.sensor_batch("s", (2, 3)), keys.all_sensor_batches("s")),
         (keys.agent_actions("s", "host1"), keys.all_agent_actions("s")),

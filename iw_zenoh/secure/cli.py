@@ -16,6 +16,7 @@ from iw_zenoh import keys
 from iw_zenoh.errors import ConfigError, IwError
 from iw_zenoh.net import DEFAULT_TLS_ENDPOINT, NetConfig, config_values
 from iw_zenoh.secure.certs import init_ca, issue
+from iw_zenoh.secure.grants import POLICY_ROLES
 from iw_zenoh.secure.policy import load_policy, parse_policy
 
 __all__ = ["add_identity", "main"]
@@ -56,7 +57,7 @@ def _parser() -> argparse.ArgumentParser:
         epilog="Example: iwz secure issue alice --role agent --robots 1,2 --dir ids",
     )
     s.add_argument("name", metavar="NAME", help="the identity: the certificate's common name, the process's --name")
-    roles = [*keys.POLICY_ROLES, "router"]
+    roles = [*POLICY_ROLES, "router"]
     s.add_argument("--role", required=True, action="append", choices=roles, help="its role (repeatable)")
     s.add_argument("--dir", default=".", help="the authority's folder (default: here)")
     s.add_argument("--robots", default="", metavar="ID,ID", help="an agent's robots")

@@ -18,7 +18,7 @@ roles, the robots an agent drives and the shard a sensors process computes::
 
 :func:`access_control` turns it into Zenoh's ``access_control`` configuration: default deny,
 one subject per identity (by certificate common name), and the rules of
-:func:`iw_zenoh.keys.grants`. See docs/security.md.
+:func:`iw_zenoh.secure.grants.grants`. See docs/security.md.
 """
 
 from __future__ import annotations
@@ -32,6 +32,7 @@ import msgspec
 from iw_zenoh import keys
 from iw_zenoh.errors import ConfigError
 from iw_zenoh.messages.wire import INT64_MAX
+from iw_zenoh.secure.grants import POLICY_ROLES, Grants, grants
 
 __all__ = ["IdentityEntry", "Policy", "access_control", "load_policy", "owners", "parse_policy"]
 
@@ -44,7 +45,7 @@ class IdentityEntry(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_
     """``[identities.NAME]``: what the identity NAME may do.
 
     Attributes:
-        role: One of :data:`iw_zenoh.keys.POLICY_ROLES`, or a list of them (a legacy bridge that
+        role: One of :data:`iw_zenoh.secure.grants.POLICY_ROLES`, or a list of them (a legacy bridge that
             also starts and pauses the world: ``["bridge", "operator"]``).
         robots: The robots an agent drives (their ids); the world registers no other for it.
         shard: A sensors process's shard, ``K/N`` ("": any shard).
@@ -110,12 +111,12 @@ def parse_policy(text: str, name: str = "policy") -> Policy:
     for ident, entry in policy.identities.items():
         where = f"{name}: identities.{ident}"
         if not entry.roles:
-            raise ConfigError(f"{where}.role", f"no role; give one of {', '.join(keys.POLICY_ROLES)}")
+            raise ConfigError(f"{where}.role", f"no role; give one of {', '.join(POLICY_ROLES)}")
         for role in entry.roles:
-            if role not in keys.POLICY_ROLES:
-                raise ConfigError(f"{where}.role", f"unknown role {role!r}; one of {', '.join(keys.POLICY_ROLES)}")
+            if role not in POLICY_ROLES:
+                raise ConfigError(f"{where}.role", f"unknown role {role!r}; one of {', '.join(POLICY_ROLES)}")
         try:
-            keys.grants(entry.roles, policy.sim, name=ident, robots=tuple(entry.robots), shard=entry.shard_pair)
+            grants(entry.roles, policy.sim, name=ident, robots=tuple(entry.robots), shard=entry.shard_pair)
         except ValueError as e:
             raise ConfigError(f"{where}.shard", str(e)) from None
         if entry.robots and "agent" not in entry.roles:
@@ -158,7 +159,7 @@ def _rule(rule_id: str, messages: list[str], flows: list[str], key_exprs: tuple[
     return {"id": rule_id, "messages": messages, "flows": flows, "permission": "allow", "key_exprs": list(key_exprs)}
 
 
-def _identity_rules(ident: str, g: keys.Grants) -> list[dict[str, Any]]:
+def _identity_rules(ident: str, g: Grants) -> list[dict[str, Any]]:
     """The rules that let one identity do what its grants say (ingress: from it; egress: to it)."""
     rules = [
         _rule(f"{ident}/put", ["put"], ["ingress"], g.put),
@@ -174,7 +175,7 @@ def _identity_rules(ident: str, g: keys.Grants) -> list[dict[str, Any]]:
 
 def access_control(policy: Policy) -> dict[str, Any]:
     """The router's ``access_control`` configuration for ``policy``: default deny, a subject per
-    identity by certificate common name, each allowed what :func:`iw_zenoh.keys.grants` says.
+    identity by certificate common name, each allowed what :func:`iw_zenoh.secure.grants.grants` says.
 
     Every identity reads the whole simulation (subscriptions, publications sent to it, who
     subscribes and answers what, liveliness of every process); nothing else is allowed unless
@@ -193,7 +194,7 @@ def access_control(policy: Policy) -> dict[str, Any]:
     common = [r["id"] for r in rules]
     subjects, policies = [], []
     for ident, entry in policy.identities.items():
-        g = keys.grants(entry.roles, policy.sim, name=ident, robots=tuple(entry.robots), shard=entry.shard_pair)
+        g = grants(entry.roles, policy.sim, name=ident, robots=tuple(entry.robots), shard=entry.shard_pair)
         own = _identity_rules(ident, g)
         rules += own
         subjects.append({"id": ident, "cert_common_names": [ident]})

@@ -5,8 +5,8 @@ import json
 import pytest
 import zenoh
 
-from iw_zenoh import keys
 from iw_zenoh.errors import ConfigError
+from iw_zenoh.secure.grants import POLICY_ROLES, grants
 from iw_zenoh.secure.policy import access_control, owners, parse_policy
 
 POLICY = """
@@ -25,7 +25,7 @@ role = ["bridge", "operator"]
 
 
 def _puts(roles: tuple[str, ...], **kw: object) -> set[str]:
-    return set(keys.grants(roles, "s", name=kw.pop("name", "n"), **kw).put)  # type: ignore[arg-type]
+    return set(grants(roles, "s", name=kw.pop("name", "n"), **kw).put)  # type: ignore[arg-type]
 
 
 @pytest.mark.parametrize(
@@ -39,7 +39,7 @@ def _puts(roles: tuple[str, ...], **kw: object) -> set[str]:
     ],
 )
 def test_each_key_of_the_simulation_is_published_by_its_role_alone(role: str, only: set[str]) -> None:
-    others = set().union(*(_puts((r,)) for r in keys.POLICY_ROLES if r != role))
+    others = set().union(*(_puts((r,)) for r in POLICY_ROLES if r != role))
     assert only <= _puts((role,))
     assert not only & others
 
@@ -54,15 +54,15 @@ def test_an_agent_publishes_only_for_its_own_robots_and_its_own_batch() -> None:
 
 
 def test_an_agent_registers_only_on_its_own_key_and_only_the_world_answers() -> None:
-    g = keys.grants(("agent",), "s", name="alice", robots=(1,))
+    g = grants(("agent",), "s", name="alice", robots=(1,))
     assert g.query == ("iw/s/world/info", "iw/s/world/register/alice")
     assert g.serve == ()
-    assert keys.grants(("world",), "s", name="world").serve == ("iw/s/world/register/**", "iw/s/world/info")
+    assert grants(("world",), "s", name="world").serve == ("iw/s/world/register/**", "iw/s/world/info")
 
 
 def test_the_recorder_and_a_viewer_only_read() -> None:
     for role in ("recorder", "viewer"):
-        g = keys.grants((role,), "s", name="r")
+        g = grants((role,), "s", name="r")
         assert g.read == ("iw/s/**",)
         assert not {k for k in g.put if "/events/" not in k}
 
