@@ -5,7 +5,8 @@ the sonars find, replan when the plan is blocked.
   (:mod:`iw_zenoh.core.poseplan`): the known walls grown by the chair's outline at each heading
   (the configuration space, as ViRBot grows walls by its robot's radius, but for a rectangle
   that turns about a point near its front axle).
-* Following: pure pursuit on the planned poses, turning on the spot where the plan does.
+* Following: pure pursuit on the planned poses, turning on the spot where the plan does
+  (:mod:`iw_zenoh.agents.pursuit`).
 * Mapping: every tick the cones carve free space, and a reading nearer than the known map
   explains (the chair predicts each cone's reading on its map) marks its arc
   (:mod:`iw_zenoh.core.sonarmap`); when a marked cell makes the rest of the plan collide, the
@@ -39,6 +40,7 @@ from iw_zenoh.core.spec import RobotSpec
 
 from .mapping_chair import MAPPING_SENSORS, cones_of, mapping_chair
 from .outline import arc_poses, sweeps_onto, ways_out
+from .pursuit import Drive, backing, follow, slowed
 
 __all__ = ["MAPPING_SENSORS", "Autopilot", "Drive", "cones_of", "mapping_chair"]
 
@@ -46,29 +48,14 @@ FloatArray = npt.NDArray[np.float64]
 
 CELL_M = 0.05
 MARK_M = 1.5  # narrow cones: a reading this near marks its arc (5 degrees at 1.5 m is 0.13 m); farther ones carve
-LOOKAHEAD_M = 0.3
-TURN_IN_PLACE_DEG = 25.0  # off the plan by more than this (not a planned turn): turn on the spot
-CRUISE_MPS = 0.2
-BACK_MPS = 0.08  # backing up, slowly (one sensor behind)
 GUARD_S = 0.3  # look this far ahead in time for a motion that would touch the map
 BACK_STOP_M = 0.2  # backing up: stop when something unexplained is this near behind
-SLOW_SHARE = 0.35  # the slowest share of cruise speed, when something is within 0.24 m
-TURN_RADPS = 0.35
 WINDOW_M = 4.0  # plan inside the box round start and goal grown by this much (the whole lab if that fails)
 BLOCKED_REPLAN_TICKS = 20  # stopped by something ahead this long: plan again round it
 PLAN_EXPAND = 30_000  # give up a plan after this many states (about 2 s here)
 EXPLAINED_M = (0.1, 0.08)  # a reading within a + b * d of what the known map predicts is the map, not news
 NO_PATH_RETRY_TICKS = 20  # no path: stand still and look this long, then try again
 FORGET_AFTER_FAILS = 3  # this many failed plans in a row: forget what the sonars marked
-
-
-@dataclass(frozen=True)
-class Drive:
-    """Wheel speeds asked for, m/s, and why."""
-
-    left_mps: float
-    right_mps: float
-    status: str
 
 
 @dataclass
@@ -210,7 +197,7 @@ class Autopilot:
             if poses is not None:
                 self._space, self.path, self.index = space, poses, 0
                 self._unwrapped = np.unwrap(poses[:, 2])
-                self._back = _backing(poses)
+                self._back = backing(poses)
                 self.status = "driving"
                 return
         self._space, self.path = None, None
@@ -249,7 +236,7 @@ class Autopilot:
         if self._blocked(ids, news, cones, drive, collided=collided):
             return Drive(0.0, 0.0, "blocked")
         if drive.status == "driving" and self.careful:
-            drive = _slowed(drive, dists)
+            drive = slowed(drive, dists)
         if self.touches(pose, drive):
             # the follower strays from what the plan checked (a corrective turn on the spot swings
             # the front 0.84 m out): never into what is mapped; stop and plan from here
@@ -360,67 +347,9 @@ class Autopilot:
 
     def _follow(self, pose: tuple[float, float, float]) -> Drive:
         assert self.path is not None
-        x, y, hdg = pose
-        p = self.path
-        hu = self._unwrapped
-        # progress: the nearest path pose ahead (heading counts, so a turn on the spot is
-        # followed pose by pose)
-        lo, hi = self.index, min(len(p), self.index + 30)
-        th = hu[lo] + math.remainder(math.radians(hdg) - hu[lo], 2 * math.pi)
-        d2 = (p[lo:hi, 0] - x) ** 2 + (p[lo:hi, 1] - y) ** 2 + (0.3 * (hu[lo:hi] - th)) ** 2
-        self.index = lo + int(np.argmin(d2))
-        i = self.index
-        th = hu[i] + math.remainder(math.radians(hdg) - hu[i], 2 * math.pi)
-        # a turn on the spot ahead: poses at one place, headings changing; do it where planned
-        j = i
-        while j + 1 < len(p) and math.hypot(p[j + 1, 0] - p[j, 0], p[j + 1, 1] - p[j, 1]) < 1e-6:
-            j += 1
-        base = self.spec.height_m
-        if j > i or math.hypot(p[i, 0] - x, p[i, 1] - y) < 0.05 and abs(hu[j] - th) > math.radians(8.0):
-            err = hu[j] - th
-            if abs(err) > math.radians(3.0):
-                w = math.copysign(min(TURN_RADPS, 1.5 * abs(err) + 0.05), err)
-                return Drive(-w * base / 2, w * base / 2, "turning")
-        # pure pursuit to a point ahead (behind, backing up), stopping short of the next turn
-        # or change of direction
-        back = bool(self._back[i])
-        k = i
-        while (
-            k + 1 < len(p)
-            and math.hypot(p[k, 0] - x, p[k, 1] - y) < LOOKAHEAD_M
-            and abs(hu[k + 1] - hu[i]) < 0.2
-            and self._back[k + 1] == back
-        ):
-            k += 1
-        tx, ty = p[k, 0], p[k, 1]
-        dist = math.hypot(tx - x, ty - y)
-        if dist < 0.03 or (k == len(p) - 1 and dist < 0.1):
+        drive, self.index = follow(
+            self.path, self._unwrapped, self._back, self.index, pose, base_m=self.spec.height_m, careful=self.careful
+        )
+        if drive.status == "replanning":
             self._replan = True  # the plan is used up short of the goal: plan the rest
-            return Drive(0.0, 0.0, "replanning")
-        facing = th + math.pi if back else th  # backing up: steer the rear as if it were the front
-        err = math.remainder(math.atan2(ty - y, tx - x) - facing, 2 * math.pi)
-        if abs(math.degrees(err)) > (45.0 if self.careful else TURN_IN_PLACE_DEG):
-            w = math.copysign(min(TURN_RADPS, 1.5 * abs(err) + 0.05), err)
-            return Drive(-w * base / 2, w * base / 2, "turning")
-        if back:
-            v = BACK_MPS
-            w = v * 2.0 * math.sin(err) / max(dist, 0.05)
-            return Drive(-(v + w * base / 2), -(v - w * base / 2), "backing")
-        v = CRUISE_MPS * min(1.0, 0.3 + dist / LOOKAHEAD_M)
-        w = v * 2.0 * math.sin(err) / max(dist, 0.05)
-        return Drive(v - w * base / 2, v + w * base / 2, "driving")
-
-
-def _slowed(drive: Drive, dists: list[float | None]) -> Drive:
-    """A careful chair slows down where it is tight (a doorway, a chair beside): the follower keeps
-    closer."""
-    near = min((d for d in dists if d is not None), default=math.inf)
-    k = min(1.0, max(SLOW_SHARE, (near - 0.1) / 0.4))
-    return Drive(drive.left_mps * k, drive.right_mps * k, drive.status)
-
-
-def _backing(poses: FloatArray) -> npt.NDArray[np.bool_]:
-    """For each pose of a path, whether the chair leaves it backwards (moving against its heading)."""
-    d = np.diff(poses[:, :2], axis=0)
-    along = d[:, 0] * np.cos(poses[:-1, 2]) + d[:, 1] * np.sin(poses[:-1, 2])
-    return np.append(along < -1e-9, False)
+        return drive
