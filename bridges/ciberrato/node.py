@@ -46,11 +46,12 @@ from iw_zenoh.runtime import NodeIO
 from iw_zenoh.ticks import TickWindow
 
 from .clients import ClientTable
-from .codec import build_refusal, build_reply, parse_actions, parse_registration, parse_viewer_command
+from .codec import parse_actions, parse_viewer_command
 from .delivery import Delivery
 from .guard import Gate, Report
 from .referee import Referee
 from .registrar import Pending, Registrar
+from .registration import build_refusal, build_reply, parse_registration
 from .robot import LegacyRobot
 from .scoring import Mode
 from .transport import (

@@ -20,7 +20,7 @@ from iw_zenoh.errors import IwError
 from iw_zenoh.hosting import WorldRegistration
 from iw_zenoh.messages import RegisterReply, RegisterRequest, WorldInfo
 
-from .codec import Registration, registration_spec
+from .registration import Registration, registration_spec
 
 __all__ = [
     "MAX_PENDING",

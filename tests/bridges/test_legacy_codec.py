@@ -14,14 +14,11 @@ from iw_zenoh.bridges.ciberrato.codec import (
     Measures,
     Score,
     build_measures,
-    build_refusal,
-    build_reply,
     build_robot_state,
     parse_actions,
-    parse_registration,
     parse_viewer_command,
-    registration_spec,
 )
+from iw_zenoh.bridges.ciberrato.registration import build_refusal, build_reply, parse_registration, registration_spec
 from lxml import etree
 
 from iw_zenoh.core.spec import BodyShape, RobotType

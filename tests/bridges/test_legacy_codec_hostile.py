@@ -6,7 +6,8 @@ from __future__ import annotations
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-from iw_zenoh.bridges.ciberrato.codec import parse_actions, parse_registration, parse_viewer_command
+from iw_zenoh.bridges.ciberrato.codec import parse_actions, parse_viewer_command
+from iw_zenoh.bridges.ciberrato.registration import parse_registration
 from lxml import etree
 
 from iw_zenoh.errors import ProtocolError

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from iw_zenoh.bridges.ciberrato.codec import parse_registration
 from iw_zenoh.bridges.ciberrato.registrar import MAX_PENDING, WORLD_WAIT_S, Registrar
+from iw_zenoh.bridges.ciberrato.registration import parse_registration
 
 from iw_zenoh.core.params import SimParameters
 from iw_zenoh.messages import RegisterReply, RegisterRequest, decode, encode
