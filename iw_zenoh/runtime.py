@@ -1,14 +1,10 @@
-"""How a role process starts and stops: its arguments, logging, bus, signals, typed options.
+"""How a role process starts and stops: its arguments, logging, bus, signals.
 
 Every role's ``main()`` hands :func:`start_role` only what is its own (its description and
 examples, its flags, a warm-up, what it prepares before joining, what it runs); the rest is
 here, once: ``--sim``, ``-v``, ``--name`` and the network flags, the logging set-up, opening the
 bus (a failure prints ``iwz ROLE: reason`` and exits 2), SIGINT and SIGTERM, closing the bus.
-
-A role the launcher configures declares its options as a ``msgspec.Struct``; its flags, declared
-as a table (:data:`Flag`, :func:`add_option_flags`), fill it (:func:`options_from_args`) and
-``--options JSON`` hands it whole (:func:`options_json`), decoded and validated by msgspec, so
-``iwz run`` passes typed configuration instead of strings the child parses again.
+A role's typed options (a ``msgspec.Struct`` its flags fill) are :mod:`iw_zenoh.options`'.
 """
 
 from __future__ import annotations
@@ -22,26 +18,19 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, TypeVar, overload
 
-import msgspec
-
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus, Delivery, Inbox, ZenohBus
 from iw_zenoh.cliargs import add_common_arguments, net_from_args
 from iw_zenoh.errors import DecodeError, IwError
 from iw_zenoh.messages import EventData, EventKind, Message, Outgoing, decode, encode, make_event
+from iw_zenoh.options import options_from_args  # re-exported: nodes/world.py and nodes/sensors.py import it from here
 
 __all__ = [
-    "Flag",
     "NodeIO",
     "Outgoing",
     "Process",
-    "add_option_flags",
-    "add_options_argument",
     "install_stop_signals",
-    "option",
     "options_from_args",
-    "options_from_argv",
-    "options_json",
     "setup_logging",
     "start_role",
 ]
@@ -50,7 +39,6 @@ logger = logging.getLogger(__name__)
 
 M = TypeVar("M", bound=Message)
 T = TypeVar("T")
-S = TypeVar("S", bound=msgspec.Struct)
 
 
 class NodeIO:
@@ -190,113 +178,6 @@ class Process:
         self.io.wake.set()
         for callback in list(self._on_stop):
             callback()
-
-
-OPTION_DEST = "option:"  # the dest of a flag that fills an options field: never clashes with --mode, --name
-
-
-def option(field_name: str) -> str:
-    """The ``dest`` of a flag that fills the options field ``field_name`` (see :func:`options_from_args`)."""
-    return OPTION_DEST + field_name
-
-
-# one flag of a role: its names ("-o --output"), the options field it fills, how argparse reads
-# it (type, action, metavar...), and its help ("{default}" is replaced by the field's default)
-Flag = tuple[str, str, dict[str, Any], str]
-
-
-def add_option_flags(parser: argparse.ArgumentParser, kind: type[msgspec.Struct], flags: Sequence[Flag]) -> None:
-    """Adds a role's flags, each filling a field of ``kind`` (see :data:`Flag`), and ``--options``.
-
-    A flag not given leaves its field to ``--options`` or the default (``argparse.SUPPRESS``);
-    :func:`options_from_args` then reads them into a ``kind``.
-    """
-    defaults = kind()
-    for names, name, how, text in flags:
-        text = text.format(default=getattr(defaults, name))
-        if how.get("action", "store") in ("store", "append") and "choices" not in how:
-            how = {"metavar": names.split()[-1].lstrip("-").upper(), **how}  # not OPTION:FIELD
-        parser.add_argument(*names.split(), dest=option(name), default=argparse.SUPPRESS, help=text, **how)
-    add_options_argument(parser, kind)
-
-
-def options_json(options: msgspec.Struct) -> str:
-    """``options`` as the ``--options JSON`` a role's command line takes (what ``iwz run`` passes)."""
-    return msgspec.json.encode(options).decode()
-
-
-def add_options_argument(parser: argparse.ArgumentParser, kind: type[msgspec.Struct]) -> None:
-    """Adds ``--options JSON``: the role's whole configuration (a ``kind``) as one JSON object.
-
-    The role's flags are added with ``dest=option(FIELD)`` and ``default=argparse.SUPPRESS``, so
-    :func:`options_from_args` knows which field each fills and which ones were given.
-    """
-    parser.add_argument(
-        "--options",
-        metavar="JSON",
-        help=f"every option at once, a JSON object with the fields of {kind.__module__}.{kind.__name__} "
-        "(what iwz run passes); flags given beside it override it",
-    )
-
-
-def options_from_args(args: argparse.Namespace, kind: type[S], base: S | None = None) -> S:
-    """A role's options: ``base`` (or ``--options``, or the defaults), then the flags given.
-
-    Args:
-        args: Parsed arguments whose role flags have ``dest=option(FIELD)`` and
-            ``default=argparse.SUPPRESS``.
-        kind: The options Struct.
-        base: Options to start from instead of ``args.options``.
-
-    Returns:
-        The options, validated by msgspec (types and ranges of ``kind``).
-
-    Raises:
-        IwError: Naming the option (its JSON path) and the reason.
-    """
-    try:
-        if base is None and getattr(args, "options", None):
-            base = msgspec.json.decode(args.options, type=kind)
-        start: dict[str, Any] = msgspec.structs.asdict(base) if base is not None else {}
-        given = {f: getattr(args, option(f)) for f in kind.__struct_fields__ if hasattr(args, option(f))}
-        return msgspec.convert(msgspec.to_builtins({**start, **given}), kind)
-    except msgspec.DecodeError as e:  # ValidationError is one
-        raise IwError(f"refused options: {e}") from None
-
-
-def options_from_argv(
-    argv: Sequence[str],
-    kind: type[S],
-    arguments: Callable[[argparse.ArgumentParser], None],
-    *,
-    base: S,
-    prog: str,
-) -> tuple[S, list[str]]:
-    """Reads a role's own flags out of ``argv`` into its options, over ``base`` (no exit on error).
-
-    For a launcher that holds a role's options and a few of its flags written as text (a
-    scenario's ``world.args``): the flags are read here, once, and the child gets typed options.
-
-    Args:
-        argv: The flags.
-        kind: The options Struct.
-        arguments: Adds the role's flags (as its ``main`` does).
-        base: The options the flags override.
-        prog: The role's program name, for messages.
-
-    Returns:
-        The options, and what in ``argv`` is not one of the role's option flags (for its command line).
-
-    Raises:
-        IwError: A flag's value is refused, or the options are.
-    """
-    parser = argparse.ArgumentParser(prog=prog, add_help=False, exit_on_error=False)
-    arguments(parser)
-    try:
-        args, rest = parser.parse_known_args(list(argv))
-    except argparse.ArgumentError as e:
-        raise IwError(f"{prog}: {e}") from None
-    return options_from_args(args, kind, base), rest
 
 
 @overload

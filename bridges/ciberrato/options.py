@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 
 from iw_zenoh.nodes.role_options import BridgeOptions
-from iw_zenoh.runtime import Flag, add_option_flags
+from iw_zenoh.options import Flag, add_option_flags
 
 __all__ = ["DESCRIPTION", "EPILOG", "BridgeOptions", "add_arguments"]
 

@@ -36,7 +36,8 @@ from iw_zenoh.nodes.run_waits import wait_listening, wait_roles
 from iw_zenoh.nodes.secure_run import LAUNCHER
 from iw_zenoh.nodes.tally import Tally
 from iw_zenoh.nodes.world_options import world_options
-from iw_zenoh.runtime import options_json, setup_logging
+from iw_zenoh.options import options_json
+from iw_zenoh.runtime import setup_logging
 
 __all__ = ["Child", "Launcher", "main", "world_options"]
 

@@ -14,7 +14,8 @@ from iw_zenoh.bus import Bus
 from iw_zenoh.errors import ProtocolError
 from iw_zenoh.messages import Say, WorldState
 from iw_zenoh.nodes.role_options import RadioOptions, add_radio_arguments
-from iw_zenoh.runtime import NodeIO, options_from_args, start_role
+from iw_zenoh.options import options_from_args
+from iw_zenoh.runtime import NodeIO, start_role
 from iw_zenoh.sim.radio import RadioConfig, RadioNode
 from iw_zenoh.ticks import TickWindow
 

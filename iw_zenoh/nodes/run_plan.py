@@ -19,7 +19,7 @@ from iw_zenoh.nodes.child import Child
 from iw_zenoh.nodes.role_options import BridgeOptions, RadioOptions, RecorderOptions, SensorsOptions
 from iw_zenoh.nodes.secure_run import ROUTER, agent_name, agent_robots, identities, on_host
 from iw_zenoh.nodes.world_options import WorldOptions
-from iw_zenoh.runtime import options_json
+from iw_zenoh.options import options_json
 from iw_zenoh.secure.cli import POLICY_FILE
 
 __all__ = ["RunPlan"]

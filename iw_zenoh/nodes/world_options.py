@@ -15,7 +15,7 @@ from iw_zenoh.config import Scenario
 from iw_zenoh.core.modes import Mode, Profile, Silence
 from iw_zenoh.errors import ConfigError, IwError
 from iw_zenoh.messages import Obstacle
-from iw_zenoh.runtime import Flag, add_option_flags, option, options_from_argv
+from iw_zenoh.options import Flag, add_option_flags, option, options_from_argv
 from iw_zenoh.secure.policy import load_policy, owners
 from iw_zenoh.sim.config import WorldConfig
 from iw_zenoh.sim.resume import WorldSnapshot

@@ -28,7 +28,7 @@ from iw_zenoh.nodes.role_options import (
     add_sensors_arguments,
 )
 from iw_zenoh.nodes.world_options import WorldOptions
-from iw_zenoh.runtime import options_from_args, options_json
+from iw_zenoh.options import options_from_args, options_json
 from iw_zenoh.sim.radio import RadioConfig
 
 MAPS = Path(__file__).resolve().parents[2] / "maps"

@@ -12,7 +12,7 @@ from iw_zenoh.messages import Obstacle
 from iw_zenoh.nodes.launcher import Launcher, world_options
 from iw_zenoh.nodes.world import world_config
 from iw_zenoh.nodes.world_options import WorldOptions, add_arguments
-from iw_zenoh.runtime import add_options_argument, options_from_args
+from iw_zenoh.options import add_options_argument, options_from_args
 
 MAPS = Path(__file__).resolve().parents[2] / "maps"
 

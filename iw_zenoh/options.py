@@ -1,0 +1,136 @@
+"""A role's typed options: one ``msgspec.Struct`` per role that ``iwz run`` configures, filled by
+the role's flags or handed whole as ``--options JSON``.
+
+Its flags are declared as a table (:data:`Flag`, :func:`add_option_flags`) and fill it
+(:func:`options_from_args`); ``--options JSON`` hands it whole (:func:`options_json`), decoded
+and validated by msgspec, so ``iwz run`` passes typed configuration instead of strings the child
+parses again.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable, Sequence
+from typing import Any, TypeVar
+
+import msgspec
+
+from iw_zenoh.errors import IwError
+
+__all__ = [
+    "Flag",
+    "add_option_flags",
+    "add_options_argument",
+    "option",
+    "options_from_args",
+    "options_from_argv",
+    "options_json",
+]
+
+S = TypeVar("S", bound=msgspec.Struct)
+
+OPTION_DEST = "option:"  # the dest of a flag that fills an options field: never clashes with --mode, --name
+
+
+def option(field_name: str) -> str:
+    """The ``dest`` of a flag that fills the options field ``field_name`` (see :func:`options_from_args`)."""
+    return OPTION_DEST + field_name
+
+
+# one flag of a role: its names ("-o --output"), the options field it fills, how argparse reads
+# it (type, action, metavar...), and its help ("{default}" is replaced by the field's default)
+Flag = tuple[str, str, dict[str, Any], str]
+
+
+def add_option_flags(parser: argparse.ArgumentParser, kind: type[msgspec.Struct], flags: Sequence[Flag]) -> None:
+    """Adds a role's flags, each filling a field of ``kind`` (see :data:`Flag`), and ``--options``.
+
+    A flag not given leaves its field to ``--options`` or the default (``argparse.SUPPRESS``);
+    :func:`options_from_args` then reads them into a ``kind``.
+    """
+    defaults = kind()
+    for names, name, how, text in flags:
+        text = text.format(default=getattr(defaults, name))
+        if how.get("action", "store") in ("store", "append") and "choices" not in how:
+            how = {"metavar": names.split()[-1].lstrip("-").upper(), **how}  # not OPTION:FIELD
+        parser.add_argument(*names.split(), dest=option(name), default=argparse.SUPPRESS, help=text, **how)
+    add_options_argument(parser, kind)
+
+
+def options_json(options: msgspec.Struct) -> str:
+    """``options`` as the ``--options JSON`` a role's command line takes (what ``iwz run`` passes)."""
+    return msgspec.json.encode(options).decode()
+
+
+def add_options_argument(parser: argparse.ArgumentParser, kind: type[msgspec.Struct]) -> None:
+    """Adds ``--options JSON``: the role's whole configuration (a ``kind``) as one JSON object.
+
+    The role's flags are added with ``dest=option(FIELD)`` and ``default=argparse.SUPPRESS``, so
+    :func:`options_from_args` knows which field each fills and which ones were given.
+    """
+    parser.add_argument(
+        "--options",
+        metavar="JSON",
+        help=f"every option at once, a JSON object with the fields of {kind.__module__}.{kind.__name__} "
+        "(what iwz run passes); flags given beside it override it",
+    )
+
+
+def options_from_args(args: argparse.Namespace, kind: type[S], base: S | None = None) -> S:
+    """A role's options: ``base`` (or ``--options``, or the defaults), then the flags given.
+
+    Args:
+        args: Parsed arguments whose role flags have ``dest=option(FIELD)`` and
+            ``default=argparse.SUPPRESS``.
+        kind: The options Struct.
+        base: Options to start from instead of ``args.options``.
+
+    Returns:
+        The options, validated by msgspec (types and ranges of ``kind``).
+
+    Raises:
+        IwError: Naming the option (its JSON path) and the reason.
+    """
+    try:
+        if base is None and getattr(args, "options", None):
+            base = msgspec.json.decode(args.options, type=kind)
+        start: dict[str, Any] = msgspec.structs.asdict(base) if base is not None else {}
+        given = {f: getattr(args, option(f)) for f in kind.__struct_fields__ if hasattr(args, option(f))}
+        return msgspec.convert(msgspec.to_builtins({**start, **given}), kind)
+    except msgspec.DecodeError as e:  # ValidationError is one
+        raise IwError(f"refused options: {e}") from None
+
+
+def options_from_argv(
+    argv: Sequence[str],
+    kind: type[S],
+    arguments: Callable[[argparse.ArgumentParser], None],
+    *,
+    base: S,
+    prog: str,
+) -> tuple[S, list[str]]:
+    """Reads a role's own flags out of ``argv`` into its options, over ``base`` (no exit on error).
+
+    For a launcher that holds a role's options and a few of its flags written as text (a
+    scenario's ``world.args``): the flags are read here, once, and the child gets typed options.
+
+    Args:
+        argv: The flags.
+        kind: The options Struct.
+        arguments: Adds the role's flags (as its ``main`` does).
+        base: The options the flags override.
+        prog: The role's program name, for messages.
+
+    Returns:
+        The options, and what in ``argv`` is not one of the role's option flags (for its command line).
+
+    Raises:
+        IwError: A flag's value is refused, or the options are.
+    """
+    parser = argparse.ArgumentParser(prog=prog, add_help=False, exit_on_error=False)
+    arguments(parser)
+    try:
+        args, rest = parser.parse_known_args(list(argv))
+    except argparse.ArgumentError as e:
+        raise IwError(f"{prog}: {e}") from None
+    return options_from_args(args, kind, base), rest
