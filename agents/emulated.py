@@ -12,8 +12,10 @@ no Zenoh and no clock. Two uses:
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -22,11 +24,15 @@ from iw_zenoh.core.collision import check_collisions
 from iw_zenoh.core.lab import Lab, Scene
 from iw_zenoh.core.noise import Stream, rng_for
 from iw_zenoh.core.sensors import noise_layout, read_sensors
-from iw_zenoh.core.spec import RobotSpec
+from iw_zenoh.core.spec import NoiseSpec, RobotSpec, RobotType
 from iw_zenoh.core.world import WorldState, commit, initial_state, propose
 from iw_zenoh.messages import SensorReading
 
-__all__ = ["LocalWorld", "Odometry"]
+__all__ = ["EmulatedChair", "LocalWorld", "Odometry"]
+
+logger = logging.getLogger(__name__)
+
+EMULATED_SLIP = NoiseSpec(0.0, 0.005)  # a decent encoder: 0.5 % slip per tick, odometry drifts slowly
 
 
 class Odometry:
@@ -128,3 +134,32 @@ class LocalWorld:
                 encoders=(int(r.encoder_ticks[i, 0]), int(r.encoder_ticks[i, 1])),
             )
         return out
+
+
+class EmulatedChair:
+    """A real chair, emulated: true motion and own sensors in its room, odometry from encoders.
+
+    Args:
+        spec: The chair (its start pose set).
+        room: The real room (walls and real obstacles).
+        seed: Noise seed.
+    """
+
+    def __init__(self, spec: RobotSpec, room: Lab, seed: int = 0) -> None:
+        noise = replace(spec.noise, encoder_slip=EMULATED_SLIP)
+        self.spec = replace(spec, id=1, type=RobotType.SIMULATED, noise=noise)
+        self.world = LocalWorld(room, [self.spec], seed=seed)
+        self.odometry = Odometry(
+            (spec.x_m or 0.0, spec.y_m or 0.0, spec.dir_deg or 0.0), spec.height_m, spec.encoder.ticks_per_m
+        )
+        self.pose = (spec.x_m or 0.0, spec.y_m or 0.0, spec.dir_deg or 0.0)
+        self.reading = self.world.step({})[1]
+        self.real_collisions = 0
+
+    def drive(self, left: float, right: float) -> None:
+        """One tick of the hardware at these powers."""
+        self.reading = self.world.step({1: (left, right)})[1]
+        self.pose = self.odometry.update(self.reading.encoders)
+        if self.reading.collision:
+            self.real_collisions += 1
+            logger.warning("the real chair touched something at %s (true pose)", self.world.pose(1))

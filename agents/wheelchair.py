@@ -27,20 +27,14 @@ from __future__ import annotations
 import argparse
 import logging
 import math
-import os
-import select
-import signal
 import sys
-import termios
-import threading
 import time
-import tty
 from dataclasses import dataclass, replace
 
 from iw_zenoh.agent import Command
 from iw_zenoh.core.lab import Lab, Wall
 from iw_zenoh.core.motor import MAX_POWER
-from iw_zenoh.core.spec import NoiseSpec, RobotSpec, RobotType, SensorNoise
+from iw_zenoh.core.spec import RobotSpec, RobotType, SensorNoise
 from iw_zenoh.maps import load_lab
 from iw_zenoh.messages import ChairReading, Heard, SensorReading
 from iw_zenoh.places import point_arg, pose_arg
@@ -48,15 +42,15 @@ from iw_zenoh.specfile import spec_with_args
 
 from .autopilot import Autopilot, mapping_chair
 from .chairlink import SerialChair
-from .emulated import LocalWorld, Odometry
+from .emulated import EmulatedChair
 from .passage import Client, parse_all
+from .teleop import Teleop, terminal_teleop
 from .waypoint import FINE_GPS
 
-__all__ = ["EmulatedChair", "KeyReader", "Teleop", "Wheelchair", "add_arguments", "make", "merge_nearer"]
+__all__ = ["Wheelchair", "add_arguments", "make", "merge_nearer"]
 
 logger = logging.getLogger(__name__)
 
-EMULATED_SLIP = NoiseSpec(0.0, 0.005)  # a decent encoder: 0.5 % slip per tick, odometry drifts slowly
 ASK_M = 4.0  # ask a door on the way for passage from this far
 WAIT_M = 2.3  # without a grant, stop this far from the door (its leaf swings 1 m)
 NEAR_M = 0.8  # in the doorway
@@ -83,130 +77,6 @@ def merge_nearer(a: list[float | None], b: list[float | None]) -> list[float | N
     for x, y in zip(a, b, strict=True):
         out.append(y if x is None else x if y is None else min(x, y))
     return out
-
-
-class EmulatedChair:
-    """A real chair, emulated: true motion and own sensors in its room, odometry from encoders.
-
-    Args:
-        spec: The chair (its start pose set).
-        room: The real room (walls and real obstacles).
-        seed: Noise seed.
-    """
-
-    def __init__(self, spec: RobotSpec, room: Lab, seed: int = 0) -> None:
-        noise = replace(spec.noise, encoder_slip=EMULATED_SLIP)
-        self.spec = replace(spec, id=1, type=RobotType.SIMULATED, noise=noise)
-        self.world = LocalWorld(room, [self.spec], seed=seed)
-        self.odometry = Odometry(
-            (spec.x_m or 0.0, spec.y_m or 0.0, spec.dir_deg or 0.0), spec.height_m, spec.encoder.ticks_per_m
-        )
-        self.pose = (spec.x_m or 0.0, spec.y_m or 0.0, spec.dir_deg or 0.0)
-        self.reading = self.world.step({})[1]
-        self.real_collisions = 0
-
-    def drive(self, left: float, right: float) -> None:
-        """One tick of the hardware at these powers."""
-        self.reading = self.world.step({1: (left, right)})[1]
-        self.pose = self.odometry.update(self.reading.encoders)
-        if self.reading.collision:
-            self.real_collisions += 1
-            logger.warning("the real chair touched something at %s (true pose)", self.world.pose(1))
-
-
-class KeyReader:
-    """Reads arrow keys, space, +, - and q from a terminal in cbreak mode, in a thread.
-
-    Args:
-        fd: The terminal's file descriptor (stdin).
-    """
-
-    KEYS = {b"\x1b[A": "up", b"\x1b[B": "down", b"\x1b[C": "right", b"\x1b[D": "left", b" ": "stop"}
-    KEYS |= {b"+": "faster", b"=": "faster", b"-": "slower", b"q": "quit"}
-
-    def __init__(self, fd: int) -> None:
-        self.fd = fd
-        self.last: str | None = None
-        self.at = -math.inf
-        self.quit = threading.Event()
-        self.ready = threading.Event()  # set once the terminal is in cbreak mode
-        self.lock = threading.Lock()
-        self._pending: list[str] = []
-
-    def feed(self, data: bytes) -> None:
-        """Parses bytes from the terminal."""
-        i = 0
-        while i < len(data):
-            for seq, name in self.KEYS.items():
-                if data.startswith(seq, i):
-                    with self.lock:
-                        self.last, self.at = name, time.monotonic()
-                        self._pending.append(name)
-                    if name == "quit":
-                        self.quit.set()
-                    i += len(seq)
-                    break
-            else:
-                i += 1  # an unknown byte: ignored
-
-    def take(self) -> list[str]:
-        """Keys pressed since the last call."""
-        with self.lock:
-            out, self._pending = self._pending, []
-            return out
-
-    def run(self) -> None:
-        """Reads until quit (call in a thread)."""
-        old = termios.tcgetattr(self.fd) if os.isatty(self.fd) else None
-        try:
-            if old is not None:
-                tty.setcbreak(self.fd)
-            self.ready.set()
-            while not self.quit.is_set():
-                ready, _, _ = select.select([self.fd], [], [], 0.1)
-                if ready:
-                    data = os.read(self.fd, 64)
-                    if not data:
-                        self.quit.set()
-                        break
-                    self.feed(data)
-        finally:
-            if old is not None:
-                termios.tcsetattr(self.fd, termios.TCSADRAIN, old)
-
-
-class Teleop:
-    """Keys to wheel powers, stopping on a stale key.
-
-    Args:
-        keys: The key reader.
-        limit: Speed limit as motor power (at most 0.15).
-        stale_s: Stop when no key came for this long.
-    """
-
-    def __init__(self, keys: KeyReader, *, limit: float = 0.06, stale_s: float = 0.5) -> None:
-        self.keys = keys
-        self.limit = limit
-        self.stale_s = stale_s
-
-    def command(self, now: float) -> tuple[float, float, str]:
-        """(left, right, what) for now."""
-        for k in self.keys.take():
-            if k == "faster":
-                self.limit = min(MAX_POWER, round(self.limit + 0.01, 3))
-            elif k == "slower":
-                self.limit = max(0.01, round(self.limit - 0.01, 3))
-        with self.keys.lock:
-            key, at = self.keys.last, self.keys.at
-        if key is None or now - at > self.stale_s or key in ("stop", "quit", "faster", "slower"):
-            return 0.0, 0.0, "stopped" if key != "quit" else "quit"
-        v, t = self.limit, 0.5 * self.limit
-        return {
-            "up": (v, v, "forward"),
-            "down": (-v, -v, "back"),
-            "left": (-t, t, "left"),
-            "right": (t, -t, "right"),
-        }[key]
 
 
 class Wheelchair:
@@ -405,19 +275,7 @@ def make(args: argparse.Namespace) -> list[Wheelchair]:
     elif args.chair != "simulated":
         hardware = EmulatedChair(spec, known.with_walls(_boxes(args.room)), seed=args.seed)
         spec = replace(spec, type=RobotType.REAL, noise=SensorNoise())
-    teleop = None
-    if args.teleop:
-        if not os.isatty(sys.stdin.fileno()):
-            raise ValueError("--teleop reads the keyboard: run it in a terminal (not from a scenario or a pipe)")
-        keys = KeyReader(sys.stdin.fileno())
-        threading.Thread(target=keys.run, name="keys", daemon=True).start()
-
-        def quit_on_q() -> None:
-            keys.quit.wait()
-            os.kill(os.getpid(), signal.SIGINT)  # q: stop the agent as Ctrl-C does
-
-        threading.Thread(target=quit_on_q, name="quit", daemon=True).start()
-        teleop = Teleop(keys, limit=args.limit, stale_s=args.stale)
+    teleop = terminal_teleop(limit=args.limit, stale_s=args.stale) if args.teleop else None
     goal = args.goal
     doors = []
     for text in args.door:

@@ -14,8 +14,10 @@ import numpy as np
 import pytest
 from iw_zenoh.agents.autopilot import mapping_chair
 from iw_zenoh.agents.chairlink import SerialChair
+from iw_zenoh.agents.emulated import EmulatedChair
 from iw_zenoh.agents.passage import Ask, parse_all
-from iw_zenoh.agents.wheelchair import EmulatedChair, KeyReader, Teleop, Wheelchair, merge_nearer
+from iw_zenoh.agents.teleop import KeyReader, Teleop
+from iw_zenoh.agents.wheelchair import Wheelchair, merge_nearer
 
 from iw_zenoh.core.lab import Lab
 from iw_zenoh.messages import ChairReading
