@@ -10,7 +10,8 @@ with an event naming the peer and the reason; it never stalls another client.
 
 The node is the wiring only: each robot's legacy state is a :class:`~.robot.LegacyRobot`, who may
 join is the :class:`~.registrar.Registrar`'s, the games are the :class:`~.referee.Referee`'s,
-when Measures go is the :class:`~.delivery.Delivery`'s; its sockets are given to it
+when Measures go is the :class:`~.delivery.Delivery`'s, what it hears of the world the
+:class:`~.feed.WorldFeed`'s; its sockets are given to it
 (:mod:`.transport`), and it drives its robots through the agent host's own outgoing path.
 """
 
@@ -18,29 +19,19 @@ from __future__ import annotations
 
 import logging
 import time
-from typing import TypeVar
 
 from iw_zenoh import keys
-from iw_zenoh.bus import Queue
 from iw_zenoh.convert import grid_from_msg, lab_from_msg
 from iw_zenoh.core.params import SimParameters
-from iw_zenoh.errors import IwError, ProtocolError
+from iw_zenoh.errors import ProtocolError
 from iw_zenoh.hosting import Outbox
 from iw_zenoh.maps import grid_to_xml, lab_to_xml
 from iw_zenoh.messages import (
     Control,
     EventKind,
     LegacyRefusedData,
-    Message,
-    RadioBatch,
     RegisterReply,
-    SensorBatch,
     SensorReading,
-    Tick,
-    Verdict,
-    WorldInfo,
-    WorldState,
-    decode,
 )
 from iw_zenoh.runtime import NodeIO
 from iw_zenoh.ticks import TickWindow
@@ -48,6 +39,7 @@ from iw_zenoh.ticks import TickWindow
 from .clients import ClientTable
 from .codec import parse_actions, parse_viewer_command
 from .delivery import Delivery
+from .feed import WorldFeed
 from .guard import Gate, Report
 from .referee import Referee
 from .registrar import Pending, Registrar
@@ -70,10 +62,8 @@ RECV_BYTES = 4096
 POLL_S = 0.001  # the loop looks at the bus queues at least this often
 PER_PASS = 64  # datagrams read from one socket in a pass of the loop (then the bus, Measures)
 SWEEP_S = 1.0  # how often gone clients are looked for
-INFO_ASK_S = 5.0  # while no world has answered, its description is asked at most this often
 
 Peer = tuple[str, int]
-M = TypeVar("M", bound=Message)
 
 
 class Bridge:
@@ -110,26 +100,16 @@ class Bridge:
         self.new_transport = new_transport
         self.clients = ClientTable(reception)
         self.robots: dict[int, LegacyRobot] = {}
-        self.info: WorldInfo | None = None
         self.running = True
-        # Zenoh's own queues, polled by the UDP loop every millisecond: no Python callback thread
-        # competing for the interpreter lock with the loop 100 times a cycle (that contention,
-        # not the work, was most of the Measures jitter at 100 robots)
-        self.states = bus.queue(keys.state(sim), 64)
-        self.ticks = bus.queue(keys.tick(sim), 64)
-        self.readings = bus.queue(keys.all_sensor_batches(sim), 256)  # every shard's batch
-        self.hears = bus.queue(keys.radio(sim), 256)  # the radio's batch: one message a tick
-        self.infos = bus.queue(keys.info(sim), 16)
-        self.verdicts = bus.queue(keys.verdict(sim), 64)  # which collisions were walls, which robots
         self.window = TickWindow()  # a tick of 10^15 would finish the game or silence a robot
+        self.feed = WorldFeed(bus, sim, self.io, self.window)  # the world, from Zenoh's own queues
         self.outbox = Outbox(bus, sim, name, batched=True)  # every robot's actions of a pass in one
         self.registrar = Registrar(bus, sim, name, self.params)
-        self.referee = Referee(self.params, scoring, self._world_info)
+        self.referee = Referee(self.params, scoring, self.feed.world_info)
         self.delivery = Delivery(pace=pace)
         self.gate = Gate(self._tell)  # the flood limits; refusals told once per address a second
         self._controls: list[Control] = []  # viewers' commands of a pass, sent after its actions
         self._swept = 0.0
-        self._info_asked = -INFO_ASK_S
         self.io.alive()
         bus.token(keys.alive(sim, "bridge", name))
 
@@ -156,20 +136,6 @@ class Bridge:
         finally:
             t.close()
 
-    def _world_info(self, *, now_or_never: bool = False) -> WorldInfo | None:
-        """The world's description; asked (waiting up to 2 s) at most every INFO_ASK_S while no
-        world answers (asked for every registration, a flood of them froze the loop), or at once
-        with ``now_or_never`` (a world has just answered, so it is there)."""
-        now = time.monotonic()
-        if self.info is None and (now_or_never or now - self._info_asked >= INFO_ASK_S):
-            self._info_asked = now
-            for data in self.bus.query(keys.info(self.sim), timeout_s=2.0):
-                try:
-                    self.info = decode(data, WorldInfo)
-                except IwError:
-                    continue
-        return self.info
-
     def on_registration(self, data: bytes, peer: Peer) -> None:
         """A datagram on the registration port."""
         known = self.clients.get(peer)
@@ -182,7 +148,7 @@ class Bridge:
         except ProtocolError as e:
             self._refuse(peer, str(e))  # the legacy server answers nothing to what does not parse
             return
-        info = self._world_info()
+        info = self.feed.world_info()
         adm = self.registrar.admit(reg, peer, info, self.clients.by_robot, time.monotonic())
         if adm.refused:
             self._refuse(peer, adm.refused)
@@ -212,7 +178,7 @@ class Bridge:
             self._answer_alone(build_refusal(), peer)
             return
         # told what the world is now: a registration may have come before its description did
-        params, nb = self.registrar.told(self._world_info(now_or_never=True))
+        params, nb = self.registrar.told(self.feed.world_info(now_or_never=True))
         t = self.new_transport()
         robot = LegacyRobot(reply.robot_id, name=p.spec.name, n_beacons=nb + p.carried)
         self.registrar.accepted(reply.robot_id, p.spec)
@@ -252,7 +218,7 @@ class Bridge:
         except ProtocolError as e:
             self._refuse(peer, str(e))
             return
-        info = self._world_info()
+        info = self.feed.world_info()
         if cmd.kind == "labreq" and info is not None:
             v.transport.sendto(lab_to_xml(lab_from_msg(info.lab), legacy=True) + b"\x00", peer)
         elif cmd.kind == "gridreq" and info is not None:
@@ -266,65 +232,36 @@ class Bridge:
 
     def pump_bus(self) -> None:
         """Takes new readings, hear lists, states and ticks; sends Measures and viewer states."""
-        for info in _decoded(self.infos, WorldInfo)[-1:]:
-            self.info = info
-        for verdict in self._current(self.verdicts, Verdict):
+        self.feed.take_info()
+        for verdict in self.feed.verdicts():
             self.referee.on_verdict(verdict)
         self._take_states()
         self._take_readings()
-        for delivered in _decoded(self.hears, RadioBatch):
+        for delivered in self.feed.radio():
             for hear in delivered.hear:
                 robot = self.robots.get(hear.robot_id)
                 if robot is not None:
                     robot.heard = [(h.sender, h.text) for h in hear.messages]
         self._take_ticks()
 
-    def _in_window(self, key: str, tick: int) -> bool:
-        """Whether a tick is within the window (:mod:`iw_zenoh.ticks`); if not, a bad message."""
-        why = self.window.refuse(tick, time.monotonic_ns())
-        if why:
-            self.io.bad_message(key, ProtocolError(why))
-        return not why
-
-    def _current(self, queue: Queue, kind: type[M]) -> list[M]:
-        """The messages waiting in a bus queue whose tick is within the window; one that does not
-        decode is skipped, one from too far ahead reported."""
-        out = []
-        for key, data, _ in queue.drain():
-            try:
-                msg = decode(data, kind)
-            except IwError:
-                continue
-            if self._in_window(key, msg.tick):
-                out.append(msg)
-        return out
-
     def _take_states(self) -> None:
-        states = self._current(self.states, WorldState)
+        states = self.feed.states()
         for st in states:  # every step counts for the scores
-            self.referee.step(st, self.robots, self.info)
+            self.referee.step(st, self.robots, self.feed.info)
             self._check_finished(st.tick)
         if states:
             for link in self.clients.gone_robots(set(states[-1].ids), time.monotonic()):
                 self._let_go(link, "the world no longer holds it")
         viewers = self.clients.viewers("viewer")
         if states and viewers:
-            for data in self.referee.robot_states(states[-1], self.robots, self.info, running=self.running):
+            for data in self.referee.robot_states(states[-1], self.robots, self.feed.info, running=self.running):
                 for v in viewers:
                     self.clients.send(v, data)
 
     def _take_readings(self) -> None:
-        batches: list[SensorBatch] = []
-        for key, data, _ in self.readings.drain():
-            try:
-                b = decode(data, SensorBatch)
-            except IwError as e:
-                self.io.bad_message(key, e)
-                continue
-            if self._in_window(key, max([b.tick, *(r.tick for r in b.readings)])):
-                batches.append(b)
+        batches = self.feed.sensor_batches()
         now = time.time_ns()
-        for robot, reading in self.delivery.arrived(batches, self.robots, self.info, now):
+        for robot, reading in self.delivery.arrived(batches, self.robots, self.feed.info, now):
             robot.reading = reading
             self._send_measures(robot, reading.tick)
         self.delivery.send_due(now, self._build, self._send_to, time.time_ns)
@@ -334,7 +271,7 @@ class Bridge:
         return self._next_measures(robot, reading.tick)
 
     def _take_ticks(self) -> None:
-        for t in self._current(self.ticks, Tick)[-1:]:
+        for t in self.feed.ticks()[-1:]:
             self.running = t.running
             if not t.running:  # stopped: Measures keep coming, as the legacy server sends them
                 for robot in self.robots.values():
@@ -344,7 +281,7 @@ class Bridge:
 
     def _check_finished(self, tick: int) -> None:
         """At SimTime the legacy simulation finishes: the world is paused for good."""
-        if self.referee.finish(tick, self.info, self.robots):
+        if self.referee.finish(tick, self.feed.info, self.robots):
             sim_time = self.params.sim_time
             self.io.send(keys.control(self.sim), Control(command="pause"))
             self.io.event(
@@ -440,14 +377,3 @@ class Bridge:
         """Closes every socket."""
         self.clients.close()
         self.reception.close()
-
-
-def _decoded(queue: Queue, kind: type[M]) -> list[M]:
-    """The messages waiting in a bus queue; one that does not decode is skipped."""
-    out = []
-    for _, data, _ in queue.drain():
-        try:
-            out.append(decode(data, kind))
-        except IwError:
-            continue
-    return out
