@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from agents.probe import CONES_4M, Probe
 from iw_zenoh.messages import SensorReading
 
@@ -38,3 +40,23 @@ def test_the_probe_records_how_late_each_reading_is() -> None:
     Probe("p", 0.0, sink).on_sensors(_reading({}, tick_wall_ns=1), [])
     assert len(sink) == 1
     assert sink[0] > 0
+
+
+def test_a_probe_keeps_no_latencies_unless_asked(tmp_path: Path) -> None:
+    # the 1,000-chair soak found each 250-chair probe host growing 42 MB in 6,000 ticks: every
+    # reading's latency was kept though nobody had asked for them (--latency-out)
+    import argparse
+
+    from agents.probe import add_arguments, make
+
+    p = argparse.ArgumentParser()
+    add_arguments(p)
+    probes = make(p.parse_args(["--count", "2"]))
+    for probe in probes:
+        probe.on_sensors(_reading({}, tick_wall_ns=1), [])
+        assert probe.sink is None
+    kept = make(p.parse_args(["--count", "2", "--latency-out", str(tmp_path / "lat.txt")]))
+    kept[0].on_sensors(_reading({}, tick_wall_ns=1), [])
+    assert kept[0].sink is not None
+    assert len(kept[0].sink) == 1
+    assert kept[1].sink is kept[0].sink
