@@ -165,36 +165,10 @@ def door_spec(
     if test_door:
         # at the middle of the leaf, so that open, they look past the door frame, not at it
         sensors = (IrSensorSpec(0, 0.5, 0.05, 90.0, 40.0, 3.0), IrSensorSpec(1, 0.5, -0.05, -90.0, 40.0, 3.0))
-        return RobotSpec(
-            name,
-            type=RobotType.DOOR,
-            width_m=1.0,
-            height_m=0.1,
-            com=0.99,
-            x_m=x,
-            y_m=y,
-            dir_deg=dir_deg,
-            ir_sensors=sensors,
-            noise=EXACT,
-            max_speed_mps=0.5,
-            acceleration_curve=DOOR_CURVE,
-        )
+        return _door_body(name, (x, y, dir_deg), 1.0, 0.1, 0.99, sensors)
     com = 0.5 if kind == DoorKind.REVOLVING else 0.99
     sensors = (IrSensorSpec(0, 0.05, 0.0, 0.0, 60.0, 3.0), IrSensorSpec(1, -0.05, 0.0, 180.0, 60.0, 3.0))
-    return RobotSpec(
-        name,
-        type=RobotType.DOOR,
-        width_m=0.1,
-        height_m=leaf_m,
-        com=com,
-        x_m=x,
-        y_m=y,
-        dir_deg=dir_deg,
-        ir_sensors=sensors,
-        noise=EXACT,
-        max_speed_mps=0.5,
-        acceleration_curve=DOOR_CURVE,
-    )
+    return _door_body(name, (x, y, dir_deg), 0.1, leaf_m, com, sensors)
 
 
 def _sliding_spec(name: str, *, x: float, y: float, dir_deg: float, leaf_m: float) -> RobotSpec:
@@ -206,12 +180,25 @@ def _sliding_spec(name: str, *, x: float, y: float, dir_deg: float, leaf_m: floa
         IrSensorSpec(0, rear, SENSOR_OFF_M, 90.0, 60.0, 3.0),
         IrSensorSpec(1, rear, -SENSOR_OFF_M, -90.0, 60.0, 3.0),
     )
+    return _door_body(name, (x, y, dir_deg), leaf_m, SLIDING_THICK_M, 0.5, sensors)
+
+
+def _door_body(
+    name: str,
+    at: tuple[float, float, float],
+    width_m: float,
+    height_m: float,
+    com: float,
+    sensors: tuple[IrSensorSpec, ...],
+) -> RobotSpec:
+    """What every door body shares: exact sensors, 0.5 m/s at most, the doors' acceleration curve."""
+    x, y, dir_deg = at
     return RobotSpec(
         name,
         type=RobotType.DOOR,
-        width_m=leaf_m,
-        height_m=SLIDING_THICK_M,
-        com=0.5,
+        width_m=width_m,
+        height_m=height_m,
+        com=com,
         x_m=x,
         y_m=y,
         dir_deg=dir_deg,

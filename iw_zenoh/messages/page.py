@@ -17,7 +17,6 @@ import msgspec
 from iw_zenoh.messages.world import Obstacle
 
 __all__ = [
-    "PAGE_COMMANDS",
     "PageCommand",
     "PageError",
     "PageEvent",
@@ -192,20 +191,6 @@ class PageError(_Out, frozen=True, kw_only=True, tag="error"):
 PageMessage = (
     PageHello | PageScene | PageFrame | PageStatus | PageReadings | PageReading | PageHeard | PageEvent | PageTimeline
 ) | PageError
-
-PAGE_COMMANDS = (
-    "start",
-    "pause",
-    "step",
-    "stop",
-    "remove",
-    "add_obstacle",
-    "move_obstacle",
-    "remove_obstacle",
-    "reading",
-    "seek",
-    "rate",
-)
 
 
 class PageCommand(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
