@@ -32,6 +32,7 @@ import re
 __all__ = [
     "ROLES",
     "all_registers",
+    "is_control",
     "register_agent_of",
     "actions",
     "agent_actions",
@@ -176,6 +177,11 @@ def state(sim: str) -> str:
 def control(sim: str) -> str:
     """Control commands to the world."""
     return f"iw/{chunk(sim)}/world/control"
+
+
+def is_control(key: str) -> bool:
+    """Whether ``key`` is a simulation's control key (:func:`control`), whatever the simulation."""
+    return key.startswith("iw/") and key.endswith("/world/control") and key.count("/") == 3
 
 
 def radio(sim: str) -> str:

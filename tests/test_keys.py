@@ -57,3 +57,10 @@ def test_batched_keys_say_what_they_carry() -> None:
     assert keys.agent_of(keys.actions("s", 1)) is None
     # a batch is not mistaken for a robot's own key
     assert keys.robot_id_of(keys.sensor_batch("s", (1, 1))) is None
+
+
+def test_a_control_key_is_known_whatever_the_simulation() -> None:
+    assert keys.is_control(keys.control("demo"))
+    assert keys.is_control(keys.control("hospital"))
+    assert not keys.is_control(keys.state("demo"))
+    assert not keys.is_control("iw/demo/robot/1/world/control")

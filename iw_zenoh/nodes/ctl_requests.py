@@ -15,6 +15,7 @@ from typing import Literal
 
 import msgspec
 
+from iw_zenoh import keys
 from iw_zenoh.errors import DecodeError
 from iw_zenoh.messages import Control, Event, EventKind, Obstacle, ObstacleData, event_payload
 from iw_zenoh.messages.wire import INT64_MAX
@@ -204,7 +205,7 @@ def _mine(req: Request, ev: Event) -> bool:
         return ev.robot_id == c.robot_id
     if c.obstacle is not None:
         if ev.kind == EventKind.BAD_CONTROL:
-            return repr(c.obstacle.name) in ev.reason or ev.key.endswith("/world/control")
+            return repr(c.obstacle.name) in ev.reason or keys.is_control(ev.key)
         try:
             return event_payload(ev, ObstacleData).name == c.obstacle.name and ev.reason.startswith(c.command)
         except (TypeError, DecodeError):
