@@ -2,6 +2,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import msgspec
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
@@ -15,10 +16,12 @@ from iw_zenoh.messages import (
     Event,
     Hear,
     Heard,
+    LabMsg,
     LaserMsg,
     RobotSpecMsg,
     SensorBatch,
     SensorReading,
+    WorldInfo,
     WorldState,
     decode,
     encode,
@@ -164,6 +167,19 @@ def test_a_laser_scanner_round_trips_and_a_spec_without_one_reads_as_before_scan
     with pytest.raises(SpecError) as e:
         spec_from_msg(RobotSpecMsg(name="x", lasers=[LaserMsg(id=1, fov_deg=400.0)]))
     assert e.value.field == "laser[1].fov"
+
+
+def test_a_descriptions_agents_round_trip_and_one_without_them_reads_as_before() -> None:
+    lab = LabMsg(name="l", width=5.0, height=5.0)
+    robots = [RobotSpecMsg(name="a", id=1), RobotSpecMsg(name="b", id=2)]
+    info = WorldInfo(revision=1, lab=lab, period_ns=1, robots=robots, agents=["host-1", ""])
+    assert decode(encode(info), WorldInfo) == info
+    plain = encode(WorldInfo(revision=1, lab=lab, period_ns=1, robots=robots))
+    assert b"agents" not in plain  # an older reader (unknown fields refused) still reads it
+    assert decode(plain, WorldInfo).agents is msgspec.UNSET
+    bad = encode(info).replace(b'"host-1",', b"")
+    with pytest.raises(DecodeError, match="agents has 1 values for 2 robots"):
+        decode(bad, WorldInfo)
 
 
 def test_a_wire_spec_out_of_range_is_refused_naming_the_field() -> None:

@@ -4,8 +4,9 @@ commands the page sends back.
 Every server message is a JSON object tagged by ``type``. Static things (walls, obstacles,
 robots' outlines and sensors) travel in a :class:`PageScene`, sent again only when the world's
 revision changes; each tick a :class:`PageFrame` carries the poses (the robot ids only when the
-roster changed), :class:`PageReadings` the proximity readings that changed, :class:`PageHeard` the
-radio messages heard and :class:`PageEvent` each event. ``docs/viewer.md`` draws the whole exchange.
+roster changed), :class:`PageReadings` the proximity readings that changed, :class:`PageScans`
+the laser scans that changed, :class:`PageHeard` the radio messages heard and :class:`PageEvent`
+each event. ``docs/viewer.md`` draws the whole exchange.
 """
 
 from __future__ import annotations
@@ -23,10 +24,12 @@ __all__ = [
     "PageFrame",
     "PageHeard",
     "PageHello",
+    "PageLaser",
     "PageMessage",
     "PageReading",
     "PageReadings",
     "PageRobot",
+    "PageScans",
     "PageScene",
     "PageSensor",
     "PageStatus",
@@ -61,9 +64,24 @@ class PageSensor(msgspec.Struct, frozen=True, kw_only=True):
     range_m: float
 
 
+class PageLaser(msgspec.Struct, frozen=True, kw_only=True):
+    """A laser scanner as drawn: mounted at (``x``, ``y``) in the robot's frame, its ``beams``
+    spread evenly over ``fov_deg`` centred on ``angle_deg`` (the first at ``angle - fov/2``; one
+    beam looks along ``angle_deg``), reading up to ``range_m``."""
+
+    id: int
+    x: float
+    y: float
+    angle_deg: float
+    fov_deg: float
+    beams: int
+    range_m: float
+
+
 class PageRobot(msgspec.Struct, frozen=True, kw_only=True):
     """A robot as drawn: its outline in its own frame (origin at the centre of movement, x along
-    the heading), its sensors, its spec, and the agent that drives it (empty: not known)."""
+    the heading), its sensors and laser scanners, its spec, and the agent that drives it (empty:
+    not known)."""
 
     id: int
     name: str
@@ -72,6 +90,7 @@ class PageRobot(msgspec.Struct, frozen=True, kw_only=True):
     sensors: list[PageSensor]
     spec: dict[str, Any]
     agent: str = ""
+    lasers: list[PageLaser] = []
 
 
 class PageWall(msgspec.Struct, frozen=True, kw_only=True):
@@ -132,6 +151,14 @@ class PageReadings(_Out, frozen=True, kw_only=True, tag="readings"):
     prox: dict[str, list[float | None]]
 
 
+class PageScans(_Out, frozen=True, kw_only=True, tag="scans"):
+    """Laser scans that changed: robot id (as text, a JSON key) to one list of ranges per scanner
+    of its :class:`PageLaser` list, first beam first (``None``: nothing within range)."""
+
+    tick: int
+    scans: dict[str, list[list[float | None]]]
+
+
 class PageReading(_Out, frozen=True, kw_only=True, tag="reading"):
     """Everything known of one robot now (the answer to a ``reading`` command)."""
 
@@ -189,8 +216,18 @@ class PageError(_Out, frozen=True, kw_only=True, tag="error"):
 
 
 PageMessage = (
-    PageHello | PageScene | PageFrame | PageStatus | PageReadings | PageReading | PageHeard | PageEvent | PageTimeline
-) | PageError
+    PageHello
+    | PageScene
+    | PageFrame
+    | PageStatus
+    | PageReadings
+    | PageScans
+    | PageReading
+    | PageHeard
+    | PageEvent
+    | PageTimeline
+    | PageError
+)
 
 
 class PageCommand(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):

@@ -158,11 +158,17 @@ class WorldInfo(Message, frozen=True, kw_only=True):
     robots: list[RobotSpecMsg] = []
     obstacles: list[Obstacle] = []
     sim: str = "default"
+    # added after /1 shipped: left out of the JSON when unset, so an older description reads as
+    # before. One per robot, in the order of ``robots``: the liveliness name of the agent driving
+    # it ("" for none), so a late joiner knows it without having seen its ``registered`` event.
+    agents: list[str] | msgspec.UnsetType = msgspec.UNSET
 
     def __post_init__(self) -> None:
-        """Refuses a roster that names a robot twice."""
+        """Refuses a roster that names a robot twice, or agents that are not one per robot."""
         if len(self.robots) > 1:
             _unique([r.id for r in self.robots], "robots")
+        if isinstance(self.agents, list):
+            _lengths(len(self.robots), "robots", {"agents": self.agents})
 
 
 # --- the tick ---------------------------------------------------------------------------------

@@ -449,4 +449,5 @@ class WorldCore:
             robots=self._robots_msg(),
             obstacles=list(self.obstacles.by_name.values()),
             sim=self.cfg.sim,
+            agents=[e.agent for e in self.registry.entries.values()],  # in the order of robots
         )

@@ -8,6 +8,7 @@ what comes back to every page. A page that joins (or falls behind) gets :meth:`F
 from __future__ import annotations
 
 import collections
+import itertools
 from typing import Any
 
 import msgspec
@@ -33,10 +34,12 @@ from iw_zenoh.messages.page import (
     PageEvent,
     PageFrame,
     PageHeard,
+    PageLaser,
     PageMessage,
     PageReading,
     PageReadings,
     PageRobot,
+    PageScans,
     PageScene,
     PageSensor,
     PageStatus,
@@ -52,12 +55,14 @@ PROX_STEP_M = 0.01  # a reading that moved less than this is not sent again
 POSE_DIGITS = 4  # poses rounded to 0.1 mm / 0.1 mrad on the page: shorter JSON, nothing visible lost
 
 
-def _robot(m: RobotSpecMsg) -> PageRobot:
-    """A robot as the page draws it (outline and cones in its own frame)."""
+def _robot(m: RobotSpecMsg, agent: str) -> PageRobot:
+    """A robot as the page draws it (outline, cones and scanners in its own frame)."""
     try:
         s = spec_from_msg(m)
     except (IwError, ValueError):  # the world accepted it: draw the box it says
-        return PageRobot(id=m.id, name=m.name, type=m.type, outline=[], sensors=[], spec=msgspec.to_builtins(m))
+        return PageRobot(
+            id=m.id, name=m.name, type=m.type, outline=[], sensors=[], spec=msgspec.to_builtins(m), agent=agent
+        )
     if m.shape == "circle":
         pts = circle_outline(np.array([0.5 * s.width_m]))[0]
     else:
@@ -66,6 +71,10 @@ def _robot(m: RobotSpecMsg) -> PageRobot:
         PageSensor(id=i.id, x=i.x_m, y=i.y_m, angle_deg=i.angle_deg, cone_deg=i.cone_deg, range_m=i.range_m)
         for i in s.sensors
     ]
+    lasers = [
+        PageLaser(id=a.id, x=a.x_m, y=a.y_m, angle_deg=a.angle_deg, fov_deg=a.fov_deg, beams=a.beams, range_m=a.range_m)
+        for a in s.lasers
+    ]
     return PageRobot(
         id=m.id,
         name=m.name,
@@ -73,11 +82,19 @@ def _robot(m: RobotSpecMsg) -> PageRobot:
         outline=[(round(float(x), 4), round(float(y), 4)) for x, y in pts],
         sensors=sensors,
         spec=msgspec.to_builtins(m),
+        agent=agent,
+        lasers=lasers,
     )
 
 
 def _prox(values: list[float | None]) -> list[float | None]:
     return [None if v is None else round(v, 2) for v in values]
+
+
+def _scans(r: SensorReading, order: list[int]) -> list[list[float | None]]:
+    """A reading's laser ranges, one list per scanner in ``order`` (empty: not in the reading)."""
+    by_id = {a.id: a.ranges for a in r.lasers} if isinstance(r.lasers, list) else {}
+    return [_prox(by_id.get(i, [])) for i in order]
 
 
 class Feed:
@@ -100,6 +117,8 @@ class Feed:
         self.events: dict[int, collections.deque[dict[str, Any]]] = {}
         self._sensor_ids: dict[int, list[int]] = {}
         self._sent_prox: dict[int, list[float | None]] = {}
+        self._laser_ids: dict[int, list[int]] = {}  # robots with scanners: their scanners' ids, as drawn
+        self._sent_scans: dict[int, list[list[float | None]]] = {}
         self._clock: collections.deque[tuple[int, int]] = collections.deque()  # (wall ns, sim ns) of states
         self._status_sent: tuple[int, PageStatus] | None = None
 
@@ -113,8 +132,11 @@ class Feed:
         self.info = info
         lab = info.lab
         own = len(lab.walls) - len(info.obstacles)  # the obstacles are the lab's last walls
-        robots = [_robot(r) for r in info.robots]
+        if isinstance(info.agents, list):  # the world says who drives each robot (older ones did not)
+            self.agents.update((r.id, a) for r, a in zip(info.robots, info.agents, strict=True))
+        robots = [_robot(r, self.agents.get(r.id, "")) for r in info.robots]
         self._sensor_ids = {r.id: [s.id for s in r.sensors] for r in robots}
+        self._laser_ids = {r.id: [a.id for a in r.lasers] for r in robots if r.lasers}
         self.scene = PageScene(
             revision=info.revision,
             name=lab.name,
@@ -128,6 +150,7 @@ class Feed:
             period_ns=info.period_ns,
         )
         self._sent_prox = {rid: v for rid, v in self._sent_prox.items() if rid in self._sensor_ids}
+        self._sent_scans = {rid: v for rid, v in self._sent_scans.items() if rid in self._laser_ids}
         return [self.scene]
 
     def needs_info(self, revision: int) -> bool:
@@ -200,10 +223,18 @@ class Feed:
 
     def on_readings(self, tick: int, readings: list[SensorReading]) -> list[PageMessage]:
         """Readings (a batch's, or one robot's from a recording without batches): the proximity
-        readings that moved since last sent."""
+        readings and laser scans that moved since last sent."""
         changed: dict[str, list[float | None]] = {}
+        scans: dict[str, list[list[float | None]]] = {}
         for r in readings:
             self.readings[r.robot_id] = r
+            lasers = self._laser_ids.get(r.robot_id)
+            if lasers is not None:
+                got = _scans(r, lasers)
+                old = self._sent_scans.get(r.robot_id)
+                if old is None or self._moved(list(itertools.chain(*old)), list(itertools.chain(*got))):
+                    self._sent_scans[r.robot_id] = got
+                    scans[str(r.robot_id)] = got
             order = self._sensor_ids.get(r.robot_id)
             if order is None:
                 continue
@@ -215,7 +246,8 @@ class Feed:
             if self._moved(self._sent_prox.get(r.robot_id), values):
                 self._sent_prox[r.robot_id] = values
                 changed[str(r.robot_id)] = values
-        return [PageReadings(tick=tick, prox=changed)] if changed else []
+        out: list[PageMessage] = [PageReadings(tick=tick, prox=changed)] if changed else []
+        return out + [PageScans(tick=tick, scans=scans)] if scans else out
 
     @staticmethod
     def _moved(old: list[float | None] | None, new: list[float | None]) -> bool:
@@ -264,6 +296,7 @@ class Feed:
         self.agents.pop(rid, None)
         self.events.pop(rid, None)
         self._sent_prox.pop(rid, None)
+        self._sent_scans.pop(rid, None)
 
     # --- what a page asks ----------------------------------------------------------------------
 
@@ -300,8 +333,8 @@ class Feed:
         )
 
     def snapshot(self, wall_ns: int) -> list[PageMessage]:
-        """What a page that joins now needs: the scene, the clock, the last frame with its ids, and
-        every proximity reading."""
+        """What a page that joins now needs: the scene, the clock, the last frame with its ids,
+        every proximity reading and every laser scan."""
         out: list[PageMessage] = []
         if self.scene is not None:
             out.append(self.scene)
@@ -315,4 +348,7 @@ class Feed:
                     tick=self.state.tick if self.state else 0, prox={str(k): v for k, v in self._sent_prox.items()}
                 )
             )
+        if self._sent_scans:
+            tick = self.state.tick if self.state else 0
+            out.append(PageScans(tick=tick, scans={str(k): v for k, v in self._sent_scans.items()}))
         return out

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import msgspec
 import pytest
 
 from iw_zenoh.messages import (
@@ -9,6 +10,8 @@ from iw_zenoh.messages import (
     Event,
     EventKind,
     LabMsg,
+    LaserMsg,
+    LaserScan,
     Obstacle,
     RobotSpecMsg,
     SensorBatch,
@@ -19,7 +22,7 @@ from iw_zenoh.messages import (
     WorldState,
     make_event,
 )
-from iw_zenoh.messages.page import PageEvent, PageFrame, PageReadings, PageScene, PageStatus
+from iw_zenoh.messages.page import PageEvent, PageFrame, PageReadings, PageScans, PageScene, PageStatus
 from iw_zenoh.viewer.feed import Feed
 
 WALL = WallMsg(corners=[(1.0, 1.0), (2.0, 1.0), (2.0, 2.0)], height=2.0)
@@ -181,3 +184,55 @@ def test_an_older_revision_is_a_new_scene_too_a_replay_sought_back() -> None:
     assert isinstance(scene, PageScene)
     assert [r.id for r in scene.robots] == [1]
     assert not feed.needs_info(2)
+
+
+def test_a_late_viewer_knows_each_robots_agent_from_the_worlds_description() -> None:
+    feed = Feed("t")
+    info = msgspec.structs.replace(_info(1, [1, 2]), agents=["host-1", ""])
+    [scene] = feed.on_info(info)
+    assert isinstance(scene, PageScene)
+    assert [r.agent for r in scene.robots] == ["host-1", ""]
+    feed.on_state(_state(1, [1, 2]), wall_ns=0)
+    feed.on_sensors(SensorBatch(tick=1, shard="1-1", readings=[_reading(1, 0.5)]))
+    got = feed.reading(1).reading
+    assert got is not None
+    assert got["agent"] == "host-1"  # no registered event seen
+
+
+def test_an_older_description_without_agents_keeps_the_agent_its_registered_event_named() -> None:
+    feed = Feed("t")
+    feed.on_event(Event(kind=EventKind.REGISTERED, robot_id=1, data={"agent": "host-1"}))
+    [scene] = feed.on_info(_info(1, [1]))
+    assert isinstance(scene, PageScene)
+    assert scene.robots[0].agent == "host-1"
+
+
+def _scanner_info() -> WorldInfo:
+    laser = LaserMsg(id=3, x=0.5, fov_deg=180.0, beams=3, range_m=5.0)
+    robots = [RobotSpecMsg(name="scan", id=1, lasers=[laser]), RobotSpecMsg(name="plain", id=2)]
+    return WorldInfo(revision=1, lab=LabMsg(name="lab", width=20.0, height=10.0), period_ns=1, robots=robots)
+
+
+def _scanned(rid: int, ranges: list[float | None], tick: int = 1) -> SensorReading:
+    r = _reading(rid, None, tick)
+    return msgspec.structs.replace(r, lasers=[LaserScan(id=3, ranges=ranges)])
+
+
+def test_a_scanners_place_and_its_scans_reach_the_page_only_when_they_move() -> None:
+    feed = Feed("t")
+    [scene] = feed.on_info(_scanner_info())
+    assert isinstance(scene, PageScene)
+    [laser] = scene.robots[0].lasers
+    assert (laser.id, laser.x, laser.fov_deg, laser.beams, laser.range_m) == (3, 0.5, 180.0, 3, 5.0)
+    assert scene.robots[1].lasers == []
+    out = feed.on_sensors(SensorBatch(tick=1, shard="1-1", readings=[_scanned(1, [1.234, None, 4.0]), _reading(2, 1)]))
+    [scans] = [m for m in out if isinstance(m, PageScans)]
+    assert scans.scans == {"1": [[1.23, None, 4.0]]}  # only the robot with a scanner
+    again = feed.on_sensors(SensorBatch(tick=2, shard="1-1", readings=[_scanned(1, [1.232, None, 4.0], 2)]))
+    assert not [m for m in again if isinstance(m, PageScans)]  # moved by less than a centimetre
+    [moved] = feed.on_sensors(SensorBatch(tick=3, shard="1-1", readings=[_scanned(1, [1.234, 2.0, 4.0], 3)]))
+    assert isinstance(moved, PageScans)
+    assert moved.scans == {"1": [[1.23, 2.0, 4.0]]}
+    feed.on_state(_state(3, [1, 2]), wall_ns=0)
+    [snap] = [m for m in feed.snapshot(wall_ns=0) if isinstance(m, PageScans)]
+    assert snap.scans == {"1": [[1.23, 2.0, 4.0]]}  # a page that joins sees the last scan
