@@ -1,6 +1,6 @@
 // iwz view: the page. Connects to the server's WebSocket, keeps the world as the server tells it
 // (docs/viewer.md: the messages), and hands it to the 2D or 3D view. No build step, no library.
-import { View2D } from "./view2d.js";
+import { View2D, laserAngle } from "./view2d.js";
 import { View3D } from "./view3d.js";
 import { Timeline } from "./timeline.js";
 
@@ -9,6 +9,7 @@ const TRAIL_EVERY = 3;        // frames between two trail points
 const FLASH_MS = 2500;        // how long an incident flashes
 const RADIO_SHOWN = 8;        // radio lines shown at once
 const PANEL_EVERY_MS = 250;   // how often the open robot panel asks for its reading
+const SCANS_ALL_MAX = 100;    // past this many robots the scans are drawn for the selected one only (until asked)
 
 export const world = {
   live: true, sim: "", connected: false,
@@ -16,6 +17,7 @@ export const world = {
   ids: [], x: [], y: [], heading: [], state: "", tick: 0, t_ns: 0, heldReason: "",
   sentMs: 0, tickWallMs: 0, frameAt: 0,     // when the last frame was sent, and when it arrived
   prox: new Map(),                          // id -> distances, one per sensor
+  scans: new Map(),                         // id -> one list of ranges per laser scanner (PageRobot.lasers)
   trails: new Map(), frames: 0,
   flashes: [],                              // {x, y, kind, until}
   status: null, timeline: null,
@@ -28,6 +30,7 @@ let ws = null;
 let view2d = null;
 let view3d = null;
 let timeline = null;
+let scansChosen = false;  // the scans toggle was set by hand: the roster's size no longer sets it
 
 const sent = [];  // the last commands sent (for tests and scripts: window.iwz.sent)
 
@@ -49,6 +52,8 @@ function onScene(m) {
   world.scene = m;
   world.robots = new Map(m.robots.map((r) => [r.id, r]));
   for (const id of [...world.trails.keys()]) if (!world.robots.has(id)) world.trails.delete(id);
+  for (const id of [...world.scans.keys()]) if (!world.robots.has(id)) world.scans.delete(id);
+  if (!scansChosen) $("opt-scans").checked = m.robots.length <= SCANS_ALL_MAX;
   if (world.selected && world.selected.kind === "obstacle" &&
       !m.obstacles.some((o) => o.name === world.selected.name)) select(null);
   if (view2d && !view2d.fitted) view2d.fit();
@@ -105,6 +110,7 @@ const handlers = {
   frame: onFrame,
   status(m) { world.status = m; hud(); },
   readings(m) { for (const [id, v] of Object.entries(m.prox)) world.prox.set(Number(id), v); },
+  scans(m) { for (const [id, v] of Object.entries(m.scans)) world.scans.set(Number(id), v); },
   reading(m) { world.reading = m; panel(); },
   heard: onHeard,
   event: onEvent,
@@ -171,6 +177,16 @@ function row(k, v) { return `<tr><td>${k}</td><td>${v}</td></tr>`; }
 function esc(s) { return String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" })[c]); }
 function num(v, d = 3) { return v === null || v === undefined ? "-" : Number(v).toFixed(d); }
 
+// a scan's nearest range, and the direction of its beam from the heading
+function nearest(scan, robot) {
+  let best = -1;
+  scan.ranges.forEach((v, k) => { if (v !== null && (best < 0 || v < scan.ranges[best])) best = k; });
+  if (best < 0) return "nothing in range";
+  const l = robot && robot.lasers.find((a) => a.id === scan.id);
+  const at = l ? ` at ${num(laserAngle(l, best), 1)}\u00b0` : "";
+  return `nearest ${num(scan.ranges[best], 2)} m${at}`;
+}
+
 function panel() {
   const sel = world.selected;
   const body = $("panel-body");
@@ -185,9 +201,10 @@ function panel() {
   $("panel-title").textContent = `robot ${sel.id}${r ? ` \u00b7 ${r.name}` : ""}`;
   const m = world.reading && world.reading.robot_id === sel.id ? world.reading : null;
   let h = "<table>";
+  const agent = (m && m.reading && m.reading.agent) || (r && r.agent);
+  if (m || r) h += row("agent", esc(agent || "(none known)"));
   if (m) {
     const rd = m.reading || {};
-    h += row("agent", esc(rd.agent || "(not seen registering)"));
     h += row("pose", m.pose ? `${num(m.pose[0])}, ${num(m.pose[1])}, ${num(m.pose[2] * 180 / Math.PI, 1)}\u00b0` : "-");
     h += row("speed", `${num(m.speed)} m/s`);
     h += row("motors", m.motors ? `L ${num(m.motors[0], 4)} R ${num(m.motors[1], 4)}` : "-");
@@ -200,6 +217,7 @@ function panel() {
       h += row("collision", rd.collision ? "yes" : "no");
       h += row("bumpers", (rd.bumpers || []).map((b) => (b ? "hit" : "-")).join(" ") || "-");
       h += row("encoders", rd.encoders.join(", "));
+      for (const scan of rd.lasers || []) h += row(`laser ${scan.id}`, nearest(scan, r));
       h += row("reading of tick", rd.tick);
     }
   }
@@ -251,6 +269,7 @@ function controls() {
   $("panel-close").onclick = () => select(null);
   $("view-mode").onchange = viewMode;
   for (const id of ["opt-trails", "opt-cones", "opt-labels"]) $(id).onchange = () => { world.version += 1; };
+  $("opt-scans").onchange = () => { scansChosen = true; world.version += 1; };
   $("rate").onchange = () => send({ cmd: "rate", rate: Number($("rate").value) });
   setInterval(() => {
     if (world.selected && world.selected.kind === "robot") send({ cmd: "reading", robot_id: world.selected.id });
@@ -267,7 +286,9 @@ function draw() {
 function main() {
   view2d = new View2D($("view2d"), world, {
     select, send,
-    options: () => ({ trails: $("opt-trails").checked, cones: $("opt-cones").checked, labels: $("opt-labels").checked }),
+    options: () => ({
+      trails: $("opt-trails").checked, cones: $("opt-cones").checked, labels: $("opt-labels").checked, scans: $("opt-scans").checked,
+    }),
     drawingDone: () => $("btn-obstacle").classList.remove("active"),
     drawingStarted: () => $("btn-obstacle").classList.add("active"),
   });
@@ -281,6 +302,8 @@ function main() {
     robots: () => world.ids.map((id, i) => ({ id, x: world.x[i], y: world.y[i], heading: world.heading[i], state: world.state[i] })),
     toScreen: (x, y) => view2d.toScreen(x, y),
     stats: () => ({ drawn: view2d.drawn + (view3d ? view3d.drawn : 0), latencies: view2d.latencies.slice() }),
+    scanPoints: () => view2d.scanPoints.slice(),  // [x, y] in metres of every scan hit drawn last
+    pixel: (x, y) => view2d.pixel(x, y),          // [r, g, b, a] of the 2D view where (x, y) m is drawn
     view3d: () => view3d,
     timeline: () => timeline,
     animate: (on) => { view2d.animate = on; },

@@ -1,14 +1,22 @@
 // The 2D top view: walls, targets, beacons, obstacles, robots as their true outlines coloured by
-// state, cones with their readings, trails, flashing incidents. Drag to pan, wheel to zoom, click
-// to select; in obstacle mode drag draws an obstacle; a selected obstacle is dragged to move it.
-// It draws only when something changed (a message, the view, a flash).
+// state, cones with their readings, laser scans, trails, flashing incidents. Drag to pan, wheel
+// to zoom, click to select; in obstacle mode drag draws an obstacle; a selected obstacle is
+// dragged to move it. It draws only when something changed (a message, the view, a flash).
 
 export const COLOURS = { d: "#2e9e44", h: "#e0a000", w: "#9c4dcc", c: "#e53935" };
 const DOOR = "#8d6e63";
+export const SCAN_POINT = "#ff4081";  // where a laser beam hit
+const SCAN_POINT_PX = 4;
 const LABEL_MIN_PX = 14;      // a robot smaller than this on screen gets no label
 const CONES_MAX = 400;        // beyond this many robots the cones are drawn only for the selected one
 const TRAILS_MAX = 200;       // likewise for trails
 const LATENCIES_KEPT = 2000;
+
+// beam k's direction from the robot's heading, degrees (LaserSpec's rule: the first beam looks
+// angle - fov/2, the last angle + fov/2; a single beam looks along angle)
+export function laserAngle(l, k) {
+  return l.beams > 1 ? l.angle_deg - l.fov_deg / 2 + k * l.fov_deg / (l.beams - 1) : l.angle_deg;
+}
 
 export class View2D {
   constructor(canvas, world, hooks) {
@@ -25,6 +33,7 @@ export class View2D {
     this.drag = null;
     this.animate = false;     // redraw every animation frame, drifting (benchmarks/viewer.py measures so)
     this.dpr = window.devicePixelRatio || 1;
+    this.scanPoints = [];     // [x, y] m of every scan hit drawn last (for tests)
     this.listen();
   }
 
@@ -159,6 +168,7 @@ export class View2D {
     const opts = this.hooks.options();
     if (opts.trails) this.drawTrails(g);
     if (opts.cones) this.drawCones(g);
+    this.drawScans(g, opts.scans);
     this.drawRobots(g, opts.labels);
     this.drawFlashes(g, now);
     if (this.drag && this.drag.kind === "draw") this.drawBox(g, this.drag, "rgba(255,255,255,.35)");
@@ -256,6 +266,51 @@ export class View2D {
     }
     g.fillStyle = "rgba(255,255,255,.05)"; g.fill(free);
     g.fillStyle = "rgba(255,152,0,.22)"; g.fill(hit);
+  }
+
+  // each scanner's beams: faint to its range where it saw nothing, brighter to the hit, and the hit
+  // as a dot; every robot's, or only the selected one's when `all` is off
+  drawScans(g, all) {
+    const w = this.world;
+    const sel = w.selected && w.selected.kind === "robot" ? w.selected.id : null;
+    const free = new Path2D();
+    const rays = new Path2D();
+    const dots = new Path2D();
+    const points = [];
+    const half = SCAN_POINT_PX / 2;
+    for (let i = 0; i < w.ids.length; i++) {
+      const id = w.ids[i];
+      const scans = w.scans.get(id);
+      const r = w.robots.get(id);
+      if (!scans || !r || !r.lasers.length || (!all && id !== sel)) continue;
+      const c = Math.cos(w.heading[i]);
+      const s = Math.sin(w.heading[i]);
+      r.lasers.forEach((l, k) => {
+        const ranges = scans[k] || [];
+        const ox = w.x[i] + c * l.x - s * l.y;
+        const oy = w.y[i] + s * l.x + c * l.y;
+        const [sx, sy] = this.toScreen(ox, oy);
+        for (let b = 0; b < ranges.length; b++) {
+          const a = w.heading[i] + laserAngle(l, b) * Math.PI / 180;
+          const d = ranges[b];
+          const reach = d === null ? l.range_m : d;
+          const [ex, ey] = this.toScreen(ox + Math.cos(a) * reach, oy + Math.sin(a) * reach);
+          const path = d === null ? free : rays;
+          path.moveTo(sx, sy); path.lineTo(ex, ey);
+          if (d !== null) { dots.rect(ex - half, ey - half, SCAN_POINT_PX, SCAN_POINT_PX); points.push([ox + Math.cos(a) * d, oy + Math.sin(a) * d]); }
+        }
+      });
+    }
+    this.scanPoints = points;
+    g.lineWidth = 1;
+    g.strokeStyle = "rgba(255,64,129,.07)"; g.stroke(free);
+    g.strokeStyle = "rgba(255,64,129,.3)"; g.stroke(rays);
+    g.fillStyle = SCAN_POINT; g.fill(dots);
+  }
+
+  pixel(x, y) {
+    const [sx, sy] = this.toScreen(x, y);
+    return Array.from(this.ctx.getImageData(Math.round(sx * this.dpr), Math.round(sy * this.dpr), 1, 1).data);
   }
 
   drawRobots(g, labels) {
