@@ -5,6 +5,7 @@ replayed with its timeline."""
 from __future__ import annotations
 
 import math
+import signal
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -221,6 +222,34 @@ def test_the_3d_view_is_not_blank_in_first_person(live: tuple[Net, ZenohBus, str
     got = page.evaluate("window.iwz.view3d().coverage()")
     assert got["covered"] > 0.3, got  # the floor and the lab's edge fill much of a first-person view
     assert got["colours"] >= 3, got
+    page.close()
+
+
+def test_a_viewer_started_after_the_registrations_names_each_chairs_agent(
+    live: tuple[Net, ZenohBus, str], browser: Browser
+) -> None:
+    net, bus, _ = live
+    wait_msg(subscribe(bus, keys.state(net.sim)), WorldState, lambda s: len(s.ids) == len(CHAIRS))
+    late = net.spawn("view", "--port", "0", "--foxglove-port", "0", name="view-late")  # saw no registered event
+    page = _open(browser, viewer_url(late), len(CHAIRS))
+    agents = page.evaluate("Object.fromEntries([...window.iwz.world.robots.values()].map((r) => [r.name, r.agent]))")
+    assert agents == {name: name for name in CHAIRS}  # each chair's agent process is named after it
+    target = next(iter(_robots(page).values()))
+    name = page.evaluate(f"window.iwz.world.robots.get({target['id']}).name")
+    box = page.locator("#view2d").bounding_box()
+    assert box is not None
+    _pause(page, bus, net.sim)  # the chair stays where it is clicked
+    target = _robots(page)[target["id"]]
+    sx, sy = page.evaluate(f"window.iwz.toScreen({target['x']}, {target['y']})")
+    page.mouse.click(box["x"] + sx, box["y"] + sy)
+    page.wait_for_function(  # the panel's agent row
+        "(n) => [...document.querySelectorAll('#panel-body tr')].some("
+        "(tr) => tr.cells[0].textContent === 'agent' && tr.cells[1].textContent === n)",
+        arg=name,
+        timeout=WAIT_MS,
+    )
+    page.click("#btn-start")
+    late.kill(signal.SIGTERM)
     page.close()
 
 
