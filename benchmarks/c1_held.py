@@ -25,8 +25,10 @@ Target: 0 of N runs with a held tick (the legacy simulator never holds a robot).
 from __future__ import annotations
 
 import argparse
+import collections
 import contextlib
 import json
+import math
 import os
 import re
 import subprocess
@@ -242,14 +244,33 @@ class Seen:
         return sorted(t for t, at in self.actions_at.items() if t + 1 in late and at > late[t + 1])
 
 
+CAUSES = {  # where a held tick's verdict time went, from the world's and collision's -vv logs
+    "unanswered": "collision never answered the proposal (it answers the newest waiting: the next one came too)",
+    "proposal late": "the proposal reached collision too late (held up on the way: the world's send or the router)",
+    "collision slow": "collision sent the verdict too late after the proposal came (slow, or not given the CPU)",
+    "verdict late": "collision sent the verdict in time; the world got it after its wait (collision's send, router)",
+}
+
+
+def _cause(arrived: float, computed: float, waited: float) -> str:
+    """Where a held tick's verdict time went (a key of :data:`CAUSES`), from collision's log."""
+    if math.isnan(arrived):
+        return "unanswered"
+    if arrived + computed <= waited:
+        return "verdict late"
+    return "proposal late" if arrived >= computed else "collision slow"
+
+
 def _held_tick(seen: Seen, s: WorldState) -> dict[str, Any]:
     """One held tick: why, how long the world waited, what became of its verdict."""
     nan = float("nan")
     arrived, computed = seen.collision.get(s.tick, (nan, nan))
+    waited = seen.world.get(s.tick, (nan, nan))[1]
     return {
         "tick": s.tick,
         "reason": s.held_reason,
-        "world_waited_ms": seen.world.get(s.tick, (nan, nan))[1],
+        "cause": _cause(arrived, computed, waited),
+        "world_waited_ms": waited,
         "world_started_late_ms": seen.world.get(s.tick, (nan, nan))[0],
         "proposal_at_observer_ms": seen.proposal_late.get(s.tick, nan),  # after the tick began
         "proposal_at_collision_ms": arrived,  # after the tick began (collision's -vv log)
@@ -303,6 +324,7 @@ def _print_run(r: dict[str, Any]) -> None:
             f"the observer {h['proposal_at_observer_ms']:.1f} ms, collision {h['proposal_at_collision_ms']:.1f} ms "
             f"after the tick began; collision's verdict went out {h['collision_ms']:.1f} ms later, reaching the "
             + ("observer never" if came is None else f"observer {came:.1f} ms after the proposal")
+            + f"\n      so: {CAUSES[h['cause']]}"
         )
     for e in r["events"]:
         print(f"    event {e['kind']} at tick {e['tick']}: {e['reason']}")
@@ -319,6 +341,17 @@ def _print_run(r: dict[str, Any]) -> None:
     )
     if first:
         print(f"    first: ours {first['ours']}\n           legacy {first['legacy']}")
+
+
+def _no_nan(v: Any) -> Any:
+    """``v`` with every NaN (a figure no log gave) as None, so the JSON is standard."""
+    if isinstance(v, float) and math.isnan(v):
+        return None
+    if isinstance(v, dict):
+        return {k: _no_nan(x) for k, x in v.items()}
+    if isinstance(v, list):
+        return [_no_nan(x) for x in v]
+    return v
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -339,6 +372,7 @@ def main(argv: list[str] | None = None) -> int:
         res.append(measure(k, args.logs))
     held_runs = sum(1 for r in res if r["held_ticks"])
     matching = sum(1 for r in res if r["matched"])
+    causes = collections.Counter(h["cause"] for r in res for h in r["held_ticks"])
     if args.json:
         out = {
             "benchmark": "c1_held",
@@ -348,13 +382,16 @@ def main(argv: list[str] | None = None) -> int:
             "runs_held": held_runs,
             "runs_matching": matching,
             "target_runs_held": 0,
+            "held_ticks_by_cause": dict(causes),
             "results": res,
         }
-        print(json.dumps(out))
+        print(json.dumps(_no_nan(out)))
         return 0
     for r in res:
         _print_run(r)
     print(f"{held_runs} of {n} runs with a held tick; {matching} of {n} runs match the legacy simulator")
+    for cause, count in causes.most_common():
+        print(f"  {count} held ticks: {CAUSES[cause]}")
     print(f"target: 0 of {n} runs with a held tick")
     return 0
 
