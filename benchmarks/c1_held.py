@@ -173,19 +173,16 @@ def _drive(port: int, last_t: int) -> tuple[list[dict[str, Any]], str]:
 
 
 def _judge(rows: list[dict[str, Any]], real: list[dict[str, Any]]) -> dict[str, Any]:
-    """The trajectory against the legacy simulator's: matched, rows differing, the first of them."""
+    """The trajectory against the legacy simulator's: matched, rows differing (a Time the robot
+    never heard differs), the first of them, the cycles never heard."""
     if not rows:
-        return {"matched": False, "rows_differing": len(real), "first_difference": None, "missed_cycles": 0}
-    times = [r["t"] for r in rows]
-    missed = sorted(set(range(1, len(real) + 1)) - set(times))
-    by_t = {r["t"]: r for r in displaced(rows)}
-    diff = first_difference([by_t[r["t"]] for r in real if r["t"] in by_t], displaced(real))
-    first = None if diff is None else {"ours": diff[1], "legacy": diff[2]}
-    matched = diff is None and not missed
+        return {"matched": False, "rows_differing": len(real), "first_difference": None, "missed_cycles": len(real)}
+    missed = set(range(1, len(real) + 1)) - {r["t"] for r in rows}
+    diff = first_difference(displaced(rows), displaced(real))
     return {
-        "matched": matched,
+        "matched": diff is None,
         "rows_differing": 0 if diff is None else diff[0],
-        "first_difference": first,
+        "first_difference": None if diff is None else {"ours": diff[1], "legacy": diff[2]},
         "missed_cycles": len(missed),
     }
 
@@ -340,7 +337,7 @@ def _print_run(r: dict[str, Any]) -> None:
         f"{len(late)} answers later than the next tick{': Times ' + str(late[:8]) if late else ''})"
     )
     if first:
-        print(f"    first: ours {first['ours']}\n           legacy {first['legacy']}")
+        print(f"    first: ours {first['ours'] or 'nothing (a Time never heard)'}\n           legacy {first['legacy']}")
 
 
 def _no_nan(v: Any) -> Any:

@@ -124,14 +124,12 @@ def displaced(rows: list[Row]) -> list[Row]:
 
 
 def first_difference(got: list[Row], want: list[Row]) -> tuple[int, Row | None, Row] | None:
-    """Where ``got`` first departs from ``want`` (both displaced): the number of rows that differ,
-    ours (``None`` when ours ran out) and the reference's; ``None`` when they are the same."""
-    diff = [(g, w) for g, w in zip(got, want, strict=False) if g != w]
-    missing = want[len(got) :]
-    if not diff and not missing:
-        return None
-    first: tuple[Row | None, Row] = diff[0] if diff else (None, missing[0])
-    return len(diff) + len(missing), first[0], first[1]
+    """Where ``got`` departs from ``want`` (both displaced), row by row of the same Time: how many
+    of ``want``'s rows differ, and the first of them, ours (``None``: a Time ours lacks) and the
+    reference's; ``None`` when every row is the same."""
+    ours = {r["t"]: r for r in got}
+    diff = [(ours.get(w["t"]), w) for w in want if ours.get(w["t"]) != w]
+    return (len(diff), *diff[0]) if diff else None
 
 
 def drive(robot: LegacyClient, viewer: LegacyClient, last_t: int) -> list[Row]:
