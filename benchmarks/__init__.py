@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import contextlib
 import signal
 import subprocess
 import sys
+import tempfile
 from collections.abc import Sequence
+from pathlib import Path
 
-__all__ = ["exit_on_sigterm", "stop_all"]
+__all__ = ["exit_on_sigterm", "stop_all", "workdir"]
 
 
 def exit_on_sigterm() -> None:
@@ -28,3 +31,13 @@ def stop_all(procs: Sequence[subprocess.Popen[bytes]], timeout_s: float = 20.0) 
         except subprocess.TimeoutExpired:
             p.kill()
             p.wait(5)
+
+
+def workdir(logs: str | None, name: str, prefix: str = "iwz-bench-") -> contextlib.AbstractContextManager[str]:
+    """A scratch directory for one measurement's files: ``logs/name``, kept, when ``logs`` is
+    given; else a temporary one (``prefix``), removed after it."""
+    if logs:
+        path = Path(logs) / name
+        path.mkdir(parents=True, exist_ok=True)
+        return contextlib.nullcontext(str(path))
+    return tempfile.TemporaryDirectory(prefix=prefix)

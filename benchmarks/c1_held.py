@@ -26,23 +26,22 @@ from __future__ import annotations
 
 import argparse
 import collections
-import contextlib
 import json
 import math
 import os
 import re
 import subprocess
 import sys
-import tempfile
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks import exit_on_sigterm, stop_all  # noqa: E402
+from benchmarks import exit_on_sigterm, stop_all, workdir  # noqa: E402
 from benchmarks.parity import (  # noqa: E402
     PARAMS,
     ROBOT,
@@ -65,6 +64,16 @@ VERDICT_WAIT_MS = WorldConfig(period_ms=PERIOD_MS).verdict_wait_ns / 1e6  # the 
 TICK_LOG = re.compile(r"tick (\d+): started ([\d.]+) ms late, propose\+verdict ([\d.]+) ms")
 VERDICT_LOG = re.compile(r"tick (\d+): proposal arrived ([\d.]+|nan) ms after the tick began, verdict sent ([\d.]+) ms")
 ALIVE = (("collision", "collision"), ("sensors", "sensors-1-1"), ("bridge", "ciberrato"))
+
+
+def _setter(up: threading.Event) -> Callable[[str, bool], None]:
+    """A liveliness callback that sets ``up`` when the token appears."""
+
+    def on_change(_key: str, alive: bool) -> None:
+        if alive:
+            up.set()
+
+    return on_change
 
 
 class Run:
@@ -111,7 +120,7 @@ class Run:
         """Waits for collision, sensors and bridge to declare themselves alive."""
         for role, name in ALIVE:
             up = threading.Event()
-            bus.watch_alive(keys.alive(self.sim, role, name), lambda _k, alive, up=up: up.set() if alive else None)
+            bus.watch_alive(keys.alive(self.sim, role, name), _setter(up))
             if not up.wait(timeout_s):
                 raise RuntimeError(f"{role} {name} not alive within {timeout_s:g} s: see {self.tmp / (role + '.log')}")
 
@@ -190,7 +199,7 @@ def _judge(rows: list[dict[str, Any]], real: list[dict[str, Any]]) -> dict[str, 
 def measure(k: int, logs: str | None) -> dict[str, Any]:
     """One run (``k``: its number): held ticks, events, verdict waits, parity."""
     real = real_rows()
-    with _workdir(logs, f"run{k}") as tmp:
+    with workdir(logs, f"run{k}", "iwz-c1held-") as tmp:
         run = Run(Path(tmp), f"c1held{k}")
         try:
             port = run.start()
@@ -294,15 +303,6 @@ def _held(seen: Seen) -> dict[str, Any]:
         "verdicts_missing": sum(1 for t in seen.proposed_at if t not in seen.verdict_at),
         "late_actions": seen.late_actions(),
     }
-
-
-def _workdir(logs: str | None, name: str) -> contextlib.AbstractContextManager[str]:
-    """A scratch directory for one run's logs; kept under ``logs`` when given."""
-    if logs:
-        path = Path(logs) / name
-        path.mkdir(parents=True, exist_ok=True)
-        return contextlib.nullcontext(str(path))
-    return tempfile.TemporaryDirectory(prefix="iwz-c1held-")
 
 
 def _print_run(r: dict[str, Any]) -> None:

@@ -39,21 +39,19 @@ tick-to-sensors p99 < 10 ms.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import math
 import os
 import statistics
 import subprocess
 import sys
-import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks import bus_floor, exit_on_sigterm, stop_all  # noqa: E402
+from benchmarks import bus_floor, exit_on_sigterm, stop_all, workdir  # noqa: E402
 from benchmarks.floor import crowded_floor  # noqa: E402
 from iw_zenoh import keys  # noqa: E402
 from iw_zenoh.bus import Inbox, ZenohBus  # noqa: E402
@@ -224,15 +222,6 @@ class Run:
 FLOORED = {"lockstep10": 10, "lockstep100": 100, "lockstep1000": 4}  # agent processes: the floor's echoes
 
 
-def _workdir(logs: str | None, name: str) -> contextlib.AbstractContextManager[str]:
-    """A scratch directory for one measurement's files; kept under ``logs`` when given."""
-    if logs:
-        path = Path(logs) / name
-        path.mkdir(parents=True, exist_ok=True)
-        return contextlib.nullcontext(str(path))
-    return tempfile.TemporaryDirectory(prefix="iwz-scale-")
-
-
 def measure_lockstep(
     chairs: int,
     hosts: int,
@@ -243,7 +232,7 @@ def measure_lockstep(
     make_run: Callable[..., Run] = Run,
 ) -> dict[str, float]:
     """Lock-step real-time factor, from the first to the last state an observer sees."""
-    with _workdir(logs, f"lockstep{chairs}{'-secure' if secure else ''}") as tmp:
+    with workdir(logs, f"lockstep{chairs}{'-secure' if secure else ''}", "iwz-scale-") as tmp:
         run = make_run(Path(tmp), chairs, secure=secure)
         try:
             world = run.start(lockstep=True, chairs=chairs, hosts=hosts, duration_s=duration_s)
@@ -296,7 +285,7 @@ def measure_rt(
     chairs: int, hosts: int, duration_s: float, logs: str | None = None, *, secure: bool = False
 ) -> dict[str, float]:
     """Real time: delay from the world's tick start to the sensor message at an agent."""
-    with _workdir(logs, f"rt{chairs}{'-secure' if secure else ''}") as tmp:
+    with workdir(logs, f"rt{chairs}{'-secure' if secure else ''}", "iwz-scale-") as tmp:
         run = Run(Path(tmp), chairs, secure=secure)
         out = str(Path(tmp) / "latency")
         try:
