@@ -131,13 +131,11 @@ class Run:
 
 def _observe(bus: ZenohBus, sim: str) -> dict[str, Inbox]:
     """Every world state, event, proposal and verdict of the run, kept (with when it came) from now on."""
-    boxes = {"states": Inbox(), "events": Inbox(), "proposed": Inbox(), "verdicts": Inbox(), "actions": Inbox()}
+    boxes = {"states": Inbox(), "events": Inbox(), "proposed": Inbox(), "verdicts": Inbox()}
     bus.subscribe(keys.state(sim), boxes["states"])
     bus.subscribe(keys.all_events(sim), boxes["events"])
     bus.subscribe(keys.proposed(sim), boxes["proposed"])
     bus.subscribe(keys.verdict(sim), boxes["verdicts"])
-    bus.subscribe(keys.all_actions(sim), boxes["actions"])  # the bridge's, one robot's or a batch
-    bus.subscribe(keys.all_agent_actions(sim), boxes["actions"])
     return boxes
 
 
@@ -149,16 +147,20 @@ def _arrivals(box: Inbox) -> dict[int, int]:
     return out
 
 
-def _proposals(box: Inbox) -> tuple[dict[int, int], dict[int, float]]:
-    """When each tick's proposal reached the observer (ns), and how long after the tick began (ms)."""
+def _proposals(box: Inbox) -> tuple[dict[int, int], dict[int, float], dict[int, int]]:
+    """When each tick's proposal reached the observer (ns), how long after the tick began (ms),
+    and when the world began the tick (ns, its wall clock)."""
     at: dict[int, int] = {}
     after: dict[int, float] = {}
+    began: dict[int, int] = {}
     for _, data, t in box.drain():
         msg = decode(data, Proposed)
         if msg.tick not in at:
             at[msg.tick] = t
             after[msg.tick] = (t - msg.tick_wall_ns) / 1e6 if msg.tick_wall_ns else float("nan")
-    return at, after
+            if msg.tick_wall_ns:
+                began[msg.tick] = msg.tick_wall_ns
+    return at, after, began
 
 
 def _logged(path: Path, pattern: re.Pattern[str]) -> dict[int, tuple[float, float]]:
@@ -167,13 +169,14 @@ def _logged(path: Path, pattern: re.Pattern[str]) -> dict[int, tuple[float, floa
     return {int(m[1]): (float(m[2]), float(m[3])) for m in pattern.finditer(text)}
 
 
-def _drive(port: int, last_t: int) -> tuple[list[dict[str, Any]], str]:
-    """The scripted robot and a viewer on the bridge; the rows received and what stopped them early."""
+def _drive(port: int, last_t: int, answered: dict[int, int]) -> tuple[list[dict[str, Any]], str]:
+    """The scripted robot and a viewer on the bridge; the rows received and what stopped them early
+    (``answered``: when each Measures was answered)."""
     robot, viewer = LegacyClient(port), LegacyClient(port)
     try:
         if b'Status="Ok"' not in robot.register(ROBOT) or b'Status="Ok"' not in viewer.register(b"<View/>\n\x00"):
             return [], "the bridge refused the robot or the viewer"
-        return drive(robot, viewer, last_t), ""
+        return drive(robot, viewer, last_t, answered), ""
     except (TimeoutError, AssertionError) as e:
         return [], f"{type(e).__name__}: {e or 'no Measures for 2 s'}"
     finally:
@@ -207,13 +210,14 @@ def measure(k: int, logs: str | None) -> dict[str, Any]:
             try:
                 run.wait_alive(bus)
                 boxes = _observe(bus, run.sim)
-                rows, error = _drive(port, len(real))
+                answered: dict[int, int] = {}
+                rows, error = _drive(port, len(real), answered)
                 seen = Seen(
                     [decode(d[1], WorldState) for d in boxes["states"].drain()],
                     [decode(d[1], Event) for d in boxes["events"].drain()],
                     *_proposals(boxes["proposed"]),
                     _arrivals(boxes["verdicts"]),
-                    _arrivals(boxes["actions"]),
+                    answered,
                 )
             finally:
                 bus.close()
@@ -232,8 +236,9 @@ class Seen:
     events: list[Event]
     proposed_at: dict[int, int]  # tick: when its proposal reached the observer (ns)
     proposal_late: dict[int, float]  # tick: how long after the tick began (ms)
+    began: dict[int, int]  # tick: when the world began it (ns, wall clock)
     verdict_at: dict[int, int]  # tick: when its verdict reached the observer (ns)
-    actions_at: dict[int, int]  # tick: when the robot's answer to its Measures reached the observer (ns)
+    answered: dict[int, int]  # Measures Time: when the robot sent its answer (ns, wall clock)
     world: dict[int, tuple[float, float]] = field(default_factory=dict)  # tick: started late, waited (ms)
     collision: dict[int, tuple[float, float]] = field(default_factory=dict)  # tick: proposal in, verdict out
 
@@ -243,11 +248,12 @@ class Seen:
             return None
         return (self.verdict_at[tick] - self.proposed_at[tick]) / 1e6
 
-    def late_actions(self) -> list[int]:
-        """Ticks whose answer reached the observer after the next tick's proposal (too late for
-        the next tick, where the legacy simulator applies it)."""
-        late = self.proposed_at
-        return sorted(t for t, at in self.actions_at.items() if t + 1 in late and at > late[t + 1])
+    def late_answers(self) -> list[int]:
+        """Measures Times the robot answered after the next tick began: too late for it, where the
+        legacy simulator applies the answer (an answer sent in time may still arrive late: not
+        counted)."""
+        began = self.began
+        return sorted(t for t, at in self.answered.items() if t + 1 in began and at > began[t + 1])
 
 
 CAUSES = {  # where a held tick's verdict time went, from the world's and collision's -vv logs
@@ -301,7 +307,7 @@ def _held(seen: Seen) -> dict[str, Any]:
         "started_late_ms_max": max((late for late, _ in seen.world.values()), default=0.0),
         "verdicts_over_budget": sum(1 for d in delays if d > VERDICT_WAIT_MS),
         "verdicts_missing": sum(1 for t in seen.proposed_at if t not in seen.verdict_at),
-        "late_actions": seen.late_actions(),
+        "late_answers": seen.late_answers(),
     }
 
 
@@ -331,10 +337,10 @@ def _print_run(r: dict[str, Any]) -> None:
         print("    trajectory: matches the legacy simulator's, all 400 rows")
         return
     first = r["first_difference"] or {}
-    late = r["late_actions"]
+    late = r["late_answers"]
     print(
         f"    trajectory: differs ({r['rows_differing']} rows, {r['missed_cycles']} cycles never heard; "
-        f"{len(late)} answers later than the next tick{': Times ' + str(late[:8]) if late else ''})"
+        f"{len(late)} answers sent after the next tick began{': Times ' + str(late[:8]) if late else ''})"
     )
     if first:
         print(f"    first: ours {first['ours'] or 'nothing (a Time never heard)'}\n           legacy {first['legacy']}")

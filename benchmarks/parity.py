@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import socket
+import time
 from pathlib import Path
 from typing import Any
 
@@ -132,16 +133,19 @@ def first_difference(got: list[Row], want: list[Row]) -> tuple[int, Row | None, 
     return (len(diff), *diff[0]) if diff else None
 
 
-def drive(robot: LegacyClient, viewer: LegacyClient, last_t: int) -> list[Row]:
+def drive(robot: LegacyClient, viewer: LegacyClient, last_t: int, answered: dict[int, int] | None = None) -> list[Row]:
     """Runs the script: answers every Measures (those of Time 0, before Start, too), sends Start
     from the viewer right after the first answer (so the action is not overtaken), and returns the
-    rows of Time 1 to ``last_t`` as received (a cycle the robot never heard is not there)."""
+    rows of Time 1 to ``last_t`` as received (a cycle the robot never heard is not there).
+    ``answered`` is given each Time's first answer's wall clock (ns), when asked for."""
     rows: list[Row] = []
     started = False
     while not rows or rows[-1]["t"] < last_t:
         m = measures_of(robot.recv())
         t = int(m.get("Time"))
         robot.send(command(t))
+        if answered is not None:
+            answered.setdefault(t, time.time_ns())
         if not started:
             viewer.send(b"<Start/>\n\x00")
             started = True
