@@ -1,7 +1,7 @@
 """Held ticks in real-time C1 runs: the legacy bridge at its 50 ms cycle, noise-free, against the
 legacy simulator's own trajectory (issue #22: "noise-free C1 runs with a held tick").
 
-    python benchmarks/c1_held.py                        # 8 runs (about 30 s each)
+    python benchmarks/c1_held.py                        # 8 runs (about 40 s each)
     python benchmarks/c1_held.py --quick                # 2 runs
     python benchmarks/c1_held.py --runs 20 --json       # one JSON object
     python benchmarks/c1_held.py --quick --logs /tmp/c1 # keep each run's logs (the world's at -vv)
@@ -11,13 +11,15 @@ paused), collision, sensors and the legacy bridge with the parity parameters (ev
 drives the parity trace's scripted robot (``benchmarks/parity.py``, what
 ``tests/integration/test_legacy_parity.py`` runs in lock-step) for 400 cycles, Start sent by a
 viewer. A client of the bus records every world state (its ``held`` flag and ``held_reason``) and
-every ``holding`` / ``resumed`` event; the world's own per-tick log (``-vv``: how late the tick
-started, how long the verdict took) says how close each tick came to the verdict budget.
+every ``holding`` / ``resumed`` event, and when each proposal and verdict reached it; the world's
+and collision's own per-tick logs (``-vv``: how late the tick started, how long the world waited
+for the verdict; when the proposal reached collision, how long collision took) say where a held
+tick's time went.
 
-Printed per run: the held ticks (which tick, why, how long the world waited for its verdict), the
-longest verdict wait, cycles the robot never heard, and whether the trajectory matched the legacy
-simulator's (else how many rows differ and the first of them). Then the totals: runs with a held
-tick out of N, runs matching.
+Printed per run: the world's wait for the verdict against its budget; each held tick with those
+timings and their reading (:data:`CAUSES`); whether the trajectory matched the legacy simulator's
+(else the first row that differs, cycles never heard, answers sent after the next tick began).
+Then: runs with a held tick out of N, runs matching, held ticks by cause.
 
 Target: 0 of N runs with a held tick (the legacy simulator never holds a robot).
 """
@@ -314,8 +316,8 @@ def _held(seen: Seen) -> dict[str, Any]:
 def _print_run(r: dict[str, Any]) -> None:
     print(
         f"run {r['run']}: {len(r['held_ticks'])} held ticks; "
-        f"verdict p50 {r['verdict_ms_p50']:.1f} ms, max {r['verdict_ms_max']:.1f} ms (tick "
-        f"{r['verdict_ms_max_tick']}) of {VERDICT_WAIT_MS:g}; "
+        f"the world's wait for the verdict p50 {r['verdict_ms_p50']:.1f} ms, longest {r['verdict_ms_max']:.1f} ms "
+        f"(tick {r['verdict_ms_max_tick']}; budget {VERDICT_WAIT_MS:g} ms); "
         f"ticks started up to {r['started_late_ms_max']:.1f} ms late; verdicts later than "
         f"{VERDICT_WAIT_MS:g} ms after their proposal {r['verdicts_over_budget']}, never {r['verdicts_missing']}"
     )
@@ -348,20 +350,16 @@ def _print_run(r: dict[str, Any]) -> None:
 
 def _no_nan(v: Any) -> Any:
     """``v`` with every NaN (a figure no log gave) as None, so the JSON is standard."""
-    if isinstance(v, float) and math.isnan(v):
-        return None
-    if isinstance(v, dict):
-        return {k: _no_nan(x) for k, x in v.items()}
-    if isinstance(v, list):
-        return [_no_nan(x) for x in v]
-    return v
+    if isinstance(v, dict | list):
+        return {k: _no_nan(x) for k, x in v.items()} if isinstance(v, dict) else [_no_nan(x) for x in v]
+    return None if isinstance(v, float) and math.isnan(v) else v
 
 
 def main(argv: list[str] | None = None) -> int:
     """Runs the measurements and prints them with the target."""
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--runs", type=int, default=8, help="how many runs (default 8)")
-    ap.add_argument("--quick", action="store_true", help="2 runs, a minute or so")
+    ap.add_argument("--quick", action="store_true", help="2 runs whatever --runs says (about a minute and a half)")
     ap.add_argument("--json", action="store_true", help="one JSON object")
     ap.add_argument("--logs", metavar="DIR", help="keep each run's process logs in DIR/runK (the world's at -vv)")
     args = ap.parse_args(argv)
