@@ -260,7 +260,7 @@ class Seen:
 
 CAUSES = {  # where a held tick's verdict time went, from the world's and collision's -vv logs
     "unanswered": "collision never answered the proposal (it answers the newest waiting: the next one came too)",
-    "proposal late": "the proposal reached collision too late (held up on the way: the world's send or the router)",
+    "proposal late": "the proposal reached collision too late (held up in the send, the router or the receive)",
     "collision slow": "collision sent the verdict too late after the proposal came (slow, or not given the CPU)",
     "verdict late": "collision sent the verdict in time; the world got it after its wait (collision's send, router)",
 }
