@@ -38,10 +38,13 @@ class SensorsOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw
     Attributes:
         shard: ``(K, N)``: compute the robots whose id is K modulo N (1 <= K <= N; ``(1, 1)``: all).
         ahead: Compute a tick ahead from the world's proposal (false: the same readings, later).
+        early: Publish those as soon as the collision verdict confirms the proposal, before the
+            world's state (false: when the state comes; the same readings, later).
     """
 
     shard: tuple[_Count, _Count] = (1, 1)
     ahead: bool = True
+    early: bool = True
 
     def __post_init__(self) -> None:
         if self.shard[0] > self.shard[1]:
@@ -152,6 +155,13 @@ _SENSORS: tuple[Flag, ...] = (
         {"action": "store_const", "const": False},
         "do not compute a tick ahead from the world's proposal (the same readings, later; "
         "to compare, or on a machine with one core)",
+    ),
+    (
+        "--no-early",
+        "early",
+        {"action": "store_const", "const": False},
+        "do not publish the readings computed ahead as soon as the collision verdict confirms the "
+        "proposal, wait for the world's state (the same readings, later; to compare)",
     ),
 )
 

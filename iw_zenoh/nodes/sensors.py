@@ -3,6 +3,13 @@
 
 Each reading goes out twice from one encoding: on its robot's key, and in the shard's batch
 (``world/sensors/K-N``) that agent hosts and bridges with many robots read instead.
+
+Tick n's readings are computed ahead from the world's proposal while the collision process checks
+it, and go out as soon as the collision verdict confirms the proposal (no robot collided:
+:mod:`iw_zenoh.sim.early`), without waiting for the world's state: the state only checks them,
+and in the rare tick the world held after all (a verdict after its deadline) the readings that
+differ go out again, corrected. Otherwise (a robot collided, nothing computed ahead, the
+ciberrato profile) they go out when the state comes.
 """
 
 from __future__ import annotations
@@ -15,11 +22,13 @@ from collections.abc import Sequence
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus, Delivery, Inbox
 from iw_zenoh.core import cones, laser
-from iw_zenoh.errors import ProtocolError
-from iw_zenoh.messages import Proposed, WorldState, encode_sensor_batch
+from iw_zenoh.core.modes import Profile
+from iw_zenoh.errors import IwError, ProtocolError
+from iw_zenoh.messages import Proposed, Verdict, WorldState, decode, encode_sensor_batch
 from iw_zenoh.nodes.info import InfoCache
 from iw_zenoh.nodes.role_options import SensorsOptions, add_sensors_arguments, parse_shard
 from iw_zenoh.runtime import NodeIO, options_from_args, start_role
+from iw_zenoh.sim.early import confirms
 from iw_zenoh.sim.sensors import Computed, SensorsNode
 from iw_zenoh.sim.view import WorldView
 from iw_zenoh.ticks import ViewWindow
@@ -31,6 +40,7 @@ logger = logging.getLogger(__name__)
 CATCH_UP = 2  # states computed at once after a stall: the newest and the one before
 MISSED_AHEAD = 0.25  # a tick whose readings were this much computed again ...
 PAUSE_AHEAD = 20  # ... stops computing ahead for this many ticks (stuck robots collide every tick)
+VERDICTS_KEPT = 4  # verdicts kept for a proposal not computed yet (one comes a tick)
 
 
 def run(
@@ -41,47 +51,114 @@ def run(
     name: str = "sensors",
     io: NodeIO | None = None,
     ahead: bool = True,
+    early: bool = True,
 ) -> None:
-    """Computes readings for every committed state until stopped, ahead on proposals (unless ``ahead`` is false)."""
+    """Computes readings for every committed state until stopped, ahead on proposals (unless
+    ``ahead`` is false), published as soon as the collision verdict confirms the proposal (unless
+    ``early`` is false: then when the state comes)."""
     io = io or NodeIO(bus, sim, "sensors", name)
-    inbox = io.inbox(keys.state(sim))
-    proposals = io.inbox(keys.proposed(sim)) if ahead else Inbox()
-    infos = io.inbox(keys.info(sim))  # published at every revision: the view is ready before it is asked for
-    cache = InfoCache(bus, sim)
-    window = ViewWindow(cache.get)
-    node: SensorsNode | None = None
-    early: Computed | None = None
-    ahead_from = 0  # compute ahead from this tick on
+    loop = _Loop(io, sim, shard, ahead=ahead, early=early and ahead)
     io.alive()
     while not io.stop.is_set():
-        fresh = [cache.take(data) for _, data, _ in infos.drain()[-1:]]
-        pending = inbox.drain()
-        if not pending:
-            props = proposals.drain()
-            if props and node is not None and node.last_tick + 1 >= ahead_from:
-                early = _ahead(io, window, node, props[-1], early)
+        loop.once()
+
+
+class _Loop:
+    """The sensors' inboxes and what one pass of the loop keeps between passes."""
+
+    def __init__(self, io: NodeIO, sim: str, shard: tuple[int, int], *, ahead: bool, early: bool) -> None:
+        self.io, self.sim, self.shard, self.early = io, sim, shard, early
+        self.states = io.inbox(keys.state(sim))
+        self.proposals = io.inbox(keys.proposed(sim)) if ahead else Inbox()
+        self.verdicts = io.inbox(keys.verdict(sim)) if early else Inbox()
+        self.infos = io.inbox(keys.info(sim))  # published at every revision: the view is ready before it is asked for
+        self.cache = InfoCache(io.bus, sim)
+        self.window = ViewWindow(self.cache.get)
+        self.node: SensorsNode | None = None
+        self.ahead: Computed | None = None  # the next tick's readings, computed from its proposal
+        self.legacy = False  # ... in the ciberrato profile
+        self.proposal: Delivery | None = None  # the newest proposal not computed yet
+        self.said: dict[int, Verdict] = {}  # the newest verdicts, by tick
+        self.ahead_from = 0  # compute ahead from this tick on
+
+    def once(self) -> None:
+        """One pass: the states waiting, else a proposal to compute ahead or a verdict to act on, else a wait."""
+        fresh = [self.cache.take(data) for _, data, _ in self.infos.drain()[-1:]]
+        self._take_verdicts()
+        pending = self.states.drain()
+        if pending:
+            self._on_states(pending)
+            return
+        node = self.node
+        props = self.proposals.drain()
+        if props and node is not None and node.last_tick + 1 >= self.ahead_from:
+            self.proposal = props[-1]
+        if self.proposal is not None and node is not None and node.early is None:
+            d, self.proposal = self.proposal, None
+            c, view = _ahead(self.io, self.window, node, d)
+            if view is not None:  # else the older one stays, as it did
+                self.ahead, self.legacy = c, view.info.profile == Profile.CIBERRATO
+            self._send_early()
+            return
+        if self._send_early():
+            return
+        _warm(fresh, node, self.sim, self.shard)  # idle: the new roster computed once
+        self.io.wait(0.2)
+
+    def _take_verdicts(self) -> None:
+        """Keeps the newest verdicts (the world reports one that does not decode: not again here)."""
+        for _, data, _ in self.verdicts.drain():
+            try:
+                v = decode(data, Verdict)
+            except IwError:
                 continue
-            _warm(fresh, node, sim, shard)  # idle: the new roster computed once
-            io.wait(0.2)
-            continue
-        # one tick of backlog (a slow tick: a new robot's bodies, a busy machine) is caught up,
-        # so legacy clients and recordings get every tick; after a longer stall only the newest
-        # are worth computing. Every message is decoded so a bad one is always reported.
+            self.said[v.tick] = v
+        if len(self.said) > VERDICTS_KEPT:
+            for t in sorted(self.said)[:-VERDICTS_KEPT]:
+                del self.said[t]
+
+    def _send_early(self) -> bool:
+        """Publishes the readings computed ahead if the verdict on their proposal confirms it
+        (:func:`iw_zenoh.sim.early.confirms`); in the ciberrato profile never (the legacy bridge
+        pairs a tick's readings with the score and the end of the run that tick's state brings)."""
+        a, node = self.ahead, self.node
+        if a is None or node is None or node.early is not None or a.msg.tick != node.last_tick + 1:
+            return False
+        v = self.said.get(a.msg.tick)
+        if v is None or not confirms(a.msg, v) or self.legacy:
+            return False
+        node.send_early(a)
+        self.ahead = None
+        _publish(self.io.bus, self.sim, self.shard, a)
+        logger.debug("tick %d: the verdict confirmed the proposal, readings published before the state", a.msg.tick)
+        return True
+
+    def _on_states(self, pending: list[Delivery]) -> None:
+        """Settles the states waiting: one tick of backlog (a slow tick: a new robot's bodies, a
+        busy machine) is caught up, so legacy clients and recordings get every tick; after a
+        longer stall only the newest are worth computing. Every message is decoded so a bad one
+        is always reported."""
+        io = self.io
         decoded = [m for m in (io.decode(d, WorldState) for d in pending) if m is not None]
         for msg in decoded[-CATCH_UP:]:
-            view = _checked(io, window, keys.state(sim), msg)
+            view = _checked(io, self.window, keys.state(self.sim), msg)
             if view is None:
                 continue
-            if node is None:
-                node = SensorsNode(sim, view.info.seed, shard)
+            if self.node is None:
+                self.node = SensorsNode(self.sim, view.info.seed, self.shard)
+            node = self.node
+            if node.early is not None and node.early.msg.tick == msg.tick:
+                self._check_early(node, msg, view)
+                continue
+            node.forget_early()  # a newer state than the tick that went out early: that one stands
             t0, c0 = time.perf_counter(), time.process_time()
-            used = early if early is not None and early.msg.tick == msg.tick else None
+            used = self.ahead if self.ahead is not None and self.ahead.msg.tick == msg.tick else None
             c, again = node.settle(used, msg, view)
-            early = None
+            self.ahead = None
             if used is not None and again > MISSED_AHEAD * max(1, len(c.out)):
-                ahead_from = msg.tick + 1 + PAUSE_AHEAD
+                self.ahead_from = msg.tick + 1 + PAUSE_AHEAD
             t1, c1 = time.perf_counter(), time.process_time()
-            _publish(bus, sim, shard, c)
+            _publish(io.bus, self.sim, self.shard, c)
             if msg.tick_wall_ns:
                 logger.debug(
                     "tick %d: state arrived %.2f ms after the tick began, %s, settled in %.2f ms (CPU %.2f ms), "
@@ -93,6 +170,25 @@ def run(
                     (c1 - c0) * 1e3,
                     (time.perf_counter() - t1) * 1e3,
                 )
+
+    def _check_early(self, node: SensorsNode, msg: WorldState, view: WorldView) -> None:
+        """The state of a tick whose readings went out early: nothing more when it is what they
+        were computed from; otherwise the readings that differ go out again, corrected."""
+        before = node.corrections
+        c = node.check_early(msg, view)
+        if node.corrections == before:
+            return
+        self.ahead = None  # computed from the early tick's encoder counts, perhaps wrong
+        logger.warning(
+            "tick %d: readings went out when the verdict confirmed the proposal, but the world committed "
+            "another state (%s): %d readings published again, corrected (%d such ticks so far)",
+            msg.tick,
+            f"held: {msg.held_reason}" if msg.held else "not the proposal",
+            0 if c is None else len(c.out),
+            node.corrections,
+        )
+        if c is not None:
+            _publish(self.io.bus, self.sim, self.shard, c)
 
 
 def _warm(fresh: list[WorldView | None], node: SensorsNode | None, sim: str, shard: tuple[int, int]) -> None:
@@ -115,15 +211,16 @@ def _checked(io: NodeIO, window: ViewWindow[WorldView], key: str, msg: WorldStat
 
 
 def _ahead(
-    io: NodeIO, window: ViewWindow[WorldView], node: SensorsNode, d: Delivery, early: Computed | None
-) -> Computed | None:
-    """Tick n's readings computed ahead from its proposal while the collision process checks it
-    (``early`` when the proposal cannot be used: malformed, refused, or no world info for it)."""
+    io: NodeIO, window: ViewWindow[WorldView], node: SensorsNode, d: Delivery
+) -> tuple[Computed | None, WorldView | None]:
+    """Tick n's readings computed ahead from its proposal while the collision process checks it,
+    with the view they were computed in (None when the proposal cannot be used: malformed,
+    refused, no world info for it, or not computable ahead now)."""
     p = io.decode(d, Proposed)
     view = _checked(io, window, d[0], p) if p is not None else None
     if p is not None and view is not None:
-        return node.ahead(p, view)
-    return early
+        return node.ahead(p, view), view
+    return None, None
 
 
 def _publish(bus: Bus, sim: str, shard: tuple[int, int], c: Computed) -> None:
@@ -157,12 +254,15 @@ def main(argv: Sequence[str] | None = None) -> int:
             "Split the robots between processes or hosts, one shard on each:\n"
             "  iwz sensors --shard 1/2\n"
             "  iwz sensors --shard 2/2 --connect tcp/HOST:7447\n"
-            "  iwz sensors --options '{\"shard\": [2, 2]}'    (as iwz run starts it)"
+            "  iwz sensors --options '{\"shard\": [2, 2]}'    (as iwz run starts it)\n"
+            "Readings go out once the collision verdict confirms a tick; to compare,\n"
+            "only once the world's state comes:\n"
+            "  iwz sensors --no-early"
         ),
         arguments=add_sensors_arguments,
         warm_up=_warm_up,  # before joining: the first tick must not wait for a compilation
         prepare=_options,
-        run=lambda proc, o: run(proc.bus, proc.sim, shard=o.shard, io=proc.io, ahead=o.ahead),
+        run=lambda proc, o: run(proc.bus, proc.sim, shard=o.shard, io=proc.io, ahead=o.ahead, early=o.early),
         name=lambda args: _options(args).process_name,
         name_help="sensors-K-N",
     )

@@ -20,9 +20,10 @@ from iw_zenoh.core.modes import Profile
 from iw_zenoh.core.noise import NoiseStreams, Stream
 from iw_zenoh.core.sensors import Readings, SensorParams, noise_layout, read_sensors
 from iw_zenoh.messages import LaserScan, Outgoing, Proposed, SensorReading, WorldState, encode
+from iw_zenoh.sim.early import state_from_proposal
 from iw_zenoh.sim.view import WorldView
 
-__all__ = ["Computed", "SensorsNode", "state_from_proposal"]
+__all__ = ["Computed", "SensorsNode", "state_from_proposal"]  # state_from_proposal: from sim.early
 
 ALL_AGAIN = 0.25  # when this share of robots is touched, all are computed again (no merging)
 
@@ -46,25 +47,6 @@ class Computed:
     enc: np.ndarray
 
 
-def state_from_proposal(p: Proposed) -> WorldState:
-    """The state tick n will commit if no robot collides and none is held."""
-    n = len(p.ids)
-    return WorldState(
-        tick=p.tick,
-        sim_time_ns=p.sim_time_ns,
-        revision=p.revision,
-        ids=list(p.ids),
-        x=list(p.next_x),
-        y=list(p.next_y),
-        heading=list(p.next_heading),
-        collided=[False] * n,
-        rolled_left=list(p.rolled_left),
-        rolled_right=list(p.rolled_right),
-        speed=[0.0] * n,  # not read by sensors
-        tick_wall_ns=p.tick_wall_ns,
-    )
-
-
 class SensorsNode:
     """Computes the readings of one shard's robots from a committed state (logic only).
 
@@ -73,6 +55,10 @@ class SensorsNode:
     collided, nothing held) those readings are the state's, bit for bit, and go out at once
     (:meth:`settle`). Robots that collided, and robots whose sensors reach them, are computed
     again from the state. Noise is drawn once per tick however often a tick is computed.
+
+    When the collision verdict confirms the proposal (:func:`iw_zenoh.sim.early.confirms`), the
+    readings computed ahead go out before the state (:meth:`send_early`); the state then only
+    checks them (:meth:`check_early`), and corrects the rare tick the world held after all.
 
     Args:
         sim: Simulation name.
@@ -90,6 +76,9 @@ class SensorsNode:
         self._enc_ids: list[int] = []  # the roster of the last tick, and its encoder counts
         self._enc = np.zeros((0, 2))
         self._keys: dict[int, str] = {}  # robot id -> its sensors key (built once)
+        self.early: Computed | None = None  # readings that went out before their state
+        self._undo: tuple[list[int], np.ndarray, tuple[int, list[int], np.ndarray] | None, int] | None = None
+        self.corrections = 0  # ticks whose early readings the state proved wrong
 
     def warm(self, view: WorldView) -> None:
         """Computes the view's robots once, where they were placed, in a throwaway node (its own
@@ -125,9 +114,11 @@ class SensorsNode:
     def ahead(self, proposal: Proposed, view: WorldView) -> Computed | None:
         """Readings of tick n computed from its proposal (not committed), or None when the
         previous tick's readings are not out yet (encoder counts would be stale), or when it does
-        not say how far the wheels rolled (an older world's)."""
+        not say how far the wheels rolled (an older world's), or while the state of readings that
+        went out early is not checked yet (a correction would make this tick's start stale)."""
         if (
-            self.last_tick >= 0
+            self.early is not None
+            or self.last_tick >= 0
             and proposal.tick != self.last_tick + 1
             or len(proposal.rolled_left) != len(proposal.ids)
         ):
@@ -154,6 +145,38 @@ class SensorsNode:
             c = _merge(ahead, self.compute(msg, view, subset=again), again)
         self.commit(c)
         return c, int(again.sum()) if len(c.out) else 0
+
+    def send_early(self, ahead: Computed) -> None:
+        """Commits readings computed ahead whose proposal the verdict confirmed, so they go out
+        before the state; what they replace is kept until the state says they were right."""
+        self._undo = (self._enc_ids, self._enc, self._z, self.last_tick)
+        self.commit(ahead)
+        self.early = ahead
+
+    def check_early(self, msg: WorldState, view: WorldView) -> Computed | None:
+        """The committed state of the tick whose readings went out early: None when they are its
+        readings (the usual case); otherwise (the world held the tick: the verdict came after its
+        deadline) the readings that differ, computed as :meth:`settle` would have and committed in
+        place of the early ones (the same noise: a tick's normals are drawn once)."""
+        sent, undo = self.early, self._undo
+        assert sent is not None
+        assert undo is not None
+        assert sent.msg.tick == msg.tick
+        self.early = self._undo = None
+        if _same_frame(sent.msg, msg) and not _touched(sent.msg, msg, view).any():
+            return None
+        self._enc_ids, self._enc, self._z, self.last_tick = undo
+        c, _ = self.settle(sent, msg, view)
+        self.corrections += 1
+        if c.ids != sent.ids:  # not a roster the world can change within a tick: all of them
+            return c
+        pairs = zip(c.out, c.encoded, sent.encoded, strict=True)
+        differ = [(o, e) for o, e, was in pairs if e != was]
+        return replace(c, out=[o for o, _ in differ], encoded=[e for _, e in differ]) if differ else None
+
+    def forget_early(self) -> None:
+        """The state of the tick that went out early never came (a newer one did): they stand."""
+        self.early = self._undo = None
 
     def commit(self, c: Computed) -> None:
         """Makes ``c`` the newest tick: its encoder counts are the next tick's start (and the keys

@@ -180,3 +180,38 @@ def test_warming_a_roster_builds_its_bodies_and_changes_no_reading() -> None:
     for tick in (1, 2):
         st = _state(tick, [1, 2], 1)
         assert warm.on_state(st, view) == cold.on_state(st, _view([1, 2], 1))  # noise and encoders too
+
+
+def test_readings_sent_early_then_checked_by_their_state_match_a_node_that_waited_every_tick() -> None:
+    # tick 3 is held after the verdict confirmed it (the world took it too late): the state
+    # corrects it, and every later tick reads as if nothing had gone out early (encoders, noise)
+    ids = [1, 2, 3]
+    view = _view(ids, 1)
+    reference, early = SensorsNode("t", seed=5), SensorsNode("t", seed=5)
+    for tick in range(1, 7):
+        proposed = _state(tick, ids, 1)
+        committed = proposed
+        if tick == 3:
+            committed = msgspec.structs.replace(
+                proposed, x=_state(2, ids, 1).x, rolled_left=[0.0] * 3, rolled_right=[0.0] * 3, held=True
+            )
+        want = {m.robot_id: encode(m) for _, m in reference.on_state(committed, view)}  # type: ignore[attr-defined]
+        ahead = early.ahead(_proposal(proposed), view)
+        assert ahead is not None
+        early.send_early(ahead)
+        assert early.ahead(_proposal(_state(tick + 1, ids, 1)), view) is None  # not before the state checked it
+        sent = {m.robot_id: e for (_, m), e in zip(ahead.out, ahead.encoded, strict=True)}
+        fixed = early.check_early(committed, view)
+        if tick != 3:
+            assert fixed is None, f"tick {tick}"  # the state is what went out: nothing more
+            assert sent == want, f"tick {tick}"
+            continue
+        assert fixed is not None
+        assert fixed.msg.tick == 3
+        assert sent != want
+        # only the readings that differ go out again, and they are the state's
+        again = {m.robot_id: e for (_, m), e in zip(fixed.out, fixed.encoded, strict=True)}
+        assert again
+        assert {**sent, **again} == want
+        assert all(sent[r] != e for r, e in again.items())
+    assert early.corrections == 1
