@@ -1,56 +1,126 @@
 """``iwz radio``: robot-to-robot messages, delivered only within range (the logic and its limits:
-:mod:`iw_zenoh.sim.radio`)."""
+:mod:`iw_zenoh.sim.radio`).
+
+Tick n is delivered as soon as the collision verdict confirms the world's proposal (no robot
+collided: :mod:`iw_zenoh.sim.early`), so a lock-step agent waiting for it does not wait for the
+world's state too; in the rare tick the world held after all, the state corrects it.
+"""
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import time
 from collections.abc import Sequence
 
-import msgspec
-
 from iw_zenoh import keys
-from iw_zenoh.bus import Bus
-from iw_zenoh.errors import ProtocolError
-from iw_zenoh.messages import Say, WorldState
+from iw_zenoh.bus import Bus, Delivery, Inbox
+from iw_zenoh.errors import IwError, ProtocolError
+from iw_zenoh.messages import Proposed, Say, Verdict, WorldState, decode
 from iw_zenoh.nodes.role_options import RadioOptions, add_radio_arguments
 from iw_zenoh.options import options_from_args
 from iw_zenoh.runtime import NodeIO, start_role
+from iw_zenoh.sim.early import confirms, state_from_proposal
 from iw_zenoh.sim.radio import RadioConfig, RadioNode
-from iw_zenoh.ticks import TickWindow
+from iw_zenoh.ticks import TickWindow, too_far_ahead
 
 __all__ = ["main", "run"]
 
 logger = logging.getLogger(__name__)
 
+VERDICTS_KEPT = 4  # verdicts kept for a proposal not come yet (one comes a tick)
 
-def run(bus: Bus, sim: str, cfg: RadioConfig | None = None, *, name: str = "radio", io: NodeIO | None = None) -> None:
-    """Delivers radio messages every tick until stopped."""
+
+def run(
+    bus: Bus,
+    sim: str,
+    cfg: RadioConfig | None = None,
+    *,
+    name: str = "radio",
+    io: NodeIO | None = None,
+    early: bool = True,
+) -> None:
+    """Delivers radio messages every tick until stopped: as soon as the collision verdict
+    confirms the world's proposal (unless ``early`` is false), else when the state comes."""
     io = io or NodeIO(bus, sim, "radio", name)
-    says = io.inbox(keys.all_say(sim))
-    states = io.inbox(keys.state(sim))
-    node = RadioNode(sim, cfg)
-    window = TickWindow()  # a state too far ahead is refused (its hear lists would be too)
+    loop = _Loop(io, sim, cfg, early=early)
     io.alive()
     while not io.stop.is_set():
-        got = False
-        for d in says.drain():
-            got = True
+        if not loop.once():
+            io.wait(0.2)
+
+
+class _Loop:
+    """The radio's inboxes and the proposal and verdicts kept between passes."""
+
+    def __init__(self, io: NodeIO, sim: str, cfg: RadioConfig | None, *, early: bool) -> None:
+        self.io = io
+        self.says = io.inbox(keys.all_say(sim))
+        self.states = io.inbox(keys.state(sim))
+        self.proposals = io.inbox(keys.proposed(sim)) if early else Inbox()
+        self.verdicts = io.inbox(keys.verdict(sim)) if early else Inbox()
+        self.node = RadioNode(sim, cfg)
+        self.window = TickWindow()  # a state too far ahead is refused (its hear lists would be too)
+        self.proposal: WorldState | None = None  # the newest proposal, as the state it would commit
+        self.said: dict[int, Verdict] = {}  # the newest verdicts, by tick
+        self.last_tick = -1  # the newest tick delivered
+
+    def once(self) -> bool:
+        """One pass; False when nothing came. What was said is taken after the states and
+        verdicts: a tick's messages were said before its proposal, so they are all in."""
+        states, verdicts = self.states.drain(), self.verdicts.drain()
+        props, says = self.proposals.drain(), self.says.drain()
+        io = self.io
+        for d in says:
             msg = io.decode(d, Say)
             if msg is not None and keys.robot_id_of(d[0]) != msg.robot_id:
                 io.bad_message(d[0], ProtocolError(f"a message of robot {msg.robot_id} on another robot's key"))
             elif msg is not None:
-                node.on_say(msg)
-        for d in states.drain():
-            got = True
+                self.node.on_say(msg)
+        self._keep(props, verdicts)
+        for d in states:
             st = io.decode(d, WorldState)
-            why = window.refuse(st.tick, time.monotonic_ns()) if st is not None else ""
+            why = self.window.refuse(st.tick, time.monotonic_ns()) if st is not None else ""
             if why:
                 io.bad_message(d[0], ProtocolError(why))
+            elif st is not None and st.tick == self.node.early_tick:
+                self._check_early(st)
             elif st is not None:
-                io.send_all(node.on_state(st))
-        if not got:
-            io.wait(0.2)
+                io.send_all(self.node.on_state(st))
+                self.last_tick = st.tick
+        p = self.proposal
+        if p is not None and p.tick == self.last_tick + 1 and p.tick in self.said and confirms(p, self.said[p.tick]):
+            self.proposal = None
+            io.send_all(self.node.send_early(p))
+            self.last_tick = p.tick
+        return bool(states or verdicts or props or says)
+
+    def _keep(self, props: list[Delivery], verdicts: list[Delivery]) -> None:
+        """Keeps the newest proposal and verdicts (one that does not decode is the world's and the
+        collision process's to report, not again here)."""
+        for _, data, _ in props[-1:]:
+            with contextlib.suppress(IwError):
+                p = decode(data, Proposed)
+                if not too_far_ahead(p.tick, max(self.last_tick, 0)):
+                    self.proposal = state_from_proposal(p)
+        for _, data, _ in verdicts:
+            with contextlib.suppress(IwError):
+                v = decode(data, Verdict)
+                self.said[v.tick] = v
+        for t in sorted(self.said)[:-VERDICTS_KEPT]:
+            del self.said[t]
+
+    def _check_early(self, st: WorldState) -> None:
+        out = self.node.check_early(st)
+        if out:
+            logger.warning(
+                "tick %d: delivered when the verdict confirmed the proposal, but the world committed other "
+                "positions (%s): delivered again (%d such ticks so far)",
+                st.tick,
+                f"held: {st.held_reason}" if st.held else "not the proposal",
+                self.node.corrections,
+            )
+            self.io.send_all(out)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -62,9 +132,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         epilog=(
             "Examples (a shorter range than Ciber-Rato's 8 m):\n"
             "  iwz radio --range 4\n"
-            '  iwz radio --options \'{"range_m": 4, "max_heard_bytes": 200}\'    (as iwz run starts it)'
+            '  iwz radio --options \'{"range_m": 4, "max_heard_bytes": 200}\'    (as iwz run starts it)\n'
+            "A tick is delivered once the collision verdict confirms it; to compare,\n"
+            "only once the world's state comes:\n"
+            "  iwz radio --no-early"
         ),
         arguments=add_radio_arguments,
-        prepare=lambda args: RadioConfig(**msgspec.structs.asdict(options_from_args(args, RadioOptions))),
-        run=lambda proc, cfg: run(proc.bus, proc.sim, cfg, io=proc.io),
+        prepare=lambda args: options_from_args(args, RadioOptions),
+        run=lambda proc, o: run(proc.bus, proc.sim, _config(o), io=proc.io, early=o.early),
     )
+
+
+def _config(o: RadioOptions) -> RadioConfig:
+    return RadioConfig(range_m=o.range_m, max_message_bytes=o.max_message_bytes, max_heard_bytes=o.max_heard_bytes)

@@ -63,11 +63,14 @@ class RadioOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
         range_m: Delivery range, metres.
         max_message_bytes: Longest message, bytes; longer ones are dropped.
         max_heard_bytes: Bytes a robot hears per tick at most.
+        early: Deliver a tick as soon as the collision verdict confirms the world's proposal
+            (false: when the world's state comes; the same messages, later).
     """
 
     range_m: Annotated[float, msgspec.Meta(gt=0)] = 8.0  # RadioConfig's defaults (a test sees they agree)
     max_message_bytes: Annotated[int, msgspec.Meta(gt=0)] = 100
     max_heard_bytes: Annotated[int, msgspec.Meta(gt=0)] = 400
+    early: bool = True
 
 
 class BridgeOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -178,6 +181,13 @@ _RADIO: tuple[Flag, ...] = (
         "max_heard_bytes",
         {"type": int, "metavar": "N"},
         "bytes a robot hears per tick at most (default {default})",
+    ),
+    (
+        "--no-early",
+        "early",
+        {"action": "store_const", "const": False},
+        "do not deliver a tick as soon as the collision verdict confirms the world's proposal, "
+        "wait for the world's state (the same messages, later; to compare)",
     ),
 )
 

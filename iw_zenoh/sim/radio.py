@@ -4,6 +4,9 @@ Defaults follow Ciber-Rato DCOSS: 8 m range, at most 100 bytes a message, at mos
 heard per robot per tick; a message said during tick n is heard in tick n+1 by every robot
 (the speaker included) whose centre is closer than the range, in sender order. What is dropped
 (too long, over a robot's budget, from an unknown robot) is counted in a ``radio-dropped`` event.
+
+Tick n is delivered as soon as the collision verdict confirms the world's proposal (the positions
+it proposed are those it commits: :mod:`iw_zenoh.sim.early`); the state then only checks them.
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ import numpy as np
 
 from iw_zenoh import keys
 from iw_zenoh.messages import (
+    Event,
     EventKind,
     Hear,
     Heard,
@@ -45,6 +49,8 @@ class RadioNode:
         self.cfg = cfg or RadioConfig()
         self._said: dict[int, str] = {}
         self._dropped: dict[str, int] = {}
+        self._early: tuple[WorldState, dict[int, str]] | None = None  # delivered early: where, what
+        self.corrections = 0  # ticks delivered early whose state proved the positions wrong
 
     def on_say(self, msg: Say) -> None:
         """Keeps a robot's latest message of this tick (one per robot, the last wins)."""
@@ -57,6 +63,33 @@ class RadioNode:
         """Delivers what was said since the last state."""
         said, self._said = self._said, {}
         dropped, self._dropped = self._dropped, {}
+        return self._deliver(msg, said, dropped)
+
+    def send_early(self, msg: WorldState) -> list[Outgoing]:
+        """Delivers what was said since the last state, in the state the world will commit
+        (:func:`iw_zenoh.sim.early.state_from_proposal`, when the verdict confirms the proposal),
+        before it commits; what was said is kept until the state says the positions were right."""
+        self._early = (msg, self._said)
+        return self.on_state(msg)
+
+    def check_early(self, msg: WorldState) -> list[Outgoing]:
+        """The committed state of the tick delivered early: nothing when the robots are where they
+        were delivered at (the usual case); otherwise (the world held the tick) the same messages
+        delivered again at the committed positions (their drops already counted)."""
+        sent, said = self._early or (None, {})
+        self._early = None
+        if sent is None or (sent.tick, sent.ids, sent.x, sent.y) == (msg.tick, msg.ids, msg.x, msg.y):
+            return []
+        self.corrections += 1
+        return [(k, m) for k, m in self._deliver(msg, said, {}) if not isinstance(m, Event)]
+
+    @property
+    def early_tick(self) -> int | None:
+        """The tick delivered early whose state has not come yet, or None."""
+        return None if self._early is None else self._early[0].tick
+
+    def _deliver(self, msg: WorldState, said: dict[int, str], dropped: dict[str, int]) -> list[Outgoing]:
+        """What each robot hears of ``said`` at the positions of ``msg``, and what was dropped."""
         index = {rid: i for i, rid in enumerate(msg.ids)}
         xy = np.column_stack([msg.x, msg.y]) if msg.ids else np.zeros((0, 2))
         hear: dict[int, list[Heard]] = {}

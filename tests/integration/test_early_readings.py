@@ -18,8 +18,10 @@ from iw_zenoh.core.lab import Grid, GridPosition, Lab, Scene
 from iw_zenoh.messages import (
     Actions,
     Proposed,
+    RadioBatch,
     RegisterRequest,
     RobotSpecMsg,
+    Say,
     SensorReading,
     Verdict,
     WorldInfo,
@@ -31,7 +33,7 @@ from iw_zenoh.sim.config import MS, WorldConfig
 from iw_zenoh.sim.sensors import SensorsNode
 from iw_zenoh.sim.view import WorldView
 from iw_zenoh.sim.world import WorldCore
-from tests.integration.harness import Net, subscribe, wait_alive
+from tests.integration.harness import Net, subscribe, wait_alive, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(120)]
 
@@ -137,6 +139,27 @@ def test_no_early_waits_for_the_state(net: Net) -> None:
         w.reading(2, timeout_s=2.0)  # nothing comes before the state ...
     w.commit(Verdict(tick=prop.tick, revision=prop.revision, ids=prop.ids, collided=[False]))
     w.reading(2)  # ... and it comes with it
+
+
+def test_the_radio_delivers_a_confirmed_tick_before_its_state_and_again_if_it_was_held(net: Net) -> None:
+    w = _PlayedWorld(net)
+    radio = subscribe(w.bus, keys.radio(net.sim))
+    net.spawn("radio")
+    wait_alive(w.bus, keys.alive(net.sim, "radio", "radio"))
+    w.commit(w.verdict(w.propose(1), collided=False))  # its first state: a tick to follow on from
+    assert wait_msg(radio, RadioBatch, lambda b: b.tick == 1).hear == []
+    w.bus.publish(keys.say(net.sim, 1), encode(Say(robot_id=1, text="hi")))
+    prop = w.propose(2)
+    w.verdict(prop, collided=False)
+    got = wait_msg(radio, RadioBatch)  # before the world committed tick 2
+    assert (got.tick, [[m.text for m in h.messages] for h in got.hear]) == (2, [["hi"]])
+    w.commit(Verdict(tick=prop.tick, revision=prop.revision, ids=prop.ids, collided=[False]))
+    w.bus.publish(keys.say(net.sim, 1), encode(Say(robot_id=1, text="again")))
+    w.verdict(w.propose(3), collided=False)
+    assert wait_msg(radio, RadioBatch).tick == 3
+    w.commit(None)  # held after all: delivered again where the robot is
+    again = wait_msg(radio, RadioBatch)
+    assert (again.tick, [[m.text for m in h.messages] for h in again.hear]) == (3, [["again"]])
 
 
 AGENT = '''

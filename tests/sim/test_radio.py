@@ -1,5 +1,7 @@
 from __future__ import annotations
 
+import msgspec
+
 from iw_zenoh.messages import Event, Hear, RadioBatch, Say, WorldState
 from iw_zenoh.sim.radio import RadioConfig, RadioNode
 
@@ -50,3 +52,23 @@ def test_a_message_is_delivered_once() -> None:
     node.on_say(Say(robot_id=1, text="once"))
     assert _heard(node.on_state(_state([0.0])))[1] == ["once"]
     assert _heard(node.on_state(_state([0.0]))) == {}
+
+
+def test_a_tick_delivered_early_is_checked_by_its_state_and_delivered_again_if_the_world_held_it() -> None:
+    node = RadioNode("s", RadioConfig(range_m=8.0))
+    node.on_say(Say(robot_id=1, text="hi"))
+    proposed = _state([0.0, 7.5])
+    assert _heard(node.send_early(proposed)) == {1: ["hi"], 2: ["hi"]}
+    assert node.early_tick == 1
+    node.on_say(Say(robot_id=2, text="next"))  # said after hearing tick 1: for tick 2
+    assert node.check_early(proposed) == []  # where they were delivered at: nothing more
+    assert node.early_tick is None
+    # tick 2 delivered early at the proposal, but the world held robot 2 beyond the range
+    proposed = msgspec.structs.replace(_state([0.0, 7.5]), tick=2)
+    assert _heard(node.send_early(proposed)) == {1: ["next"], 2: ["next"]}
+    held = msgspec.structs.replace(proposed, x=[0.0, 9.0], held=True)
+    again = node.check_early(held)
+    assert _heard(again) == {2: ["next"]}  # the same message, at the committed positions
+    assert all(isinstance(m, Hear | RadioBatch) for _, m in again)
+    assert node.corrections == 1
+    assert _heard(node.on_state(msgspec.structs.replace(held, tick=3))) == {}  # delivered once: not again
