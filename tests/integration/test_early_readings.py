@@ -9,6 +9,7 @@ import math
 import time
 from pathlib import Path
 
+import msgspec
 import pytest
 
 from iw_zenoh import keys
@@ -33,7 +34,7 @@ from iw_zenoh.sim.config import MS, WorldConfig
 from iw_zenoh.sim.sensors import SensorsNode
 from iw_zenoh.sim.view import WorldView
 from iw_zenoh.sim.world import WorldCore
-from tests.integration.harness import Net, subscribe, wait_alive, wait_msg
+from tests.integration.harness import MAPS, Net, subscribe, wait_alive, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(120)]
 
@@ -231,3 +232,45 @@ def test_a_lockstep_run_into_a_wall_reads_every_committed_pose(tmp_path: Path, n
             assert (x, y) == pytest.approx((st.x[i], st.y[i]), abs=1e-9), f"tick {tick} robot {rid}"
             assert abs(math.remainder(heading - math.degrees(st.heading[i]), 360.0)) < 1e-6, f"tick {tick} robot {rid}"
             assert r.collision == st.collided[i], f"tick {tick} robot {rid}"
+
+
+def _convoy_run(net: Net, *early: str) -> tuple[list[bytes], list[bytes]]:
+    """A 3 s lock-step convoy (a leader and a follower that hears it over the radio): every state
+    and every radio batch, as published (with each tick's wall clock zeroed)."""
+    bus = net.client()
+    states = subscribe(bus, keys.state(net.sim))
+    radio = subscribe(bus, keys.radio(net.sim))
+    world = net.spawn(
+        "world", str(MAPS / "hospital.xml"), "--grid", str(MAPS / "hospital-grid.xml"), "--lockstep",
+        "--expect", "2", "--duration", "3", "--seed", "4",
+    )  # fmt: skip
+    net.spawn("collision")
+    net.spawn("sensors", *early)
+    net.spawn("radio", *early)
+    leader = ("--role", "leader", "--id", "2", "--waypoints", "34,9.5")
+    net.spawn("agent", "convoy", *leader, "--name", "leader", name="leader")
+    net.spawn("agent", "convoy", "--role", "follower", "--id", "1", "--follow", "2", "--name", "f", name="follower")
+    assert world.popen.wait(90) == 0, world.output()
+    out: tuple[list[bytes], list[bytes]] = ([], [])
+    while (d := states.get(timeout_s=0.5)) is not None:
+        out[0].append(encode(msgspec.structs.replace(decode(d[1], WorldState), tick_wall_ns=0)))
+    while (d := radio.get(timeout_s=0.5)) is not None:
+        out[1].append(d[1])
+    return out
+
+
+def test_lockstep_with_a_radio_is_the_same_run_early_or_not(tmp_path: Path) -> None:
+    runs = []
+    for i, early in enumerate(((), ("--no-early",))):
+        n = Net(tmp_path / f"run{i}")
+        n.tmp.mkdir()
+        n.start_router()
+        try:
+            runs.append(_convoy_run(n, *early))
+        finally:
+            n.close()
+    (states, heard), (states2, heard2) = runs
+    assert len(states) == 30
+    assert states == states2
+    assert any(b"P 2 " in h for h in heard)  # the leader said where it is, and the follower heard it
+    assert heard == heard2
