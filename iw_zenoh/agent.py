@@ -334,12 +334,16 @@ class AgentHost:
                         self._take(self.hosted[r.robot_id], r)
 
     def _take(self, h: _Hosted, r: SensorReading) -> None:
-        """Keeps a robot's newest reading and counts the tick's fresh ones."""
+        """Keeps a robot's newest reading and counts the tick's fresh ones; a second reading of a
+        tick not answered yet replaces the first (the sensors' correction of readings they sent
+        before the world held that tick)."""
         self._last_reading = time.monotonic()
         if h.reading is None or r.tick > h.reading.tick:
             h.reading = r
             if r.tick > h.answered:
                 self._fresh[r.tick] = self._fresh.get(r.tick, 0) + 1
+        elif r.tick == h.reading.tick > h.answered:
+            h.reading = r
 
     def _ready(self) -> int | None:
         """The tick to answer now, or None (counts kept by _collect: no scan of every robot)."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import msgspec
 import pytest
 
 from iw_zenoh import keys
@@ -196,3 +197,24 @@ def test_radio_batches_of_ticks_not_answered_are_a_bounded_history() -> None:
     host.readings.put((keys.sensors("t", 1), encode(_reading(5050)), 0))
     assert host.step(timeout_s=0)
     assert _answered(bus) == [5050]
+
+
+def test_a_second_reading_of_a_tick_not_answered_yet_replaces_the_first_and_of_one_answered_is_passed_over() -> None:
+    # the sensors correct readings they sent before the world held the tick: a host still waiting
+    # (lock-step, for its other robots or the radio) acts on the correction, once
+    host, bus = _host(world_tick=50)
+    seen: list[float] = []
+
+    def on_sensors(reading: SensorReading, heard: list[Heard]) -> Command:
+        seen.append(reading.compass_deg)
+        return Command(0.1, 0.1)
+
+    host.hosted[1].agent.on_sensors = on_sensors  # type: ignore[method-assign]
+    key = keys.sensors("t", 1)
+    for compass in (10.0, 20.0):
+        host.readings.put((key, encode(msgspec.structs.replace(_reading(51), compass_deg=compass)), 0))
+    assert host.step(timeout_s=0)
+    host.readings.put((key, encode(msgspec.structs.replace(_reading(51), compass_deg=30.0)), 0))
+    assert not host.step(timeout_s=0)  # answered already: not again
+    assert seen == [20.0]
+    assert _answered(bus) == [51]
