@@ -67,7 +67,7 @@ class _Loop:
     """The sensors' inboxes and what one pass of the loop keeps between passes."""
 
     def __init__(self, io: NodeIO, sim: str, shard: tuple[int, int], *, ahead: bool, early: bool) -> None:
-        self.io, self.sim, self.shard, self.early = io, sim, shard, early
+        self.io, self.sim, self.shard = io, sim, shard
         self.states = io.inbox(keys.state(sim))
         self.proposals = io.inbox(keys.proposed(sim)) if ahead else Inbox()
         self.verdicts = io.inbox(keys.verdict(sim)) if early else Inbox()
