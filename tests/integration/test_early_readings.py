@@ -34,7 +34,7 @@ from iw_zenoh.sim.config import MS, WorldConfig
 from iw_zenoh.sim.sensors import SensorsNode
 from iw_zenoh.sim.view import WorldView
 from iw_zenoh.sim.world import WorldCore
-from tests.integration.harness import MAPS, Net, subscribe, wait_alive, wait_msg
+from tests.integration.harness import MAPS, Net, subscribe, wait_alive, wait_event, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(120)]
 
@@ -240,6 +240,7 @@ def _convoy_run(net: Net, *early: str) -> tuple[list[bytes], list[bytes]]:
     bus = net.client()
     states = subscribe(bus, keys.state(net.sim))
     radio = subscribe(bus, keys.radio(net.sim))
+    events = subscribe(bus, keys.all_events(net.sim))
     world = net.spawn(
         "world", str(MAPS / "hospital.xml"), "--grid", str(MAPS / "hospital-grid.xml"), "--lockstep",
         "--expect", "2", "--duration", "3", "--seed", "4",
@@ -249,6 +250,8 @@ def _convoy_run(net: Net, *early: str) -> tuple[list[bytes], list[bytes]]:
     net.spawn("radio", *early)
     leader = ("--role", "leader", "--id", "2", "--waypoints", "34,9.5")
     net.spawn("agent", "convoy", *leader, "--name", "leader", name="leader")
+    # the leader registers first in both runs: the roster's order (and so the arrays') is the same
+    wait_event(events, "registered", timeout_s=60, pred=lambda e: e.robot_id == 2)
     net.spawn("agent", "convoy", "--role", "follower", "--id", "1", "--follow", "2", "--name", "f", name="follower")
     assert world.popen.wait(90) == 0, world.output()
     out: tuple[list[bytes], list[bytes]] = ([], [])
