@@ -5,8 +5,6 @@ both); the namespaces are removed afterwards whatever happens."""
 from __future__ import annotations
 
 import json
-import os
-import shutil
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -14,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.integration import netns
 from tests.integration.harness import ROOT, Net
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(180)]
@@ -21,33 +20,11 @@ pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(180)]
 LAB = '<Lab Name="open" Width="20" Height="10"/>'
 
 
-def _ip(*args: str) -> None:
-    subprocess.run(["ip", *args], check=True, capture_output=True, timeout=20)
-
-
 @pytest.fixture
 def two_hosts() -> Iterator[tuple[str, str, str]]:
-    """Two namespaces joined by a veth pair: yields (ns_a, ns_b, address of a)."""
-    assert shutil.which("ip"), "iproute2 is needed for the multi-host test (apt-get install iproute2)"
-    assert os.geteuid() == 0, "the multi-host test creates network namespaces and must run as root"
-    tag = f"{os.getpid() % 100000}"
-    a, b = f"iwza{tag}", f"iwzb{tag}"
-    net = 200 + os.getpid() % 50
-    addr_a, addr_b = f"10.231.{net}.1", f"10.231.{net}.2"
-    try:
-        _ip("netns", "add", a)
-        _ip("netns", "add", b)
-        _ip("link", "add", f"va{tag}", "type", "veth", "peer", "name", f"vb{tag}")
-        _ip("link", "set", f"va{tag}", "netns", a)
-        _ip("link", "set", f"vb{tag}", "netns", b)
-        for ns, dev, addr in ((a, f"va{tag}", addr_a), (b, f"vb{tag}", addr_b)):
-            _ip("-n", ns, "addr", "add", f"{addr}/24", "dev", dev)
-            _ip("-n", ns, "link", "set", dev, "up")
-            _ip("-n", ns, "link", "set", "lo", "up")
-        yield a, b, addr_a
-    finally:
-        for ns in (a, b):
-            subprocess.run(["ip", "netns", "del", ns], capture_output=True, timeout=20)
+    """Two namespaces joined by a veth pair: yields (ns_a, ns_b, address of a); always removed."""
+    with netns.two_hosts("z", "10.231.200") as hosts:
+        yield hosts
 
 
 def test_a_run_split_across_two_hosts_completes_as_on_one(two_hosts: tuple[str, str, str], tmp_path: Path) -> None:

@@ -4,9 +4,7 @@ veth pair, private addresses only), all traffic TLS."""
 
 from __future__ import annotations
 
-import os
 import re
-import shutil
 import subprocess
 import sys
 import time
@@ -17,6 +15,7 @@ import pytest
 
 from iw_zenoh.record.reader import RecordingReader
 from iw_zenoh.secure.policy import load_policy
+from tests.integration import netns
 from tests.integration.harness import iwz_run_argv, stop_run
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(300)]
@@ -78,33 +77,11 @@ def test_a_secured_run_reaches_its_verdict_with_an_identity_per_process(tmp_path
     assert {"state", "tick", "actions"} <= kinds  # the recorder, a reader, was sent everything
 
 
-def _ip(*args: str) -> None:
-    subprocess.run(["ip", *args], check=True, capture_output=True, timeout=20)
-
-
 @pytest.fixture
 def two_hosts() -> Iterator[tuple[str, str, str]]:
     """Two namespaces joined by a veth pair: yields (ns_a, ns_b, address of a); always removed."""
-    assert shutil.which("ip"), "iproute2 is needed for the multi-host test (apt-get install iproute2)"
-    assert os.geteuid() == 0, "the multi-host test creates network namespaces and must run as root"
-    tag = f"{os.getpid() % 100000}"
-    a, b = f"iwsa{tag}", f"iwsb{tag}"
-    net = 100 + os.getpid() % 50
-    addr_a, addr_b = f"10.232.{net}.1", f"10.232.{net}.2"
-    try:
-        _ip("netns", "add", a)
-        _ip("netns", "add", b)
-        _ip("link", "add", f"sa{tag}", "type", "veth", "peer", "name", f"sb{tag}")
-        _ip("link", "set", f"sa{tag}", "netns", a)
-        _ip("link", "set", f"sb{tag}", "netns", b)
-        for ns, dev, addr in ((a, f"sa{tag}", addr_a), (b, f"sb{tag}", addr_b)):
-            _ip("-n", ns, "addr", "add", f"{addr}/24", "dev", dev)
-            _ip("-n", ns, "link", "set", dev, "up")
-            _ip("-n", ns, "link", "set", "lo", "up")
-        yield a, b, addr_a
-    finally:
-        for ns in (a, b):
-            subprocess.run(["ip", "netns", "del", ns], capture_output=True, timeout=20)
+    with netns.two_hosts("s", "10.232.100") as hosts:
+        yield hosts
 
 
 def test_a_secured_run_split_across_two_hosts_reaches_its_verdict(
