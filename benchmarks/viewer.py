@@ -35,6 +35,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks import exit_on_sigterm, stop_all  # noqa: E402
+from benchmarks.chromium import CHROMIUM, INSTALL, launch  # noqa: E402
 from iw_zenoh import keys  # noqa: E402
 from iw_zenoh.bus import ZenohBus  # noqa: E402
 from iw_zenoh.messages import LabMsg, RobotSpecMsg, Tick, WorldInfo, WorldState, encode  # noqa: E402
@@ -42,19 +43,6 @@ from iw_zenoh.net import NetConfig, free_port, port_in_use  # noqa: E402
 
 SIM = "viewerbench"
 PERIOD_S = 0.1  # ten ticks a second
-CHROMIUM = "/usr/bin/chromium"
-FLAGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--use-angle=swiftshader",
-    "--enable-unsafe-swiftshader",
-]
 GOAL_FPS, GOAL_P99_MS = 30.0, 100.0
 
 
@@ -170,7 +158,7 @@ def run(fleets: list[int], window_s: float) -> list[dict[str, float]]:
         try:
             endpoint, url = _start(Path(d), procs)
             with ZenohBus(NetConfig(connect=(endpoint,))) as bus, sync_playwright() as p:
-                browser = p.chromium.launch(executable_path=CHROMIUM, args=FLAGS, headless=True)
+                browser = launch(p)
                 try:
                     for n in fleets:
                         world = FakeWorld(bus, n)
@@ -195,8 +183,8 @@ def main() -> int:
     p.add_argument("--quick", action="store_true", help="3 s windows instead of 15 s")
     p.add_argument("--json", action="store_true", help="print JSON")
     args = p.parse_args()
-    if not Path(CHROMIUM).exists():
-        print(f"benchmarks/viewer.py: {CHROMIUM} is missing: apt-get install -y chromium", file=sys.stderr)
+    if not CHROMIUM.exists():
+        print(f"benchmarks/viewer.py: {CHROMIUM} is missing: {INSTALL}", file=sys.stderr)
         return 2
     results = run([100, 1000], 3.0 if args.quick else 15.0)
     if args.json:

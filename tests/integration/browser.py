@@ -7,27 +7,12 @@ import re
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
-from pathlib import Path
 
 import pytest
 from playwright.sync_api import Browser, sync_playwright
 
+from benchmarks.chromium import CHROMIUM, INSTALL, launch
 from tests.integration.harness import Proc
-
-CHROMIUM = Path("/usr/bin/chromium")
-# as the machine's notes say works headless here, plus software WebGL so the 3D view renders
-FLAGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--use-angle=swiftshader",
-    "--enable-unsafe-swiftshader",
-]
 
 
 @contextmanager
@@ -36,10 +21,10 @@ def chromium() -> Iterator[Browser]:
     if not CHROMIUM.exists():
         pytest.fail(
             f"{CHROMIUM} is missing: the viewer's browser tests need Debian's chromium. Install it with "
-            "`apt-get update -q && apt-get install -y -q chromium` (the README's test command does)"
+            f"`{INSTALL}` (the README's test command does)"
         )
     with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=str(CHROMIUM), args=FLAGS, headless=True)
+        browser = launch(p)
         try:
             yield browser
         finally:
