@@ -1,16 +1,18 @@
-"""The cell grid both compiled narrow phases search: square cells over a lab, items binned into
+"""The cell grid the compiled narrow phases search: square cells over a lab, items binned into
 the cells their bounding boxes touch, and the lab's walls indexed in it once per scene.
 
-The proximity cones (:mod:`iw_zenoh.core.cones`) and the collision check
-(:mod:`iw_zenoh.core.contact`) look up candidates here instead of in R-trees; the two
-point-in-polygon tests they both need sit beside the wall index they read. Kernels are compiled
-with numba and cached next to this file (``cache=True``).
+The proximity cones (:mod:`iw_zenoh.core.cones`), the laser scanners (:mod:`iw_zenoh.core.laser`)
+and the collision check (:mod:`iw_zenoh.core.contact`) look up candidates here instead of in
+R-trees; the point-in-polygon tests they need sit beside the wall index they read. The two
+sensor kernels take one :class:`SceneIndex` (walls and this tick's bodies) rather than its
+eighteen arrays each. Kernels are compiled with numba and cached next to this file
+(``cache=True``).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -22,12 +24,15 @@ __all__ = [
     "CELL_M",
     "MAX_CELLS",
     "CellGrid",
+    "SceneIndex",
     "SceneWalls",
     "bin_boxes",
     "cell_range",
     "grid_for",
     "in_convex",
     "in_wall",
+    "in_walls",
+    "scene_index",
     "scene_walls",
 ]
 
@@ -39,9 +44,9 @@ MAX_CELLS = 1 << 20  # a very large lab gets larger cells instead
 _CACHE_KEY = "cell_grid_walls"  # where a scene keeps its wall index
 
 
-@dataclass(frozen=True)
-class CellGrid:
-    """Square cells over a lab (items outside it are binned into its edge cells).
+class CellGrid(NamedTuple):
+    """Square cells over a lab (items outside it are binned into its edge cells); a NamedTuple
+    so that the compiled kernels take it as it is.
 
     Attributes:
         x0: Left edge, metres.
@@ -58,9 +63,9 @@ class CellGrid:
     ny: int
 
 
-@dataclass(frozen=True)
-class SceneWalls:
-    """A scene's walls in its cell grid: edges (segments) and whole walls, each as CSR over cells.
+class SceneWalls(NamedTuple):
+    """A scene's walls in its cell grid: edges (segments) and whole walls, each as CSR over cells
+    (a NamedTuple, as :class:`CellGrid`, for the kernels).
 
     Attributes:
         grid: The cells.
@@ -141,6 +146,45 @@ def scene_walls(scene: Scene) -> SceneWalls:
     return walls
 
 
+class SceneIndex(NamedTuple):
+    """What the sensors' kernels search, in one value numba takes as it is: the scene's walls
+    (built once per scene, :func:`scene_walls`) and the robots' bodies of this tick, binned into
+    the same cells. The proximity cones (:mod:`iw_zenoh.core.cones`) and the laser scanners
+    (:mod:`iw_zenoh.core.laser`) both take it.
+
+    Attributes:
+        walls: The wall index, with its grid.
+        body_xy: (N, K, 2) every body's outline in the world, counter-clockwise.
+        bbox: (N, 4) each body's box ``x0, y0, x1, y1``.
+        b_start: CSR offsets of the bodies touching each cell of ``walls.grid``.
+        b_items: The bodies, cell after cell.
+    """
+
+    walls: SceneWalls
+    body_xy: FloatArray
+    bbox: FloatArray
+    b_start: IntArray
+    b_items: IntArray
+
+
+def scene_index(scene: Scene, body_xy: FloatArray) -> SceneIndex:
+    """The scene's walls (kept per scene) and these bodies, binned into the scene's cells.
+
+    Args:
+        scene: The lab's geometry.
+        body_xy: (N, K, 2) every body's outline in the world, counter-clockwise.
+
+    Returns:
+        The index the sensors' kernels take.
+    """
+    w = scene_walls(scene)
+    g = w.grid
+    body_xy = np.ascontiguousarray(body_xy, dtype=np.float64)
+    bbox = np.concatenate([body_xy.min(axis=1), body_xy.max(axis=1)], axis=1) if len(body_xy) else np.zeros((0, 4))
+    b_start, b_items = bin_boxes(bbox, g.x0, g.y0, g.cell, g.nx, g.ny)
+    return SceneIndex(w, body_xy, bbox, b_start, b_items)
+
+
 @njit(cache=True, nogil=True)
 def cell_range(lo: float, hi: float, origin: float, cell: float, n: int) -> tuple[int, int]:  # pragma: no cover
     """First and last cell (clamped to ``0..n-1``) that the interval ``[lo, hi]`` touches."""
@@ -196,3 +240,22 @@ def in_wall(px: float, py: float, segs: FloatArray, first: int, count: int) -> b
         if (ay > py) != (by > py) and px < ax + (py - ay) * (bx - ax) / (by - ay):
             odd = not odd
     return odd
+
+
+@njit(cache=True, nogil=True)
+def in_walls(w: SceneWalls, px: float, py: float) -> bool:  # pragma: no cover
+    """Whether p is inside any of the scene's walls (a mounting point there sees everything at 0)."""
+    if w.wall_box.shape[0] == 0:
+        return False
+    g = w.grid
+    c0, _ = cell_range(px, px, g.x0, g.cell, g.nx)
+    r0, _ = cell_range(py, py, g.y0, g.cell, g.ny)
+    q = r0 * g.nx + c0
+    box = w.wall_box
+    for j in range(w.wall_start[q], w.wall_start[q + 1]):
+        k = w.wall_items[j]
+        if not (box[k, 0] <= px <= box[k, 2] and box[k, 1] <= py <= box[k, 3]):
+            continue
+        if in_wall(px, py, w.segs, w.wall_first[k], w.wall_count[k]):
+            return True
+    return False

@@ -23,7 +23,7 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from iw_zenoh.core.cellgrid import bin_boxes, cell_range, in_convex, in_wall, scene_walls
+from iw_zenoh.core.cellgrid import SceneIndex, cell_range, in_convex, in_walls, scene_index
 from iw_zenoh.core.lab import Lab, Scene, Wall
 
 __all__ = ["cone_distances", "warm_up"]
@@ -56,11 +56,6 @@ def cone_distances(
         owner: (M,) the body each cone is mounted on (it does not see itself).
         body_xy: (N, K, 2) every body's outline in the world, counter-clockwise.
     """
-    w = scene_walls(scene)
-    g = w.grid
-    body_xy = np.ascontiguousarray(body_xy, dtype=np.float64)
-    bbox = np.concatenate([body_xy.min(axis=1), body_xy.max(axis=1)], axis=1) if len(body_xy) else np.zeros((0, 4))
-    b_start, b_items = bin_boxes(bbox, g.x0, g.y0, g.cell, g.nx, g.ny)
     box = np.ascontiguousarray(np.concatenate([box_lo, box_hi], axis=1), dtype=np.float64)
     return np.asarray(
         _scan(
@@ -70,24 +65,7 @@ def cone_distances(
             np.ascontiguousarray(range_m, dtype=np.float64),
             box,
             np.ascontiguousarray(owner, dtype=np.int64),
-            w.segs,
-            w.seg_box,
-            w.seg_start,
-            w.seg_items,
-            w.wall_first,
-            w.wall_count,
-            w.wall_box,
-            w.wall_start,
-            w.wall_items,
-            body_xy,
-            bbox,
-            b_start,
-            b_items,
-            g.x0,
-            g.y0,
-            g.cell,
-            g.nx,
-            g.ny,
+            scene_index(scene, body_xy),
         ),
         dtype=np.float64,
     )
@@ -138,26 +116,11 @@ def _scan(
     rng: FloatArray,
     box: FloatArray,
     owner: IntArray,
-    segs: FloatArray,
-    seg_box: FloatArray,
-    seg_start: IntArray,
-    seg_items: IntArray,
-    wall_first: IntArray,
-    wall_count: IntArray,
-    wall_box: FloatArray,
-    wall_start: IntArray,
-    wall_items: IntArray,
-    body_xy: FloatArray,
-    bbox: FloatArray,
-    b_start: IntArray,
-    b_items: IntArray,
-    gx0: float,
-    gy0: float,
-    cell: float,
-    nx: int,
-    ny: int,
+    ix: SceneIndex,
 ) -> FloatArray:  # pragma: no cover
     m = ox.shape[0]
+    w, g = ix.walls, ix.walls.grid
+    segs, seg_box, bbox, body_xy = w.segs, w.seg_box, ix.bbox, ix.body_xy
     k = body_xy.shape[1]
     best = np.full(m, np.inf)
     seen_seg = np.full(segs.shape[0], -1, dtype=np.int64)
@@ -167,21 +130,21 @@ def _scan(
         lx, ly, rx, ry = nrm[i, 0], nrm[i, 1], nrm[i, 2], nrm[i, 3]
         x0, y0, x1, y1 = box[i, 0], box[i, 1], box[i, 2], box[i, 3]
         d = math.inf
-        ca, cb = cell_range(x0, x1, gx0, cell, nx)
-        ra, rb = cell_range(y0, y1, gy0, cell, ny)
+        ca, cb = cell_range(x0, x1, g.x0, g.cell, g.nx)
+        ra, rb = cell_range(y0, y1, g.y0, g.cell, g.ny)
         for r in range(ra, rb + 1):
             for c in range(ca, cb + 1):
-                q = r * nx + c
-                for j in range(seg_start[q], seg_start[q + 1]):
-                    s = seg_items[j]
+                q = r * g.nx + c
+                for j in range(w.seg_start[q], w.seg_start[q + 1]):
+                    s = w.seg_items[j]
                     if seen_seg[s] == i:
                         continue
                     seen_seg[s] = i
                     if seg_box[s, 0] > x1 or seg_box[s, 2] < x0 or seg_box[s, 1] > y1 or seg_box[s, 3] < y0:
                         continue
                     d = min(d, _wedge(px, py, lx, ly, rx, ry, segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3]))
-                for j in range(b_start[q], b_start[q + 1]):
-                    b = b_items[j]
+                for j in range(ix.b_start[q], ix.b_start[q + 1]):
+                    b = ix.b_items[j]
                     if b == owner[i] or seen_body[b] == i:
                         continue
                     seen_body[b] = i
@@ -197,18 +160,8 @@ def _scan(
                         # only edges facing the sensor can hold the nearest point of a convex body
                         if (bx - ax) * (py - ay) - (by - ay) * (px - ax) <= 0.0:
                             d = min(d, _wedge(px, py, lx, ly, rx, ry, ax, ay, bx, by))
-        if d > 0.0 and wall_box.shape[0]:
-            # a mounting point inside a wall sees distance 0 (even-odd rule over the wall's edges)
-            c0, _ = cell_range(px, px, gx0, cell, nx)
-            r0, _ = cell_range(py, py, gy0, cell, ny)
-            q = r0 * nx + c0
-            for j in range(wall_start[q], wall_start[q + 1]):
-                w = wall_items[j]
-                if not (wall_box[w, 0] <= px <= wall_box[w, 2] and wall_box[w, 1] <= py <= wall_box[w, 3]):
-                    continue
-                if in_wall(px, py, segs, wall_first[w], wall_count[w]):
-                    d = 0.0
-                    break
+        if d > 0.0 and in_walls(w, px, py):
+            d = 0.0  # a mounting point inside a wall sees distance 0 (even-odd rule over its edges)
         best[i] = d if d <= rng[i] else math.inf
     return best
 

@@ -22,7 +22,7 @@ import numpy.typing as npt
 from numba import njit
 
 from iw_zenoh.core.bodies import Bodies
-from iw_zenoh.core.cellgrid import SceneWalls, bin_boxes, cell_range, in_convex, in_wall, scene_walls
+from iw_zenoh.core.cellgrid import SceneIndex, cell_range, in_convex, in_walls, scene_index
 from iw_zenoh.core.lab import Lab, Scene, Wall
 
 __all__ = ["laser_distances", "laser_ranges", "noisy_ranges", "warm_up"]
@@ -117,11 +117,6 @@ def laser_ranges(
         (sum(beams),) the ranges, scanner after scanner, first beam first; ``inf`` where a beam
         meets nothing within range.
     """
-    w = scene_walls(scene)
-    g = w.grid
-    body_xy = np.ascontiguousarray(body_xy, dtype=np.float64)
-    bbox = np.concatenate([body_xy.min(axis=1), body_xy.max(axis=1)], axis=1) if len(body_xy) else np.zeros((0, 4))
-    b_start, b_items = bin_boxes(bbox, g.x0, g.y0, g.cell, g.nx, g.ny)
     beams = np.ascontiguousarray(beams, dtype=np.int64)
     first = np.concatenate([[0], np.cumsum(beams)]).astype(np.int64)
     return np.asarray(
@@ -133,35 +128,9 @@ def laser_ranges(
             first,
             np.ascontiguousarray(range_m, dtype=np.float64),
             np.ascontiguousarray(owner, dtype=np.int64),
-            *_wall_arrays(w),
-            body_xy,
-            bbox,
-            b_start,
-            b_items,
-            g.x0,
-            g.y0,
-            g.cell,
-            g.nx,
-            g.ny,
+            scene_index(scene, body_xy),
         ),
         dtype=np.float64,
-    )
-
-
-def _wall_arrays(
-    w: SceneWalls,
-) -> tuple[FloatArray, FloatArray, IntArray, IntArray, IntArray, IntArray, FloatArray, IntArray, IntArray]:
-    """The wall index's arrays, in the order the kernel takes them."""
-    return (
-        w.segs,
-        w.seg_box,
-        w.seg_start,
-        w.seg_items,
-        w.wall_first,
-        w.wall_count,
-        w.wall_box,
-        w.wall_start,
-        w.wall_items,
     )
 
 
@@ -241,26 +210,11 @@ def _scan(
     first: IntArray,
     rng: FloatArray,
     owner: IntArray,
-    segs: FloatArray,
-    seg_box: FloatArray,
-    seg_start: IntArray,
-    seg_items: IntArray,
-    wall_first: IntArray,
-    wall_count: IntArray,
-    wall_box: FloatArray,
-    wall_start: IntArray,
-    wall_items: IntArray,
-    body_xy: FloatArray,
-    bbox: FloatArray,
-    b_start: IntArray,
-    b_items: IntArray,
-    gx0: float,
-    gy0: float,
-    cell: float,
-    nx: int,
-    ny: int,
+    ix: SceneIndex,
 ) -> FloatArray:  # pragma: no cover
     ns = ox.shape[0]
+    w, g = ix.walls, ix.walls.grid
+    segs, seg_box, bbox, body_xy = w.segs, w.seg_box, ix.bbox, ix.body_xy
     k = body_xy.shape[1]
     out = np.full(first[ns], np.inf)
     seen_seg = np.full(segs.shape[0], -1, dtype=np.int64)
@@ -278,13 +232,13 @@ def _scan(
             sn[j] = math.sin(start[i] + j * step[i])
         x0, y0, x1, y1 = px - r, py - r, px + r, py + r
         blind = False  # the mounting point is inside something
-        ca, cb = cell_range(x0, x1, gx0, cell, nx)
-        ra, rb = cell_range(y0, y1, gy0, cell, ny)
+        ca, cb = cell_range(x0, x1, g.x0, g.cell, g.nx)
+        ra, rb = cell_range(y0, y1, g.y0, g.cell, g.ny)
         for row in range(ra, rb + 1):
             for c in range(ca, cb + 1):
-                q = row * nx + c
-                for j in range(seg_start[q], seg_start[q + 1]):
-                    s = seg_items[j]
+                q = row * g.nx + c
+                for j in range(w.seg_start[q], w.seg_start[q + 1]):
+                    s = w.seg_items[j]
                     if seen_seg[s] == i:
                         continue
                     seen_seg[s] = i
@@ -294,8 +248,8 @@ def _scan(
                         segs[s, 0] - px, segs[s, 1] - py, segs[s, 2] - px, segs[s, 3] - py,
                         r, start[i], step[i], cs, sn, out, off, nb,
                     )  # fmt: skip
-                for j in range(b_start[q], b_start[q + 1]):
-                    b = b_items[j]
+                for j in range(ix.b_start[q], ix.b_start[q + 1]):
+                    b = ix.b_items[j]
                     if b == owner[i] or seen_body[b] == i:
                         continue
                     seen_body[b] = i
@@ -314,17 +268,8 @@ def _scan(
                         # only edges facing the scanner can hold a convex body's first hit
                         if (bx - ax) * (-ay) - (by - ay) * (-ax) <= 0.0 and (ax != bx or ay != by):
                             _cast(ax, ay, bx, by, r, start[i], step[i], cs, sn, out, off, nb)
-        if not blind and wall_box.shape[0]:
-            c0, _ = cell_range(px, px, gx0, cell, nx)
-            r0, _ = cell_range(py, py, gy0, cell, ny)
-            q = r0 * nx + c0
-            for j in range(wall_start[q], wall_start[q + 1]):
-                w = wall_items[j]
-                if not (wall_box[w, 0] <= px <= wall_box[w, 2] and wall_box[w, 1] <= py <= wall_box[w, 3]):
-                    continue
-                if in_wall(px, py, segs, wall_first[w], wall_count[w]):
-                    blind = True
-                    break
+        if not blind and in_walls(w, px, py):
+            blind = True
         for j in range(off, off + nb):
             if blind:
                 out[j] = 0.0
