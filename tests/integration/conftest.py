@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from tests.integration.harness import Net
+from tests.integration.legacy import LegacyClient
 
 
 @pytest.fixture
@@ -19,3 +20,12 @@ def net(tmp_path: Path) -> Iterator[Net]:
         yield n
     finally:
         n.close()
+
+
+@pytest.fixture
+def clients() -> Iterator[list[LegacyClient]]:
+    """Legacy clients of a test, closed after it."""
+    made: list[LegacyClient] = []
+    yield made
+    for c in made:
+        c.close()

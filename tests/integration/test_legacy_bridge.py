@@ -5,7 +5,7 @@ from __future__ import annotations
 import socket
 import subprocess
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 
 import msgspec
@@ -41,15 +41,6 @@ from tests.integration.harness import (
 from tests.integration.legacy import LegacyClient, ciberrato_world, udp_port
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(150)]
-
-
-@pytest.fixture
-def clients() -> Iterator[list[LegacyClient]]:
-    """Legacy clients of a test, closed after it."""
-    made: list[LegacyClient] = []
-    yield made
-    for c in made:
-        c.close()
 
 
 def _c1_params(net: Net, old: str, new: str) -> Path:

@@ -13,7 +13,6 @@ import socket
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -161,15 +160,6 @@ def test_a_bridge_whose_port_is_taken_refuses_to_start_and_says_who_has_it() -> 
     assert f"UDP 127.0.0.1:{port}" in out
     assert f"taken by pid {os.getpid()} " in out  # this test's process, and its command line
     assert "pytest" in out
-
-
-@pytest.fixture
-def clients() -> Iterator[list[LegacyClient]]:
-    """Legacy clients of a test, closed after it."""
-    made: list[LegacyClient] = []
-    yield made
-    for c in made:
-        c.close()
 
 
 def test_thousands_of_viewer_registrations_leave_no_sockets_behind(net: Net, clients: list[LegacyClient]) -> None:

@@ -4,8 +4,6 @@ is :mod:`benchmarks.parity`, which ``benchmarks/c1_held.py`` runs in real time).
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import pytest
 
 from benchmarks.parity import PARAMS, ROBOT, LegacyClient, displaced, drive, first_difference, real_rows
@@ -13,15 +11,6 @@ from tests.integration.harness import Net
 from tests.integration.legacy import ciberrato_world
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
-
-
-@pytest.fixture
-def clients() -> Iterator[list[LegacyClient]]:
-    """Legacy clients of a test, closed after it."""
-    made: list[LegacyClient] = []
-    yield made
-    for c in made:
-        c.close()
 
 
 def test_a_scripted_legacy_robot_senses_exactly_what_the_legacy_simulator_gave(

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import os
 import signal
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -21,15 +20,6 @@ pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(150)]
 
 PARAMS_GPS = ('GPS="Off"', 'GPS="On"')
 EAST = b'<Actions LeftMotor="0.1" RightMotor="0.1"/>'
-
-
-@pytest.fixture
-def clients() -> Iterator[list[LegacyClient]]:
-    """Legacy clients of a test, closed after it."""
-    made: list[LegacyClient] = []
-    yield made
-    for c in made:
-        c.close()
 
 
 def _gps_params(net: Net) -> Path:

@@ -7,7 +7,6 @@ mode, registering before and after the world starts: tests/bridges/test_bridge_s
 from __future__ import annotations
 
 import subprocess
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -23,15 +22,6 @@ from tests.integration.legacy import LegacyClient, ciberrato_world, measures_of,
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
 
 EAST = b'<Actions LeftMotor="0.1" RightMotor="0.1"/>'
-
-
-@pytest.fixture
-def clients() -> Iterator[list[LegacyClient]]:
-    """Legacy clients of a test, closed after it."""
-    made: list[LegacyClient] = []
-    yield made
-    for c in made:
-        c.close()
 
 
 def _viewer(port: int, clients: list[LegacyClient]) -> LegacyClient:
