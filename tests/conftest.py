@@ -26,6 +26,21 @@ def box_wall(x0: float, y0: float, x1: float, y1: float, height_m: float = 4.0) 
     return Wall(((x0, y0), (x1, y0), (x1, y1), (x0, y1)), height_m)
 
 
+def random_scene(g: np.random.Generator) -> Scene:
+    """A 10 x 10 m lab with up to five random box walls (the sensors' tests against shapely)."""
+    walls = []
+    for _ in range(g.integers(0, 6)):
+        x, y = g.uniform(0.5, 8.5, 2)
+        w, h = g.uniform(0.05, 2.0, 2)
+        walls.append(box_wall(x, y, min(x + w, 9.9), min(y + h, 9.9)))
+    return Scene(Lab("random", 10.0, 10.0, tuple(walls)))
+
+
+def random_poses(g: np.random.Generator, n: int) -> np.ndarray:
+    """(n, 3) poses anywhere in :func:`random_scene`'s lab, facing anywhere."""
+    return np.column_stack([g.uniform(0.5, 9.5, n), g.uniform(0.5, 9.5, n), g.uniform(-np.pi, np.pi, n)])
+
+
 DEAD_END = Lab(
     "dead end",
     6.0,

@@ -14,7 +14,7 @@ from iw_zenoh.core.laser import laser_distances
 from iw_zenoh.core.sensors import noise_bank, read_sensors
 from iw_zenoh.core.spec import LaserSpec, NoiseSpec, RobotSpec, SensorNoise
 from iw_zenoh.errors import SpecError
-from tests.conftest import box_wall
+from tests.conftest import box_wall, random_poses, random_scene
 
 
 def reference_ranges(scene: Scene, bodies: Bodies, pose: np.ndarray) -> np.ndarray:
@@ -46,12 +46,7 @@ def reference_ranges(scene: Scene, bodies: Bodies, pose: np.ndarray) -> np.ndarr
 
 def _random_world(seed: int) -> tuple[Scene, Bodies, np.ndarray]:
     g = np.random.default_rng(seed)
-    walls = []
-    for _ in range(g.integers(0, 6)):
-        x, y = g.uniform(0.5, 8.5, 2)
-        w, h = g.uniform(0.05, 2.0, 2)
-        walls.append(box_wall(x, y, min(x + w, 9.9), min(y + h, 9.9)))
-    scene = Scene(Lab("random", 10.0, 10.0, tuple(walls)))
+    scene = random_scene(g)
     n = int(g.integers(1, 5))
     specs = []
     for i in range(n):
@@ -68,8 +63,7 @@ def _random_world(seed: int) -> tuple[Scene, Bodies, np.ndarray]:
             for k in range(int(g.integers(0, 3)))
         )
         specs.append(_chair(i, g, lasers))
-    pose = np.column_stack([g.uniform(0.5, 9.5, n), g.uniform(0.5, 9.5, n), g.uniform(-math.pi, math.pi, n)])
-    return scene, Bodies.from_specs(specs), pose
+    return scene, Bodies.from_specs(specs), random_poses(g, n)
 
 
 def _chair(i: int, g: np.random.Generator, lasers: tuple[LaserSpec, ...]) -> RobotSpec:

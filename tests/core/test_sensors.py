@@ -13,7 +13,7 @@ from iw_zenoh.core.lab import Beacon, Lab, Scene, Target, Wall
 from iw_zenoh.core.noise import NoiseBank, NoiseStreams, Stream, rng_for
 from iw_zenoh.core.sensors import legacy_ir_value, noise_bank, proximity_distances, read_sensors
 from iw_zenoh.core.spec import BumperSpec, IrSensorSpec, NoiseSpec, RobotSpec, SensorNoise
-from tests.conftest import box_wall
+from tests.conftest import box_wall, random_poses, random_scene
 
 ARC_POINTS = 512
 
@@ -48,12 +48,7 @@ def reference_distances(scene: Scene, bodies: Bodies, pose: np.ndarray) -> np.nd
 
 def _random_world(seed: int) -> tuple[Scene, Bodies, np.ndarray]:
     g = np.random.default_rng(seed)
-    walls = []
-    for _ in range(g.integers(0, 6)):
-        x, y = g.uniform(0.5, 8.5, 2)
-        w, h = g.uniform(0.05, 2.0, 2)
-        walls.append(box_wall(x, y, min(x + w, 9.9), min(y + h, 9.9)))
-    scene = Scene(Lab("random", 10.0, 10.0, tuple(walls)))
+    scene = random_scene(g)
     n = int(g.integers(1, 5))
     specs = []
     for i in range(n):
@@ -78,8 +73,7 @@ def _random_world(seed: int) -> tuple[Scene, Bodies, np.ndarray]:
                 ir_sensors=sensors,
             )
         )
-    pose = np.column_stack([g.uniform(0.5, 9.5, n), g.uniform(0.5, 9.5, n), g.uniform(-math.pi, math.pi, n)])
-    return scene, Bodies.from_specs(specs), pose
+    return scene, Bodies.from_specs(specs), random_poses(g, n)
 
 
 @settings(max_examples=60)
