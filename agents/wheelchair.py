@@ -32,12 +32,12 @@ import time
 from dataclasses import dataclass, replace
 
 from iw_zenoh.agent import Command
-from iw_zenoh.core.lab import Lab, Wall
+from iw_zenoh.core.lab import Lab
 from iw_zenoh.core.motor import MAX_POWER
 from iw_zenoh.core.spec import RobotSpec, RobotType, SensorNoise
 from iw_zenoh.maps import load_lab
 from iw_zenoh.messages import ChairReading, Heard, SensorReading
-from iw_zenoh.places import point_arg, pose_arg
+from iw_zenoh.places import parse_boxes, point_arg, pose_arg
 from iw_zenoh.specfile import spec_with_args
 
 from .autopilot import Autopilot, mapping_chair
@@ -205,14 +205,6 @@ class Wheelchair:
         return Command(left, right, say=say)  # on a serial link the bridge reports the pose
 
 
-def _boxes(text: str) -> tuple[Wall, ...]:
-    walls = []
-    for part in filter(None, (p.strip() for p in text.split(";"))):
-        x0, y0, x1, y1 = (float(v) for v in part.split(","))
-        walls.append(Wall(((x0, y0), (x1, y0), (x1, y1), (x0, y1)), 1.0))
-    return tuple(walls)
-
-
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Options of ``iwz agent wheelchair``."""
     p.add_argument("--map", required=True, help="the map the chair knows (Lab XML); obstacles not in it are found")
@@ -273,7 +265,7 @@ def make(args: argparse.Namespace) -> list[Wheelchair]:
         hardware = SerialChair((x, y, d))
         spec = replace(spec, type=RobotType.REAL, noise=SensorNoise())
     elif args.chair != "simulated":
-        hardware = EmulatedChair(spec, known.with_walls(_boxes(args.room)), seed=args.seed)
+        hardware = EmulatedChair(spec, known.with_walls(parse_boxes(args.room)), seed=args.seed)
         spec = replace(spec, type=RobotType.REAL, noise=SensorNoise())
     teleop = terminal_teleop(limit=args.limit, stale_s=args.stale) if args.teleop else None
     goal = args.goal

@@ -1,6 +1,6 @@
 """Places as agent programs take them on their command lines: a pose (``--start``, ``--at``), a
-point (``--goal``), a list of points (``--waypoints``), read by one parser so every program's
-errors read alike.
+point (``--goal``), a list of points (``--waypoints``), boxes of a room (``--room``), read by one
+parser so every program's errors read alike.
 
 The ``*_arg`` functions are argparse ``type=`` converters: a bad value ends the program with
 ``iwz agent PROGRAM: error: argument --start: a pose is x,y,dir_deg ... got '1,2'`` (exit 2).
@@ -11,9 +11,14 @@ from __future__ import annotations
 import argparse
 import math
 from collections.abc import Callable
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
+
+if TYPE_CHECKING:
+    from iw_zenoh.core.lab import Wall
 
 __all__ = [
+    "BOX_HEIGHT_M",
+    "parse_boxes",
     "parse_point",
     "parse_points",
     "parse_pose",
@@ -27,6 +32,8 @@ T = TypeVar("T")
 POSE_FORM = "a pose is x,y,dir_deg in metres and degrees, e.g. 1.5,3,0"
 POINT_FORM = "a point is x,y in metres, e.g. 10.5,3"
 POINTS_FORM = "waypoints are x,y;x,y;... in metres, e.g. 16,5.55;21.5,6.5"
+BOXES_FORM = "boxes are x0,y0,x1,y1;... in metres (opposite corners), e.g. 4,2,5,4;8,1,9,2"
+BOX_HEIGHT_M = 1.0  # a box read from a command line is a wall this high
 
 
 def _read(text: str, count: int) -> tuple[tuple[float, ...], str]:
@@ -108,6 +115,31 @@ def parse_points(text: str) -> list[tuple[float, float]]:
             raise ValueError(f"{POINTS_FORM}; got {text!r} (point {i + 1}, {part.strip()!r}: {why})")
         out.append((values[0], values[1]))
     return out
+
+
+def parse_boxes(text: str) -> tuple[Wall, ...]:
+    """Reads ``x0,y0,x1,y1;...``, axis-aligned boxes, as walls :data:`BOX_HEIGHT_M` high (none
+    for an empty text; empty parts between ``;`` are skipped).
+
+    Args:
+        text: The boxes as written.
+
+    Returns:
+        One wall a box, counter-clockwise from ``(x0, y0)`` when ``x0 < x1`` and ``y0 < y1``.
+
+    Raises:
+        ValueError: Saying the form, and which box is wrong.
+    """
+    from iw_zenoh.core.lab import Wall  # here: light agents import this module, and lab loads shapely
+
+    out = []
+    for i, part in enumerate(p for p in text.split(";") if p.strip()):
+        values, why = _read(part, 4)
+        if why:
+            raise ValueError(f"{BOXES_FORM}; got {text!r} (box {i + 1}, {part.strip()!r}: {why})")
+        x0, y0, x1, y1 = values
+        out.append(Wall(((x0, y0), (x1, y0), (x1, y1), (x0, y1)), BOX_HEIGHT_M))
+    return tuple(out)
 
 
 def _as_arg(parse: Callable[[str], T]) -> Callable[[str], T]:

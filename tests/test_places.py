@@ -8,13 +8,34 @@ import importlib
 
 import pytest
 
-from iw_zenoh.places import POINT_FORM, POINTS_FORM, POSE_FORM, parse_point, parse_points, parse_pose
+from iw_zenoh.core.lab import Wall
+from iw_zenoh.places import (
+    BOXES_FORM,
+    POINT_FORM,
+    POINTS_FORM,
+    POSE_FORM,
+    parse_boxes,
+    parse_point,
+    parse_points,
+    parse_pose,
+)
 
 
 def test_a_pose_a_point_and_waypoints_are_read() -> None:
     assert parse_pose(" 1.5, 3,-90") == (1.5, 3.0, -90.0)
     assert parse_point("10.5,3") == (10.5, 3.0)
     assert parse_points("16,5.55;;21.5,6.5;") == [(16.0, 5.55), (21.5, 6.5)]
+
+
+def test_boxes_are_read_as_one_metre_walls_and_a_bad_one_is_named() -> None:
+    assert parse_boxes("") == ()
+    assert parse_boxes("4,2,5,4;; 8,1,9,2") == (
+        Wall(((4.0, 2.0), (5.0, 2.0), (5.0, 4.0), (4.0, 4.0)), 1.0),
+        Wall(((8.0, 1.0), (9.0, 1.0), (9.0, 2.0), (8.0, 2.0)), 1.0),
+    )
+    with pytest.raises(ValueError, match="box 2, '8,1,9': 3 numbers") as e:
+        parse_boxes("4,2,5,4;8,1,9")
+    assert str(e.value).startswith(BOXES_FORM)
 
 
 @pytest.mark.parametrize(

@@ -25,9 +25,10 @@ from typing import TextIO
 
 import numpy as np
 
-from iw_zenoh.core.lab import Lab, Wall
+from iw_zenoh.core.lab import Lab
 from iw_zenoh.errors import IwError
 from iw_zenoh.maps import load_lab
+from iw_zenoh.places import parse_boxes
 from iw_zenoh.runtime import install_stop_signals, setup_logging
 
 from .board import WATCHDOG_S, Board, chair_spec
@@ -164,14 +165,6 @@ class Emulator:
                 self.line.close()
 
 
-def _boxes(text: str) -> tuple[Wall, ...]:
-    walls = []
-    for part in filter(None, (p.strip() for p in text.split(";"))):
-        x0, y0, x1, y1 = (float(v) for v in part.split(","))
-        walls.append(Wall(((x0, y0), (x1, y0), (x1, y1), (x0, y1)), 1.0))
-    return tuple(walls)
-
-
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="iwz chair emulate", description=(__doc__ or "").strip().splitlines()[0])
     where = p.add_mutually_exclusive_group()
@@ -209,7 +202,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         x, y, d = (float(v) for v in a.start.split(","))
         room = load_lab(a.map) if a.map else None
-        lab = (room or Lab(width_m=30.0, height_m=15.0)).with_walls(_boxes(a.room))
+        lab = (room or Lab(width_m=30.0, height_m=15.0)).with_walls(parse_boxes(a.room))
         board = Board(chair_spec("chair", path=a.spec, start=(x, y, d)), lab, seed=a.seed, dt_s=a.period_ms / 1000)
     except (IwError, ValueError, OSError) as e:
         print(f"iwz chair emulate: {e}")
