@@ -23,46 +23,17 @@ from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.collision import check_collisions
 from iw_zenoh.core.lab import Lab, Scene
 from iw_zenoh.core.noise import Stream, rng_for
+from iw_zenoh.core.odometry import WheelOdometry
 from iw_zenoh.core.sensors import noise_layout, read_sensors
 from iw_zenoh.core.spec import NoiseSpec, RobotSpec, RobotType
 from iw_zenoh.core.world import WorldState, commit, initial_state, propose
 from iw_zenoh.messages import SensorReading
 
-__all__ = ["EmulatedChair", "LocalWorld", "Odometry"]
+__all__ = ["EmulatedChair", "LocalWorld"]
 
 logger = logging.getLogger(__name__)
 
 EMULATED_SLIP = NoiseSpec(0.0, 0.005)  # a decent encoder: 0.5 % slip per tick, odometry drifts slowly
-
-
-class Odometry:
-    """Dead reckoning from wheel encoder counts (differential drive).
-
-    Args:
-        pose: Start (x, y, heading deg).
-        wheel_base_m: Distance between the wheels (the spec's Height).
-        ticks_per_m: Encoder ticks per metre.
-    """
-
-    def __init__(self, pose: tuple[float, float, float], wheel_base_m: float, ticks_per_m: float) -> None:
-        self.x, self.y = pose[0], pose[1]
-        self.th = math.radians(pose[2])
-        self.base = wheel_base_m
-        self.per_m = ticks_per_m
-        self._last = (0, 0)  # encoders count from zero at the start pose
-
-    def update(self, encoders: tuple[int, int]) -> tuple[float, float, float]:
-        """Advances by the counts since the last call; returns (x, y, heading deg)."""
-        dl = (encoders[0] - self._last[0]) / self.per_m
-        dr = (encoders[1] - self._last[1]) / self.per_m
-        d = 0.5 * (dl + dr)
-        dth = (dr - dl) / self.base
-        mid = self.th + 0.5 * dth
-        self.x += d * math.cos(mid)
-        self.y += d * math.sin(mid)
-        self.th = math.remainder(self.th + dth, 2 * math.pi)
-        self._last = encoders
-        return self.x, self.y, math.degrees(self.th)
 
 
 class LocalWorld:
@@ -149,8 +120,11 @@ class EmulatedChair:
         noise = replace(spec.noise, encoder_slip=EMULATED_SLIP)
         self.spec = replace(spec, id=1, type=RobotType.SIMULATED, noise=noise)
         self.world = LocalWorld(room, [self.spec], seed=seed)
-        self.odometry = Odometry(
-            (spec.x_m or 0.0, spec.y_m or 0.0, spec.dir_deg or 0.0), spec.height_m, spec.encoder.ticks_per_m
+        self.odometry = WheelOdometry(
+            (spec.x_m or 0.0, spec.y_m or 0.0, spec.dir_deg or 0.0),
+            spec.height_m,
+            spec.encoder.ticks_per_m,
+            counts=(0, 0),  # the emulated encoders count from zero at the start pose
         )
         self.pose = (spec.x_m or 0.0, spec.y_m or 0.0, spec.dir_deg or 0.0)
         self.reading = self.world.step({})[1]

@@ -16,6 +16,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from iw_zenoh.core.odometry import WheelOdometry
+
 from .protocol import (
     FLAG_ESTOP,
     FLAG_ESTOP_BOARD,
@@ -34,49 +36,6 @@ __all__ = ["LINK_TIMEOUT_S", "STALE_S", "BridgeCore", "Snapshot", "WheelOdometry
 
 STALE_S = 0.2  # no fresh action for this long: command zero
 LINK_TIMEOUT_S = 0.3  # no good Status for this long: the link is down (the board sends every 50 ms)
-
-
-class WheelOdometry:
-    """Dead reckoning from wrapping int32 encoder counts (differential drive).
-
-    Args:
-        pose: Start (x m, y m, heading deg).
-        wheel_base_m: Distance between the wheels.
-        ticks_per_m: Encoder ticks per metre.
-    """
-
-    def __init__(self, pose: tuple[float, float, float], wheel_base_m: float, ticks_per_m: float) -> None:
-        self.x, self.y = pose[0], pose[1]
-        self.th = math.radians(pose[2])
-        self.base = wheel_base_m
-        self.per_m = ticks_per_m
-        self._last: tuple[int, int] | None = None
-
-    def forget(self) -> None:
-        """The next counts are a new baseline (the link was down, the board may have restarted)."""
-        self._last = None
-
-    def update(self, counts: tuple[int, int]) -> tuple[float, float, float]:
-        """Advances by the counts since the last call; returns (x, y, heading deg)."""
-        if self._last is not None:
-            dl = _wrap(counts[0] - self._last[0]) / self.per_m
-            dr = _wrap(counts[1] - self._last[1]) / self.per_m
-            d, dth = 0.5 * (dl + dr), (dr - dl) / self.base
-            mid = self.th + 0.5 * dth
-            self.x += d * math.cos(mid)
-            self.y += d * math.sin(mid)
-            self.th = math.remainder(self.th + dth, 2 * math.pi)
-        self._last = counts
-        return self.pose
-
-    @property
-    def pose(self) -> tuple[float, float, float]:
-        """(x, y, heading deg)."""
-        return self.x, self.y, math.degrees(self.th)
-
-
-def _wrap(d: int) -> int:
-    return (d + 2**31) % 2**32 - 2**31
 
 
 @dataclass(frozen=True)

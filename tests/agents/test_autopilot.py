@@ -7,10 +7,11 @@ import math
 import pytest
 import shapely
 from iw_zenoh.agents.autopilot import Autopilot, Drive, mapping_chair
-from iw_zenoh.agents.emulated import LocalWorld, Odometry
+from iw_zenoh.agents.emulated import LocalWorld
 
 from iw_zenoh.core.lab import Lab
 from iw_zenoh.core.motor import MAX_POWER
+from iw_zenoh.core.odometry import WheelOdometry
 from iw_zenoh.core.poseplan import Footprint, PoseSpace, occupancy
 from iw_zenoh.core.spec import SensorNoise
 from tests.conftest import DEAD_END, box_wall
@@ -73,7 +74,7 @@ def test_odometry_follows_the_encoders_and_drifts_only_when_wheels_slip(slip: fl
     noise = replace(SensorNoise(), encoder_slip=NoiseSpec(0.0, slip, enabled=slip > 0))
     spec = mapping_chair("c", id=1, x_m=1.0, y_m=3.0, dir_deg=0.0, noise=noise)
     world = LocalWorld(KNOWN, [spec], seed=4)
-    odo = Odometry((1.0, 3.0, 0.0), spec.height_m, spec.encoder.ticks_per_m)
+    odo = WheelOdometry((1.0, 3.0, 0.0), spec.height_m, spec.encoder.ticks_per_m, counts=(0, 0))
     for _ in range(100):
         r = world.step({1: (0.08, 0.1)})[1]  # a gentle left arc
         est = odo.update(r.encoders)
