@@ -7,6 +7,8 @@ import collections
 import os
 from collections.abc import Callable
 
+from iw_zenoh.bridges.ciberrato.node import Bridge
+
 from iw_zenoh.bus import Asked, Delivery, Handle, Inbox, QueryInbox
 
 Peer = tuple[str, int]
@@ -139,3 +141,6 @@ class Transports:
         t = FakeTransport()
         self.made.append(t)
         return t
+
+
+Rig = tuple[Bridge, FakeBus, FakeTransport, Transports]  # what the rig fixture (conftest.py) yields

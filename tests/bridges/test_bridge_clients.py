@@ -3,29 +3,16 @@ address and interval, bounded viewers, sockets closed when their client is gone.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import pytest
 from iw_zenoh.bridges.ciberrato import clients
 from iw_zenoh.bridges.ciberrato.guard import RECEPTION_PER_S
 from iw_zenoh.bridges.ciberrato.node import Bridge
 
 from iw_zenoh import keys
-from iw_zenoh.messages import Event, RegisterReply, RobotSpecMsg, WorldState, decode, encode
-from tests.bridges.fakes import FakeBus, FakeTransport, Transports
+from iw_zenoh.messages import Event, WorldState, decode, encode
+from tests.bridges.fakes import FakeBus, FakeTransport, Rig
 
 PEER = ("127.0.0.1", 40001)
-Rig = tuple[Bridge, FakeBus, FakeTransport, Transports]
-
-
-@pytest.fixture
-def rig() -> Iterator[Rig]:
-    bus, reception, made = FakeBus(), FakeTransport(), Transports()
-    accept = RegisterReply(ok=True, robot_id=7, spec=RobotSpecMsg(name="bot1", id=7, x=1.0, y=2.0))
-    bus.answer = lambda key, payload: [encode(accept)]
-    bridge = Bridge(bus, "s", reception, new_transport=made, pace=False)
-    yield bridge, bus, reception, made
-    bridge.close()
 
 
 def _refusals(bus: FakeBus) -> list[Event]:

@@ -3,9 +3,6 @@ in, refusals (the same over real UDP: tests/integration/test_legacy_bridge.py)."
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
-import pytest
 from iw_zenoh.bridges.ciberrato.node import Bridge
 
 from iw_zenoh import keys
@@ -22,21 +19,10 @@ from iw_zenoh.messages import (
     encode,
 )
 from tests.bridges.captures import read
-from tests.bridges.fakes import FakeBus, FakeTransport, Transports
+from tests.bridges.fakes import FakeBus, FakeTransport, Rig, Transports
 
 PEER = ("127.0.0.1", 40001)
-Rig = tuple[Bridge, FakeBus, FakeTransport, Transports]
 REFUSAL = next(g.data for g in read("nbots_refused_C1.txt") if g.data.startswith(b'<Reply Status="Refused"'))
-
-
-@pytest.fixture
-def rig() -> Iterator[Rig]:
-    bus, reception, made = FakeBus(), FakeTransport(), Transports()
-    accept = RegisterReply(ok=True, robot_id=7, spec=RobotSpecMsg(name="bot1", id=7, x=1.0, y=2.0))
-    bus.answer = lambda key, payload: [encode(accept)]
-    bridge = Bridge(bus, "s", reception, new_transport=made, pace=False)
-    yield bridge, bus, reception, made
-    bridge.close()
 
 
 def _events(bus: FakeBus, kind: str) -> list[Event]:
