@@ -45,7 +45,7 @@ from iw_zenoh import keys  # noqa: E402
 from iw_zenoh.bus import Inbox, ZenohBus  # noqa: E402
 from iw_zenoh.core.geometry import wrap_deg  # noqa: E402
 from iw_zenoh.messages import WorldState, decode  # noqa: E402
-from iw_zenoh.net import NetConfig, port_in_use  # noqa: E402
+from iw_zenoh.net import NetConfig  # noqa: E402
 
 TARGETS = {"agent_mb": 60.0, "all_roles_100_agents_mb": 6000.0, "start_s": 1.0, "soak_growth_pct": 5.0}
 SIM = "bench"  # the scale benchmark's simulation name
@@ -77,12 +77,7 @@ def by_role(run: Run) -> dict[str, list[int]]:
 
 def start_roles(run: Run, *, lockstep: bool, expect: int) -> subprocess.Popen[bytes]:
     """The router, world, collision and one sensors node of ``run``; returns the world."""
-    run.spawn("router", "router", client=False)
-    deadline = time.monotonic() + 30
-    while not port_in_use(run.port):
-        if time.monotonic() > deadline:
-            raise RuntimeError("the router did not start")
-        time.sleep(0.05)
+    run.start_router(30.0)
     world = ["world", str(run.lab), "--grid", str(run.grid), "--expect", str(expect)]
     if lockstep:
         world += ["--lockstep", "--lockstep-timeout-ms", "10000"]

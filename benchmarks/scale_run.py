@@ -109,6 +109,15 @@ class Run:
             out[role] = out.get(role, 0.0) + (int(fields[11]) + int(fields[12])) / tick
         return out
 
+    def start_router(self, timeout_s: float = 20.0) -> None:
+        """Starts the router and waits until its port takes connections."""
+        self.spawn("router", "router", client=False)
+        deadline = time.monotonic() + timeout_s
+        while not port_in_use(self.port):
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"the router did not start within {timeout_s:g} s; see {self.tmp / 'router.log'}")
+            time.sleep(0.05)  # polling the port: the router tells nothing when it listens
+
     def start(
         self,
         *,
@@ -122,12 +131,7 @@ class Run:
         per = [chairs // hosts + (1 if i < chairs % hosts else 0) for i in range(hosts)]
         if self.ids is not None:
             self.identities(shards, per)
-        self.spawn("router", "router", client=False)
-        deadline = time.monotonic() + 20
-        while not port_in_use(self.port):
-            if time.monotonic() > deadline:
-                raise RuntimeError("router did not start")
-            time.sleep(0.05)
+        self.start_router()
         world_args = [
             "world",
             str(self.lab),
