@@ -15,23 +15,24 @@ from iw_zenoh.messages.world import Obstacle
 # --- control and events -----------------------------------------------------------------------
 
 
+# the world's controls a viewer's page may send as they are (PageCommand), as well as iwz ctl
+WorldCommand = Literal[
+    "start",
+    "pause",
+    "step",
+    "stop",
+    "remove",
+    "add_obstacle",
+    "move_obstacle",
+    "remove_obstacle",
+]
+
+
 class Control(Message, frozen=True, kw_only=True):
     """A command to the world."""
 
     schema: ClassVar[str] = "iw.Control/1"
-    command: Literal[
-        "start",
-        "pause",
-        "step",
-        "stop",
-        "remove",
-        "add_obstacle",
-        "move_obstacle",
-        "remove_obstacle",
-        "seek",
-        "estop",
-        "clear",
-    ]
+    command: Literal[WorldCommand, "seek", "estop", "clear"]
     robot_id: RobotId = 0
     obstacle: Obstacle | None = None
     steps: Annotated[int, msgspec.Meta(ge=1, le=INT64_MAX)] = 1

@@ -15,6 +15,7 @@ from typing import Annotated, Any, Literal
 
 import msgspec
 
+from iw_zenoh.messages.events import WorldCommand
 from iw_zenoh.messages.world import Obstacle
 
 __all__ = [
@@ -234,19 +235,7 @@ class PageCommand(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_on
     """What the page asks: a world control (``start`` ... ``remove_obstacle``), a robot's
     ``reading``, or, in a replay, ``seek`` (``at_ns``) and ``rate``."""
 
-    cmd: Literal[
-        "start",
-        "pause",
-        "step",
-        "stop",
-        "remove",
-        "add_obstacle",
-        "move_obstacle",
-        "remove_obstacle",
-        "reading",
-        "seek",
-        "rate",
-    ]
+    cmd: Literal[WorldCommand, "reading", "seek", "rate"]
     robot_id: Annotated[int, msgspec.Meta(ge=0)] = 0
     obstacle: Obstacle | None = None
     steps: Annotated[int, msgspec.Meta(ge=1, le=10_000)] = 1
