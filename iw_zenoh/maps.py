@@ -10,6 +10,7 @@ element and the reason; nothing is guessed.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import fields
 from pathlib import Path
 
@@ -92,6 +93,17 @@ def _element_name(el: etree._Element) -> str | None:
     return el.tag if isinstance(el.tag, str) else None
 
 
+def _only(parent: etree._Element, tag: str, source: str) -> Iterator[etree._Element]:
+    """``parent``'s elements (comments skipped), each a ``<tag>``, or a MapError at the first that is not."""
+    for el in parent:
+        name = _element_name(el)
+        if name is None:
+            continue
+        if name != tag:
+            raise MapError(source, el.sourceline, name, f"a <{parent.tag}> holds only <{tag}> elements")
+        yield el
+
+
 def row_walls(pos: int, pattern: str, height_m: float = 4.0) -> list[Wall]:
     """Turns one Ciber-Rato ``<Row>`` into walls, exactly as the legacy parser does.
 
@@ -160,12 +172,7 @@ def _wall(el: etree._Element, source: str, width: float, height: float) -> Wall:
     """A ``<Wall>`` of ``<Corner>`` elements (Height 4 by default), a valid polygon in the lab."""
     h = _num(el, "Height", source, 4.0)
     corners: list[tuple[float, float]] = []
-    for c in el:
-        ctag = _element_name(c)
-        if ctag is None:
-            continue
-        if ctag != "Corner":
-            raise MapError(source, c.sourceline, ctag, "a <Wall> holds only <Corner> elements")
+    for c in _only(el, "Corner", source):
         corners.append((_num(c, "X", source), _num(c, "Y", source)))
     reason = check_wall(tuple(corners), width, height)
     if reason:
@@ -243,15 +250,10 @@ def parse_grid(data: bytes, source: str = "<bytes>") -> Grid:
     if root.tag != "Grid":
         raise MapError(source, root.sourceline, str(root.tag), "the root element of a grid file must be <Grid>")
     out: list[GridPosition] = []
-    for el in root:
-        tag = _element_name(el)
-        if tag is None:
-            continue
-        if tag != "Position":
-            raise MapError(source, el.sourceline, tag, "a <Grid> holds only <Position> elements")
+    for el in _only(root, "Position", source):
         d = _num(el, "Dir", source, 0.0)
         if not -180.0 <= d <= 180.0:
-            raise MapError(source, el.sourceline, tag, f"Dir={d:g} must be in [-180, 180]")
+            raise MapError(source, el.sourceline, "Position", f"Dir={d:g} must be in [-180, 180]")
         out.append(GridPosition(_num(el, "X", source, 0.0), _num(el, "Y", source, 0.0), d))
     return Grid(tuple(out))
 

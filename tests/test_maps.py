@@ -131,6 +131,12 @@ def _refused(xml: str) -> MapError:
         ),
         ('<Lab Width="10" Height="10">\n<Beacon X="11" Y="1"/></Lab>', 2, "Beacon", "outside the lab"),
         ('<Lab Width="10" Height="10">\n<Door X="1"/></Lab>', 2, "Door", "unknown element"),
+        (
+            '<Lab Width="10" Height="10">\n<Wall><Corner X="1" Y="1"/><!-- c -->\n<Point X="2" Y="1"/></Wall></Lab>',
+            3,
+            "Point",
+            "a <Wall> holds only <Corner> elements",
+        ),
         ('<Lab Width="10" Height="10">\n<Wall>', 2, "document", "not well-formed"),
         ("<Grid/>", 1, "Grid", "must be <Lab>"),
         ('<!DOCTYPE Lab [<!ENTITY big "x">]><Lab Name="&big;"/>', 1, "document", "DOCTYPE"),
@@ -164,6 +170,12 @@ def test_a_grid_position_inside_a_wall_is_refused() -> None:
 def test_a_grid_dir_out_of_range_is_refused() -> None:
     with pytest.raises(MapError, match="Dir=200"):
         parse_grid(b'<Grid><Position X="1" Y="1" Dir="200"/></Grid>')
+
+
+def test_a_grid_holds_only_positions() -> None:
+    with pytest.raises(MapError, match="a <Grid> holds only <Position> elements") as e:
+        parse_grid(b'<Grid><!-- a comment is fine --><Position X="1" Y="1"/><Pose X="1" Y="1"/></Grid>')
+    assert e.value.element == "Pose"
 
 
 def test_missing_files_say_so(tmp_path: Path) -> None:
