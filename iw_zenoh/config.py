@@ -151,10 +151,13 @@ class SecuritySection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, k
     ``hosts`` maps a host's name to the processes it runs (``world``, ``collision``,
     ``sensors-1``, ``recorder``, an agent's name...); ``iwz run --host NAME`` starts only those.
     A process no host names runs on the router's host (the one started without ``--host``).
+    ``audit = false`` starts the router with ``--no-audit``: the policy is still enforced, but
+    refusals go unreported (the router then reads no per-message log; docs/security.md has the cost).
     """
 
     enabled: bool = True
     hosts: dict[str, list[str]] = {}
+    audit: bool = True
 
 
 class ScenarioFile(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):

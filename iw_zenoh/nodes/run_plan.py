@@ -17,7 +17,16 @@ from iw_zenoh import keys
 from iw_zenoh.config import Scenario
 from iw_zenoh.nodes.child import Child
 from iw_zenoh.nodes.role_options import BridgeOptions, RadioOptions, RecorderOptions, SensorsOptions
-from iw_zenoh.nodes.secure_run import ROUTER, agent_name, agent_robots, identities, on_host
+from iw_zenoh.nodes.secure_run import (
+    LEGACY_BRIDGE,
+    ROUTER,
+    SERIAL_BRIDGE,
+    agent_name,
+    agent_robots,
+    bridge_names,
+    identities,
+    on_host,
+)
 from iw_zenoh.nodes.world_options import WorldOptions
 from iw_zenoh.options import options_json
 from iw_zenoh.secure.cli import POLICY_FILE
@@ -89,14 +98,15 @@ class RunPlan:
             The processes this host starts, in start order.
         """
         sc = self.scenario
-        self.child("router", "router", client=False)
+        quiet = self.ids is not None and sc.security is not None and not sc.security.audit
+        self.child("router", "router", *(["--no-audit"] if quiet else []), client=False)
         if self.record is not None:
             self._plan_recorder()
         options, rest = self.world
         robots = agent_robots(sc)
         if self.ids is not None:  # each agent registers its own robots only; a bridge any
             owners: dict[str, list[int] | None] = {n: list(r) for n, r in robots.items()}
-            owners.update({b: None for b in ("bridge", "bridge-serial")})
+            owners.update({b: None for b in bridge_names(sc)})
             options = msgspec.structs.replace(options, owners=owners)
         self.child("world", "world", *rest, options=options)
         self.child("collision", "collision")
@@ -110,7 +120,7 @@ class RunPlan:
         if sc.bridge is not None:
             b = sc.bridge
             bridge = BridgeOptions(port=b.port, param=str(b.params) if b.params else "", scoring=b.scoring)
-            self.child("bridge", "bridge", "ciberrato", options=bridge)
+            self.child("bridge", "bridge", "ciberrato", options=bridge, token=LEGACY_BRIDGE)
         if sc.chair is not None:
             self._plan_chair()
         for i, a in enumerate(sc.agents):
@@ -154,4 +164,4 @@ class RunPlan:
         bridge = ["serial", "--port", port, "--robot", ch.name, "--id", str(ch.robot), "--start", ch.start]
         bridge += ["--baud", str(ch.baud), "--log", str(self.log_dir / "bridge-serial.csv")]
         bridge += ["--spec", str(ch.spec)] if ch.spec is not None else []
-        self.child("bridge", "bridge-serial", *bridge)
+        self.child("bridge", SERIAL_BRIDGE, *bridge, "--name", SERIAL_BRIDGE, token=SERIAL_BRIDGE)

@@ -21,11 +21,29 @@ from iw_zenoh.secure.certs import CA_CERT, init_ca, issue
 from iw_zenoh.secure.cli import HEADER, POLICY_FILE, add_identity
 from iw_zenoh.secure.policy import load_policy
 
-__all__ = ["LAUNCHER", "ROUTER", "agent_name", "agent_robots", "identities", "on_host"]
+__all__ = [
+    "LAUNCHER",
+    "LEGACY_BRIDGE",
+    "ROUTER",
+    "SERIAL_BRIDGE",
+    "agent_name",
+    "agent_robots",
+    "bridge_names",
+    "identities",
+    "on_host",
+]
 
 LAUNCHER = "launcher"
 ROUTER = "router"
-_ROLES = {"record": ("recorder",), "bridge": ("bridge", "operator")}  # a legacy viewer starts and pauses
+LEGACY_BRIDGE = "ciberrato"  # `iwz bridge ciberrato`'s name: it registers legacy robots under it
+SERIAL_BRIDGE = "bridge-serial"  # `iwz bridge serial`'s name in a run (its own default is serial-PID)
+_ROLES = {"record": ("recorder",), LEGACY_BRIDGE: ("bridge", "operator")}  # a legacy viewer starts and pauses
+
+
+def bridge_names(sc: Scenario) -> tuple[str, ...]:
+    """The names (identities) of the scenario's bridges: each registers robots any id, as the
+    policy's ``bridge`` role lets it (the legacy one for its UDP clients, the serial one its chair)."""
+    return (LEGACY_BRIDGE,) * (sc.bridge is not None) + (SERIAL_BRIDGE,) * (sc.chair is not None)
 
 
 def agent_name(index: int, entry: AgentEntry) -> str:
@@ -73,10 +91,8 @@ def identities(
         The policy file.
 
     Raises:
-        ConfigError: A serial chair (not secured yet), or a refused identity.
+        ConfigError: A policy of another simulation there, or a refused identity.
     """
-    if any(c.role == "bridge" and "serial" in c.argv for c in children):
-        raise ConfigError("chair", "a serial chair's run cannot be secured yet: run it without --secure")
     if not (ids / CA_CERT).exists():
         init_ca(ids)
     policy = ids / POLICY_FILE
@@ -86,7 +102,9 @@ def identities(
         raise ConfigError(str(policy), f"guards another simulation than {sim!r}: use another --ids folder")
     wanted = [(ROUTER, ()), (LAUNCHER, ("operator",))]
     wanted += [
-        (c.token or c.name, _ROLES.get(c.role, (c.role,))) for c in children if c.role not in ("router", "chair")
+        (c.token or c.name, _ROLES.get(c.token, _ROLES.get(c.role, (c.role,))))
+        for c in children
+        if c.role not in ("router", "chair")
     ]
     shards = {c.token or c.name: c.options.shard for c in children if isinstance(c.options, SensorsOptions)}
     for name, roles in wanted:

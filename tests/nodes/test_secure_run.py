@@ -7,7 +7,10 @@ import pytest
 from iw_zenoh.config import parse_scenario
 from iw_zenoh.errors import ConfigError
 from iw_zenoh.nodes.child import Child
+from iw_zenoh.nodes.launcher import Launcher
 from iw_zenoh.nodes.secure_run import agent_robots, on_host
+from iw_zenoh.nodes.world_options import WorldOptions
+from iw_zenoh.secure.policy import load_policy, owners
 
 MAPS = Path(__file__).resolve().parents[2] / "maps"
 AGENTS = """
@@ -47,3 +50,50 @@ def test_an_unknown_host_or_process_is_refused_naming_it(hosts: dict[str, list[s
     with pytest.raises(ConfigError) as e:
         on_host(_children("router", "world"), hosts, host)
     assert e.value.field == field
+
+
+def _secured(tmp_path: Path, scenario: str, extra: str = "") -> Launcher:
+    sc = parse_scenario((MAPS / scenario).read_text() + extra, MAPS, Path(scenario).stem)
+    launcher = Launcher(sc, port=7447, log_dir=tmp_path, status=False, secure=True)
+    launcher.plan()
+    return launcher
+
+
+@pytest.mark.parametrize(
+    ("scenario", "bridge", "roles"),
+    [("ciberrato-c1.toml", "ciberrato", ["bridge", "operator"]), ("slalom-serial.toml", "bridge-serial", ["bridge"])],
+)
+def test_a_secured_runs_bridge_is_an_identity_named_as_it_registers(
+    tmp_path: Path, scenario: str, bridge: str, roles: list[str]
+) -> None:
+    launcher = _secured(tmp_path, scenario)
+    policy = load_policy(tmp_path / "ids" / "policy.toml")
+    assert list(policy.identities[bridge].roles) == roles  # a legacy viewer's Start needs an operator
+    [child] = [c for c in launcher.children if c.role == "bridge"]
+    assert child.argv[child.argv.index("--identity") + 1] == str(tmp_path / "ids" / bridge)
+    assert (tmp_path / "ids" / f"{bridge}.crt").is_file()
+    assert owners(policy)[bridge] is None  # it registers whatever ids its clients choose
+    world = next(c for c in launcher.children if c.role == "world")
+    assert isinstance(world.options, WorldOptions)
+    assert world.options.owners is not None
+    assert world.options.owners[bridge] is None  # the world registers under the name it asks with
+    if bridge == "bridge-serial":
+        assert child.argv[child.argv.index("--name") + 1] == bridge  # its own default is serial-PID
+        assert policy.identities["agent-1-wheelchair"].robots == [1]  # the chair's agent drives it
+        assert "chair" not in policy.identities  # the emulator is on no bus
+
+
+@pytest.mark.parametrize(("audit", "quiet"), [("", False), ("audit = true", False), ("audit = false", True)])
+def test_a_secured_scenario_says_whether_the_router_logs_refusals(tmp_path: Path, audit: str, quiet: bool) -> None:
+    launcher = _secured(tmp_path, "ciberrato-c1.toml", f"\n[security]\n{audit}\n")
+    router = next(c for c in launcher.children if c.role == "router")
+    assert ("--no-audit" in router.argv) == quiet
+    assert "--policy" in router.argv  # enforced all the same
+
+
+def test_an_audit_that_is_not_a_bool_is_refused_naming_it() -> None:
+    text = (MAPS / "ciberrato-c1.toml").read_text() + '\n[security]\naudit = "no"\n'
+    with pytest.raises(ConfigError) as e:
+        parse_scenario(text, MAPS, "c1")
+    assert e.value.field == "security.audit"
+    assert "Expected `bool`, got `str`" in e.value.reason
