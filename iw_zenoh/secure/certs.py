@@ -29,6 +29,7 @@ CA_CERT = "ca.crt"
 CA_KEY = "ca.key"
 CA_DAYS = 3650  # a lab's authority outlives its runs
 CERT_DAYS = 825  # what browsers accept for a leaf certificate; a lab reissues rarely
+_REISSUE = "every identity it issued is then refused: issue them again"
 LOCAL_NAMES = ("localhost", "127.0.0.1")  # every identity may be reached on loopback
 
 
@@ -96,7 +97,10 @@ def init_ca(folder: str | Path, *, name: str = "iw-zenoh lab CA", force: bool = 
         ConfigError: When an authority is there already and ``force`` is not given.
     """
     d = Path(folder)
-    d.mkdir(parents=True, exist_ok=True)
+    try:
+        d.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise ConfigError(str(d), f"cannot make this folder ({e.strerror}); give another DIR") from None
     if (d / CA_CERT).exists() and not force:
         raise ConfigError(
             str(d / CA_CERT),
@@ -146,14 +150,39 @@ def _san(hosts: tuple[str, ...]) -> x509.SubjectAlternativeName:
     return x509.SubjectAlternativeName(names)
 
 
-def _load_ca(d: Path) -> tuple[x509.Certificate, ec.EllipticCurvePrivateKey]:
+def _authority_file(d: Path, name: str) -> bytes:
+    """One of the authority's files, or why it cannot be had and how to fix that."""
+    f = d / name
+    if not d.is_dir():
+        there = "is not a folder" if d.exists() else "does not exist"
+        raise ConfigError(str(d), f"{there}; give --dir the folder of ca.crt, or make one with `iwz secure init {d}`")
+    if not f.exists() and name == CA_CERT:
+        raise ConfigError(str(d), f"no authority here (no {CA_CERT}); make one with `iwz secure init {d}`")
+    if not f.exists():
+        raise ConfigError(
+            str(f),
+            "missing: identities are issued where the authority's key is (where `iwz secure init` ran); "
+            f"issue there, or replace the authority with `iwz secure init {d} --force` ({_REISSUE})",
+        )
     try:
-        ca = x509.load_pem_x509_certificate((d / CA_CERT).read_bytes())
-        key = serialization.load_pem_private_key((d / CA_KEY).read_bytes(), password=None)
-    except (OSError, ValueError) as e:
-        raise ConfigError(str(d), f"no usable authority here ({e}); make one with `iwz secure init {d}`") from None
+        return f.read_bytes()
+    except OSError as e:
+        raise ConfigError(str(f), f"cannot read it ({e.strerror}); run as the user who made it") from None
+
+
+def _load_ca(d: Path) -> tuple[x509.Certificate, ec.EllipticCurvePrivateKey]:
+    cert, key_pem = _authority_file(d, CA_CERT), _authority_file(d, CA_KEY)
+    broken = f"restore it from a copy, or replace the authority with `iwz secure init {d} --force` ({_REISSUE})"
+    try:
+        ca = x509.load_pem_x509_certificate(cert)
+    except ValueError:
+        raise ConfigError(str(d / CA_CERT), f"not a certificate made by `iwz secure init`; {broken}") from None
+    try:
+        key = serialization.load_pem_private_key(key_pem, password=None)
+    except (ValueError, TypeError):
+        raise ConfigError(str(d / CA_KEY), f"not a key made by `iwz secure init`; {broken}") from None
     if not isinstance(key, ec.EllipticCurvePrivateKey):
-        raise ConfigError(str(d / CA_KEY), "not an elliptic-curve key made by `iwz secure init`")
+        raise ConfigError(str(d / CA_KEY), f"not an elliptic-curve key made by `iwz secure init`; {broken}")
     return ca, key
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -129,7 +130,12 @@ def _config(args: argparse.Namespace) -> None:
     net = NetConfig(mode="router", listen=tuple(args.listen), identity=args.identity, policy=args.policy)
     text = json.dumps(config_values(net), indent=2)
     if args.output:
-        Path(args.output).write_text(text + "\n", encoding="utf-8")
+        try:
+            Path(args.output).write_text(text + "\n", encoding="utf-8")
+        except OSError as e:
+            raise ConfigError(
+                f"-o {args.output}", f"cannot write it ({e.strerror}); give a file in a folder you may write"
+            ) from None
         print(f"iwz secure: the router's configuration in {args.output}: iwz router --zenoh-config {args.output}")
     else:
         print(text)
@@ -150,6 +156,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         else:
             _config(args)
     except (IwError, ValueError) as e:
-        print(f"iwz secure: {e}")
+        print(f"iwz secure: {e}", file=sys.stderr)
+        return 2
+    except OSError as e:  # a file of the authority's folder that cannot be written
+        where = e.filename or args.command
+        print(f"iwz secure: {where}: cannot write it ({e.strerror}); check that you may write there", file=sys.stderr)
         return 2
     return 0

@@ -102,7 +102,7 @@ def parse_policy(text: str, name: str = "policy") -> Policy:
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
-        raise ConfigError(name, f"not valid TOML: {e}") from None
+        raise ConfigError(name, f"not valid TOML: {e}; fix the file (its format: docs/security.md)") from None
     try:
         policy = msgspec.convert(doc, Policy)
     except msgspec.ValidationError as e:
@@ -138,8 +138,14 @@ def load_policy(path: str | Path) -> Policy:
     p = Path(path)
     try:
         text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        raise ConfigError(str(p), f"cannot read the policy: {e}") from None
+    except OSError as e:
+        raise ConfigError(
+            str(p),
+            f"cannot read the policy ({e.strerror}); give the policy.toml `iwz secure init DIR` made, "
+            "or make one with `iwz secure init DIR` and `iwz secure issue NAME --role ROLE --dir DIR`",
+        ) from None
+    except UnicodeDecodeError as e:
+        raise ConfigError(str(p), f"not a text file ({e.reason} at byte {e.start}); give the policy's TOML") from None
     return parse_policy(text, str(p))
 
 
