@@ -23,7 +23,7 @@ from iw_zenoh.nodes.secure_run import (
     SERIAL_BRIDGE,
     agent_name,
     agent_robots,
-    bridge_names,
+    bridge_robots,
     identities,
     on_host,
 )
@@ -106,7 +106,7 @@ class RunPlan:
         robots = agent_robots(sc)
         if self.ids is not None:  # each agent registers its own robots only; a bridge any
             owners: dict[str, list[int] | None] = {n: list(r) for n, r in robots.items()}
-            owners.update({b: None for b in bridge_names(sc)})
+            owners.update(bridge_robots(sc))
             options = msgspec.structs.replace(options, owners=owners)
         self.child("world", "world", *rest, options=options)
         self.child("collision", "collision")

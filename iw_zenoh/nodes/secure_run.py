@@ -28,7 +28,7 @@ __all__ = [
     "SERIAL_BRIDGE",
     "agent_name",
     "agent_robots",
-    "bridge_names",
+    "bridge_robots",
     "identities",
     "on_host",
 ]
@@ -40,10 +40,14 @@ SERIAL_BRIDGE = "bridge-serial"  # `iwz bridge serial`'s name in a run (its own 
 _ROLES = {"record": ("recorder",), LEGACY_BRIDGE: ("bridge", "operator")}  # a legacy viewer starts and pauses
 
 
-def bridge_names(sc: Scenario) -> tuple[str, ...]:
-    """The names (identities) of the scenario's bridges: each registers robots any id, as the
-    policy's ``bridge`` role lets it (the legacy one for its UDP clients, the serial one its chair)."""
-    return (LEGACY_BRIDGE,) * (sc.bridge is not None) + (SERIAL_BRIDGE,) * (sc.chair is not None)
+def bridge_robots(sc: Scenario) -> dict[str, list[int] | None]:
+    """The scenario's bridges (their names, their identities) and the robots the world registers
+    for each: any for the legacy one (its UDP clients choose their ids), the chair's for the
+    serial one (the policy's ``bridge`` role lets both publish for any robot)."""
+    out: dict[str, list[int] | None] = {LEGACY_BRIDGE: None} if sc.bridge is not None else {}
+    if sc.chair is not None:
+        out[SERIAL_BRIDGE] = [sc.chair.robot]
+    return out
 
 
 def agent_name(index: int, entry: AgentEntry) -> str:

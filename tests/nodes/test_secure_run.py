@@ -76,7 +76,8 @@ def test_a_secured_runs_bridge_is_an_identity_named_as_it_registers(
     world = next(c for c in launcher.children if c.role == "world")
     assert isinstance(world.options, WorldOptions)
     assert world.options.owners is not None
-    assert world.options.owners[bridge] is None  # the world registers under the name it asks with
+    mine = None if bridge == "ciberrato" else [1]  # a legacy client chooses its id; the chair is robot 1
+    assert world.options.owners[bridge] == mine  # the world registers under the name it asks with
     if bridge == "bridge-serial":
         assert child.argv[child.argv.index("--name") + 1] == bridge  # its own default is serial-PID
         assert policy.identities["agent-1-wheelchair"].robots == [1]  # the chair's agent drives it
