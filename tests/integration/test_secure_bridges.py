@@ -99,13 +99,17 @@ def test_a_legacy_client_drives_its_robot_in_a_secured_run_and_a_rogue_agent_can
     try:
         reply = robot.register(b'<Robot Id="1" Name="student"/>', tries=60)
         assert etree.fromstring(reply[:-1]).get("Status") == "Ok", reply  # the bridge registered it
+        robot.sock.settimeout(10.0)  # a loaded machine's cycle, not croblink's 2 s
         watcher, rogue = (ZenohBus(NetConfig(connect=(endpoint,), identity=str(ids / n))) for n in ("watcher", "rogue"))
         buses += [watcher, rogue]
         states = subscribe(watcher, keys.state(SIM), maxlen=1)
         on_key, batches = subscribe(watcher, keys.actions(SIM, 1)), subscribe(watcher, keys.agent_actions(SIM, "rogue"))
-        x0, _ = _pose(states)
-        _drive(robot, 0.1, 40)
-        x1, y1 = _pose(states)
+        x0, x1 = _pose(states)[0], -1.0
+        for _ in range(10):  # a world held still a while (a verdict late on a loaded machine) goes on after
+            _drive(robot, 0.1, 20)
+            x1 = _pose(states)[0]
+            if x1 > x0 + 0.3:
+                break
         assert x1 > x0 + 0.3, (x0, x1)  # the legacy client drives it, through the bridge's identity
         _drive(robot, 0.0, 20)  # at rest (the legacy motors' inertia)
         while not batches.drain():  # the rogue's session is up and routed (its own key: let through)
@@ -116,10 +120,14 @@ def test_a_legacy_client_drives_its_robot_in_a_secured_run_and_a_rogue_agent_can
         assert math.dist(still, there) < 0.1, (still, there)  # full reverse for 2 s moved it not at all
         assert not [a for a in _actions(on_key) if a.left == BACK], "a rogue's actions reached robot 1's key"
         out, _ = stop_run(run)
+    except BaseException:
+        for log in sorted(logs.glob("*.log")):  # what each process said, beside the assertion
+            print(f"--- {log.name}\n{log.read_text()[-3000:]}")
+        raise
     finally:
         robot.close()
         if run.poll() is None:
-            stop_run(run)
+            print(stop_run(run)[0])
     policy = load_policy(ids / "policy.toml")
     assert list(policy.identities["ciberrato"].roles) == ["bridge", "operator"]
     assert policy.identities["rogue"].robots == [2]
