@@ -112,8 +112,12 @@ def test_a_legacy_client_drives_its_robot_in_a_secured_run_and_a_rogue_agent_can
                 break
         assert x1 > x0 + 0.3, (x0, x1)  # the legacy client drives it, through the bridge's identity
         _drive(robot, 0.0, 20)  # at rest (the legacy motors' inertia)
-        while not batches.drain():  # the rogue's session is up and routed (its own key: let through)
+        for _ in range(400):  # until the rogue's session is up and routed (its own key: let through)
             _drive(robot, 0.0, 1, rogue)
+            if batches.drain():
+                break
+        else:
+            pytest.fail("the rogue's batches on its own key never arrived in 400 cycles: was it there at all?")
         still = _pose(states)
         _drive(robot, 0.0, 40, rogue)
         there = _pose(states)
