@@ -39,6 +39,12 @@ class Handle(Protocol):
 class Inbox:
     """A thread-safe FIFO of deliveries, filled by the bus, drained by one node loop.
 
+    Receiving is kept cheap, since every message a node hears passes here: ``put`` takes no lock
+    (``deque.append`` and ``popleft`` are atomic in CPython), wakes a waiter of :meth:`get` or
+    :meth:`wait` only when there is one, and sets ``wake`` only when it is not set already (a
+    burst of deliveries wakes the loop once: a loop clears ``wake`` before it drains, so nothing
+    put after the clear goes unseen).
+
     Args:
         maxlen: Keep only the newest ``maxlen`` deliveries (``None``: keep all).
         wake: An event set on every delivery (one node loop waits on one event for all inboxes).
@@ -47,40 +53,56 @@ class Inbox:
     def __init__(self, maxlen: int | None = None, wake: threading.Event | None = None) -> None:
         self._q: collections.deque[Delivery] = collections.deque(maxlen=maxlen)
         self._cv = threading.Condition()
+        self._waiters = 0  # threads in get() or wait(), counted under _cv
         self._wake = wake
         self.received = 0
 
     def put(self, item: Delivery) -> None:
         """Adds a delivery (called from the bus's thread)."""
-        with self._cv:
-            self._q.append(item)
-            self.received += 1
-            self._cv.notify_all()
-        if self._wake is not None:
-            self._wake.set()
+        self._q.append(item)
+        self.received += 1
+        # a waiter counts itself under _cv before it looks at the queue: if it is not counted
+        # yet, it will see this item when it looks
+        if self._waiters:
+            with self._cv:
+                self._cv.notify_all()
+        wake = self._wake
+        if wake is not None and not wake.is_set():
+            wake.set()
 
     def get(self, timeout_s: float | None = None) -> Delivery | None:
         """The oldest delivery, waiting up to ``timeout_s`` (``None``: forever); ``None`` on timeout."""
         with self._cv:
-            if not self._q and not self._cv.wait_for(lambda: bool(self._q), timeout=timeout_s):
-                return None
-            return self._q.popleft()
+            self._waiters += 1
+            try:
+                if not self._q and not self._cv.wait_for(lambda: bool(self._q), timeout=timeout_s):
+                    return None
+                return self._q.popleft()
+            finally:
+                self._waiters -= 1
 
     def drain(self) -> list[Delivery]:
         """Every delivery waiting now, oldest first."""
-        with self._cv:
-            out = list(self._q)
-            self._q.clear()
-            return out
+        out: list[Delivery] = []
+        pop = self._q.popleft
+        try:
+            for _ in range(len(self._q)):
+                out.append(pop())
+        except IndexError:  # a bounded inbox dropped its oldest for a newer one meanwhile
+            pass
+        return out
 
     def wait(self, timeout_s: float) -> bool:
         """Waits until something is waiting; False on timeout."""
         with self._cv:
-            return self._cv.wait_for(lambda: bool(self._q), timeout=timeout_s)
+            self._waiters += 1
+            try:
+                return self._cv.wait_for(lambda: bool(self._q), timeout=timeout_s)
+            finally:
+                self._waiters -= 1
 
     def __len__(self) -> int:
-        with self._cv:
-            return len(self._q)
+        return len(self._q)
 
 
 class Queue(Protocol):
