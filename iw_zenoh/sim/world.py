@@ -17,14 +17,13 @@ import numpy as np
 from cachetools import LRUCache
 
 from iw_zenoh import keys
-from iw_zenoh.convert import grid_to_msg, lab_to_msg, spec_from_msg, spec_to_msg
+from iw_zenoh.convert import grid_to_msg, lab_to_msg, spec_to_msg
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.collision import Collisions
 from iw_zenoh.core.lab import Grid, Lab, Scene
 from iw_zenoh.core.modes import Mode, Profile, Silence
 from iw_zenoh.core.spec import RobotType
 from iw_zenoh.core.world import Proposal, commit, initial_state, propose
-from iw_zenoh.errors import SpecError
 from iw_zenoh.messages import (
     Actions,
     Control,
@@ -33,8 +32,6 @@ from iw_zenoh.messages import (
     ObstacleData,
     Outgoing,
     PoseReport,
-    RefusedData,
-    RegisteredData,
     RegisterReply,
     RegisterRequest,
     RobotSpecMsg,
@@ -43,12 +40,13 @@ from iw_zenoh.messages import (
     WorldInfo,
     make_event,
 )
+from iw_zenoh.sim.admission import admit
 from iw_zenoh.sim.batches import collision_reports, proposed_msg, speeds, state_msg
 from iw_zenoh.sim.config import MS, WorldConfig
 from iw_zenoh.sim.motion import MotionNoise
 from iw_zenoh.sim.obstacles import Obstacles
 from iw_zenoh.sim.presence import Presence
-from iw_zenoh.sim.registry import Refused, Registry
+from iw_zenoh.sim.registry import Registry
 
 __all__ = ["ANSWERS_KEPT", "WorldCore"]
 
@@ -81,7 +79,7 @@ class WorldCore:
         self.stopped = False
         self._last_tick_ns: int | None = None  # when the last tick began (None: not yet)
         self._paused = cfg.start_paused  # a pause's length is not silence (see begin_tick)
-        self.presence = Presence(self.registry, lockstep=cfg.mode == Mode.LOCKSTEP, event=self._event)
+        self.presence = Presence(self.registry, lockstep=cfg.mode == Mode.LOCKSTEP, event=self.event)
         # the same sets, by the names the wiring and the tests use
         self.collision_alive = self.presence.collision
         self.sensors_alive = self.presence.sensors
@@ -104,9 +102,10 @@ class WorldCore:
         """Simulated time at ``tick`` (default now)."""
         return (self.tick if tick is None else tick) * self.cfg.period_ns
 
-    def _event(
+    def event(
         self, kind: EventKind, reason: str, robot_id: int = -1, key: str = "", payload: EventData | None = None
     ) -> Outgoing:
+        """An event of the world's, stamped with the current tick, to publish."""
         return keys.event(self.cfg.sim, kind), make_event(
             kind,
             payload,
@@ -118,7 +117,7 @@ class WorldCore:
             source="world",
         )
 
-    def _roster_changed(self) -> None:
+    def roster_changed(self) -> None:
         """A robot registered or left: a new revision (the arrays follow when the next tick begins)."""
         self.presence.forget()
         self.revision += 1
@@ -137,74 +136,10 @@ class WorldCore:
             seen = self._answered.get((req.agent, req.request_id))
             if seen is not None:
                 return seen, []
-        reply, out = self._register(req, now_ns)
+        reply, out = admit(self, req, now_ns)
         if req.request_id:
             self._answered[(req.agent, req.request_id)] = reply
         return reply, out
-
-    def _register(self, req: RegisterRequest, now_ns: int) -> tuple[RegisterReply, list[Outgoing]]:
-        try:
-            spec = spec_from_msg(req.spec)
-        except SpecError as e:
-            return self._refuse(req, f"field {e.field}: {e.reason}")
-        instance = req.request_id.partition("-")[0]
-        again = self.registry.reclaimable(spec, req.agent, instance)
-        if again is not None:  # its agent restarted: the same robot, answered with where it is now
-            entry, placed = self.registry.reclaim(again, self.state, now_ns)
-        else:
-            owned = self._owned_id(req.agent, spec.id)
-            if isinstance(owned, str):
-                return self._refuse(req, owned)
-            try:
-                placed = self.registry.place(replace(spec, id=owned), self.registry.poses(self.state))
-            except Refused as e:
-                return self._refuse(req, str(e))
-            entry = self.registry.add(placed, req.agent, now_ns)
-            self._roster_changed()
-        entry.instance = instance
-        # lock-step: its first readings are of the next tick, so it owes nothing for this one;
-        # and its agent is alive
-        entry.last_action_tick = self.tick
-        if req.agent:
-            self.presence.agent_registered(req.agent)
-        msg = spec_to_msg(placed)
-        reply = RegisterReply(tick=self.tick, sim_time_ns=self.sim_time_ns(), ok=True, robot_id=placed.id, spec=msg)
-        out: list[Outgoing] = [
-            (keys.spec(self.cfg.sim, placed.id), reply),
-            self._event(
-                EventKind.REGISTERED,
-                f"robot {placed.id} {placed.name!r} at ({placed.x_m:g}, {placed.y_m:g})",
-                placed.id,
-                payload=RegisteredData(agent=req.agent),
-            ),
-        ]
-        return reply, out
-
-    def _owned_id(self, agent: str, robot_id: int) -> int | str:
-        """The id a secured run lets ``agent`` register (its own robots only; for id 0 the first of
-        them not taken), or why not. Open runs: ``robot_id`` as asked."""
-        owners = self.cfg.owners
-        if owners is None:
-            return robot_id
-        if agent not in owners:
-            return f"agent {agent!r} may register no robot: the policy does not name it an agent"
-        mine = owners[agent]
-        if mine is None:
-            return robot_id
-        if robot_id and robot_id not in mine:
-            return f"robot {robot_id} is not agent {agent!r}'s: the policy gives it {list(mine)}"
-        if robot_id:
-            return robot_id
-        free = [r for r in mine if r not in self.registry.entries]
-        return free[0] if free else f"agent {agent!r} has every robot the policy gives it ({list(mine)}) already"
-
-    def _refuse(self, req: RegisterRequest, reason: str) -> tuple[RegisterReply, list[Outgoing]]:
-        reply = RegisterReply(tick=self.tick, sim_time_ns=self.sim_time_ns(), ok=False, reason=reason)
-        return reply, [
-            self._event(
-                EventKind.REFUSED, reason, req.spec.id, payload=RefusedData(name=req.spec.name, agent=req.agent)
-            )
-        ]
 
     def on_actions(self, msg: Actions, now_ns: int) -> list[Outgoing]:
         """Takes a robot's actions (applied at the next tick)."""
@@ -222,7 +157,7 @@ class WorldCore:
         e.leds = {"end": msg.end_led, "returning": msg.returning_led, "visiting": msg.visiting_led}
         if e.watchdog:
             e.watchdog = False
-            return [self._event(EventKind.WATCHDOG_CLEARED, f"robot {msg.robot_id} is commanded again", msg.robot_id)]
+            return [self.event(EventKind.WATCHDOG_CLEARED, f"robot {msg.robot_id} is commanded again", msg.robot_id)]
         return []
 
     def on_pose_report(self, msg: PoseReport, now_ns: int) -> None:
@@ -240,31 +175,31 @@ class WorldCore:
         if self.registry.remove(robot_id) is None:
             return []
         self.motion.forget(robot_id)
-        self._roster_changed()
-        return [self._event(EventKind.REMOVED, reason, robot_id)]
+        self.roster_changed()
+        return [self.event(EventKind.REMOVED, reason, robot_id)]
 
     def on_control(self, msg: Control) -> list[Outgoing]:
         """Start, pause, step, stop, remove a robot, add / move / remove an obstacle."""
         c = msg.command
         if c == "start":
             self.running, self.steps_left = True, 0
-            return [self._event(EventKind.STARTED, "simulation running")]
+            return [self.event(EventKind.STARTED, "simulation running")]
         if c == "pause":
             self.running, self._paused = False, True
-            return [self._event(EventKind.PAUSED, "simulation paused")]
+            return [self.event(EventKind.PAUSED, "simulation paused")]
         if c == "step":
             self.running, self._paused = False, True
             self.steps_left += msg.steps
             return []
         if c == "stop":
             self.stopped = True
-            return [self._event(EventKind.STOPPED, "stop requested")]
+            return [self.event(EventKind.STOPPED, "stop requested")]
         if c == "remove":
             if msg.robot_id not in self.registry.entries:  # say so: an operator waits for an answer
-                return [self._event(EventKind.BAD_CONTROL, f"no robot {msg.robot_id} to remove", msg.robot_id)]
+                return [self.event(EventKind.BAD_CONTROL, f"no robot {msg.robot_id} to remove", msg.robot_id)]
             return self.remove(msg.robot_id, f"robot {msg.robot_id} removed by control")
         if c == "seek":
-            return [self._event(EventKind.BAD_CONTROL, "seek is for replays; a live world cannot go back in time")]
+            return [self.event(EventKind.BAD_CONTROL, "seek is for replays; a live world cannot go back in time")]
         if c in ("estop", "clear"):
             return []  # for the chair's serial bridge, not the world
         return self._obstacle(msg)
@@ -273,15 +208,15 @@ class WorldCore:
         ob = msg.obstacle
         if ob is None:
             return [
-                self._event(EventKind.BAD_CONTROL, f"{msg.command} needs an obstacle", key=keys.control(self.cfg.sim))
+                self.event(EventKind.BAD_CONTROL, f"{msg.command} needs an obstacle", key=keys.control(self.cfg.sim))
             ]
         why = self.obstacles.apply(msg.command, ob)
         if why:
-            return [self._event(EventKind.BAD_CONTROL, why)]
+            return [self.event(EventKind.BAD_CONTROL, why)]
         self.scene = Scene(self.obstacles.lab())
         self.registry.scene = self.scene
         self.revision += 1
-        return [self._event(EventKind.OBSTACLE, f"{msg.command} {ob.name!r}", payload=ObstacleData(name=ob.name))]
+        return [self.event(EventKind.OBSTACLE, f"{msg.command} {ob.name!r}", payload=ObstacleData(name=ob.name))]
 
     def on_alive(self, role: str, name: str, alive: bool, now_ns: int) -> list[Outgoing]:
         """Tracks collision and sensors processes and agents; an agent lost zeroes its robots at once."""
@@ -336,7 +271,7 @@ class WorldCore:
             answered_tick=self.tick if self.cfg.mode == Mode.LOCKSTEP else None,
         )
         silent = f"no actions for {self.cfg.action_timeout_ms:g} ms, motors zeroed"
-        out += [self._event(EventKind.WATCHDOG, f"robot {rid}: {silent}", rid) for rid in fired]
+        out += [self.event(EventKind.WATCHDOG, f"robot {rid}: {silent}", rid) for rid in fired]
         self.state = replace(self.state, cmd=cmd)
         profile = Profile(self.cfg.profile)
         prop = propose(
@@ -397,7 +332,7 @@ class WorldCore:
         if verdict is not None:
             for rid, reason, hit in collision_reports(verdict, ids, self.state.collided & ~was, self.state.pose):
                 self.collisions += 1
-                out.append(self._event(EventKind.COLLISION, reason, rid, payload=hit))
+                out.append(self.event(EventKind.COLLISION, reason, rid, payload=hit))
         if self.steps_left > 0:
             self.steps_left -= 1
         msg = state_msg(
@@ -413,7 +348,7 @@ class WorldCore:
         out.append((keys.tick(self.cfg.sim), self.tick_msg()))
         if self.cfg.duration_ticks and n >= self.cfg.duration_ticks:
             self.stopped = True
-            out.append(self._event(EventKind.STOPPED, f"duration reached: {n} ticks"))
+            out.append(self.event(EventKind.STOPPED, f"duration reached: {n} ticks"))
         return out
 
     def tick_msg(self) -> Tick:
