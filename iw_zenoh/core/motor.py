@@ -62,8 +62,10 @@ def clamp_power(power: npt.ArrayLike) -> FloatArray:
     Returns:
         Clamped powers.
     """
-    p = np.nan_to_num(np.asarray(power, dtype=np.float64), nan=0.0)
-    return np.clip(p, -MAX_POWER, MAX_POWER)
+    p = np.asarray(power, dtype=np.float64)
+    # np.where rather than np.nan_to_num (same result once clipped: an infinity becomes the
+    # limit either way), which costs several times more on a tick's few robots
+    return np.clip(np.where(np.isnan(p), 0.0, p), -MAX_POWER, MAX_POWER)
 
 
 def step_motors(out_prev: FloatArray, cmd: FloatArray, curve: FloatArray) -> FloatArray:

@@ -31,22 +31,25 @@ def proposed_msg(
     Returns:
         The message, tick ``state.tick + 1``.
     """
-    s = state.pose
+    # one tolist() per array (its columns as lists), not one per column
+    x, y, heading = state.pose.T.tolist()
+    next_x, next_y, next_heading = prop.pose.T.tolist()
+    rolled_left, rolled_right = prop.rolled_m.T.tolist()
     return Proposed(
         tick=state.tick + 1,
         sim_time_ns=sim_time_ns,
         revision=revision,
         ids=list(ids),
-        x=s[:, 0].tolist(),
-        y=s[:, 1].tolist(),
-        heading=s[:, 2].tolist(),
-        next_x=prop.pose[:, 0].tolist(),
-        next_y=prop.pose[:, 1].tolist(),
-        next_heading=prop.pose[:, 2].tolist(),
+        x=x,
+        y=y,
+        heading=heading,
+        next_x=next_x,
+        next_y=next_y,
+        next_heading=next_heading,
         linear=prop.linear.tolist(),
         active=[True] * len(ids),
-        rolled_left=prop.rolled_m[:, 0].tolist(),
-        rolled_right=prop.rolled_m[:, 1].tolist(),
+        rolled_left=rolled_left,
+        rolled_right=rolled_right,
         tick_wall_ns=wall_ns,
     )
 
@@ -77,17 +80,19 @@ def state_msg(
     """
     moved = ~s.collided if held_reason is None else np.zeros(len(ids), dtype=bool)
     speed = np.where(moved, speed_mps, 0.0)
+    x, y, heading = s.pose.T.tolist()
+    rolled_left, rolled_right = s.rolled_m.T.tolist()
     return WorldStateMsg(
         tick=s.tick,
         sim_time_ns=sim_time_ns,
         revision=revision,
         ids=ids,
-        x=s.pose[:, 0].tolist(),
-        y=s.pose[:, 1].tolist(),
-        heading=s.pose[:, 2].tolist(),
+        x=x,
+        y=y,
+        heading=heading,
         collided=s.collided.tolist(),
-        rolled_left=s.rolled_m[:, 0].tolist(),
-        rolled_right=s.rolled_m[:, 1].tolist(),
+        rolled_left=rolled_left,
+        rolled_right=rolled_right,
         speed=np.asarray(speed, dtype=float).tolist(),
         held=held_reason is not None,
         held_reason=held_reason or "",

@@ -90,6 +90,16 @@ class WorldCore:
         self._tick_wall_ns = 0
         self._answered: LRUCache[tuple[str, str], RegisterReply] = LRUCache(ANSWERS_KEPT)
         self.collisions = 0
+        # what every tick uses, worked out once (the configuration does not change)
+        self._profile = Profile(cfg.profile)
+        self._period_ns = cfg.period_ns
+        self._watchdog_ns = int(cfg.action_timeout_ms * MS) if cfg.silent_robots == Silence.STOP else None
+        self._proposed_key, self._state_key, self._tick_key = (
+            keys.proposed(cfg.sim),
+            keys.state(cfg.sim),
+            keys.tick(cfg.sim),
+        )
+        self._noisy: tuple[Bodies, bool] | None = None  # whether some body's motion is noisy, per roster
 
     # --- small helpers ---------------------------------------------------------------------
 
@@ -100,7 +110,7 @@ class WorldCore:
 
     def sim_time_ns(self, tick: int | None = None) -> int:
         """Simulated time at ``tick`` (default now)."""
-        return (self.tick if tick is None else tick) * self.cfg.period_ns
+        return (self.tick if tick is None else tick) * self._period_ns
 
     def event(
         self, kind: EventKind, reason: str, robot_id: int = -1, key: str = "", payload: EventData | None = None
@@ -239,7 +249,7 @@ class WorldCore:
         next cycle rather than stepping at once: in the ciberrato profile, as the legacy
         simulator starts at its next timer tick, so an action sent just before Start is applied
         at tick 1 and never overtaken by it."""
-        return Profile(self.cfg.profile) == Profile.CIBERRATO
+        return self._profile == Profile.CIBERRATO
 
     def expected(self, tick: int) -> list[int]:
         """Robots whose actions for sensors tick ``tick`` lock-step still waits for."""
@@ -257,23 +267,27 @@ class WorldCore:
             self.registry.excuse_pause(now_ns, last_tick_ns=self._last_tick_ns)
             self._paused = False
         self._last_tick_ns = now_ns
-        for rid, e in list(self.registry.entries.items()):
-            if e.lost_ns is not None and now_ns - e.lost_ns > self.cfg.grace_ms * MS:
-                out += self.remove(
-                    rid, f"robot {rid} removed: its agent {e.agent!r} has been gone {self.cfg.grace_ms:g} ms"
-                )
+        grace_ns = self.cfg.grace_ms * MS
+        gone = [
+            (rid, e.agent)
+            for rid, e in self.registry.entries.items()
+            if e.lost_ns is not None and now_ns - e.lost_ns > grace_ns
+        ]
+        for rid, agent in gone:
+            out += self.remove(rid, f"robot {rid} removed: its agent {agent!r} has been gone {self.cfg.grace_ms:g} ms")
         self._build()
         ids = self.registry.arrayed
         cmd, report, fired = self.registry.commands(
             ids,
             now_ns=now_ns,
-            timeout_ns=int(self.cfg.action_timeout_ms * MS) if self.cfg.silent_robots == Silence.STOP else None,
-            answered_tick=self.tick if self.cfg.mode == Mode.LOCKSTEP else None,
+            timeout_ns=self._watchdog_ns,
+            answered_tick=self.tick if self.presence.lockstep else None,
         )
-        silent = f"no actions for {self.cfg.action_timeout_ms:g} ms, motors zeroed"
-        out += [self.event(EventKind.WATCHDOG, f"robot {rid}: {silent}", rid) for rid in fired]
+        if fired:
+            silent = f"no actions for {self.cfg.action_timeout_ms:g} ms, motors zeroed"
+            out += [self.event(EventKind.WATCHDOG, f"robot {rid}: {silent}", rid) for rid in fired]
         self.state = replace(self.state, cmd=cmd)
-        profile = Profile(self.cfg.profile)
+        profile = self._profile
         prop = propose(
             self.state,
             self.bodies,
@@ -289,18 +303,20 @@ class WorldCore:
         msg = proposed_msg(
             self.state, prop, ids, sim_time_ns=self.sim_time_ns(n), revision=self.revision, wall_ns=wall_ns
         )
-        out.append((keys.proposed(self.cfg.sim), msg))
+        out.append((self._proposed_key, msg))
         return out
 
     def _motion_noise(self, ids: list[int], profile: Profile) -> np.ndarray | None:
         """This tick's standard normals of movement noise (None when no robot's motion is noisy)."""
-        if len(ids) and (
-            profile == Profile.CIBERRATO
-            and self.cfg.motors_noise_pct > 0
-            or bool(np.any(self.bodies.noise_std["motion"] > 0))
-        ):
+        if len(ids) and (profile == Profile.CIBERRATO and self.cfg.motors_noise_pct > 0 or self._motion_noisy()):
             return self.motion.normals(ids)
         return None
+
+    def _motion_noisy(self) -> bool:
+        """Whether some robot's motion is noisy (worked out again only when the roster changes)."""
+        if self._noisy is None or self._noisy[0] is not self.bodies:
+            self._noisy = (self.bodies, bool(np.any(self.bodies.noise_std["motion"] > 0)))
+        return self._noisy[1]
 
     def verdict_ok(self, v: Verdict) -> bool:
         """Whether a verdict answers the pending proposal."""
@@ -326,9 +342,10 @@ class WorldCore:
             c = np.asarray(verdict.collided, dtype=bool)
             col = Collisions(c, c.copy(), c.copy(), np.zeros((0, 2), dtype=np.int64), np.zeros((0, 2), dtype=np.int64))
         was = self.state.collided.copy()
-        profile = Profile(self.cfg.profile)
+        profile = self._profile
         self.state = commit(self.state, prop, col, profile=profile, hold=hold)
-        self.state = replace(self.state, tick=n)
+        if self.state.tick != n:  # commit counts the tick already
+            self.state = replace(self.state, tick=n)
         if verdict is not None:
             for rid, reason, hit in collision_reports(verdict, ids, self.state.collided & ~was, self.state.pose):
                 self.collisions += 1
@@ -344,8 +361,8 @@ class WorldCore:
             held_reason=None if hold is None else self.presence.holding,
             tick_wall_ns=self._tick_wall_ns,
         )
-        out.append((keys.state(self.cfg.sim), msg))
-        out.append((keys.tick(self.cfg.sim), self.tick_msg()))
+        out.append((self._state_key, msg))
+        out.append((self._tick_key, self.tick_msg()))
         if self.cfg.duration_ticks and n >= self.cfg.duration_ticks:
             self.stopped = True
             out.append(self.event(EventKind.STOPPED, f"duration reached: {n} ticks"))
