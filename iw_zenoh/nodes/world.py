@@ -203,6 +203,34 @@ class _World:
             self._answer_info()  # the collision process may need it to give this very verdict
             self.verdicts.wait(min(left, 0.01))
 
+    def _await_actions(self, times: tuple[int, int, int] | None) -> None:
+        """Lock-step: waits for every live agent's actions for the tick just committed, or the
+        timeout (a laggard event names the late robots). ``times``: when the tick began, its verdict
+        came and its state was published, to log (None: not logging)."""
+        core, cfg = self.core, self.core.cfg
+        n = core.tick
+        self.wait_until(
+            self.clock.now_ns() + int(cfg.lockstep_timeout_ms * MS),
+            lambda: not core.waiting(n) or core.stopped or not core.due(),
+        )
+        late = core.expected(n)
+        if times is not None:
+            start, t_verdict, t_state = times
+            logger.debug(
+                "tick %d: propose+verdict %.2f ms, commit+publish %.2f ms, sensors+agents %.2f ms",
+                n,
+                (t_verdict - start) / 1e6,
+                (t_state - t_verdict) / 1e6,
+                (self.clock.now_ns() - t_state) / 1e6,
+            )
+        if late and core.due():
+            self.io.event(
+                EventKind.LAGGARD,
+                f"tick {n}: no actions from robots {late} within {cfg.lockstep_timeout_ms:g} ms",
+                LaggardData(robots=late),
+                tick=n,
+            )
+
     def loop(self) -> None:
         core, io, cfg = self.core, self.io, self.core.cfg
         period = cfg.period_ns
@@ -226,35 +254,17 @@ class _World:
             t_verdict = self.clock.now_ns()
             io.send_all(core.finish_tick(verdict))
             t_state = self.clock.now_ns()
-            logger.debug(
-                "tick %d: started %.2f ms late, propose+verdict %.2f ms, commit+publish %.2f ms",
-                core.tick,
-                0.0 if lockstep else (start - next_ns) / 1e6,
-                (t_verdict - start) / 1e6,
-                (t_state - t_verdict) / 1e6,
-            )
-            if lockstep:
-                n = core.tick
-                self.wait_until(
-                    self.clock.now_ns() + int(cfg.lockstep_timeout_ms * MS),
-                    lambda n=n: not core.waiting(n) or core.stopped or not core.due(),
-                )
-                late = core.expected(n)
-                t_acts = self.clock.now_ns()
+            debug = logger.isEnabledFor(logging.DEBUG)  # its figures are not worked out otherwise
+            if debug:
                 logger.debug(
-                    "tick %d: propose+verdict %.2f ms, commit+publish %.2f ms, sensors+agents %.2f ms",
-                    n,
+                    "tick %d: started %.2f ms late, propose+verdict %.2f ms, commit+publish %.2f ms",
+                    core.tick,
+                    0.0 if lockstep else (start - next_ns) / 1e6,
                     (t_verdict - start) / 1e6,
                     (t_state - t_verdict) / 1e6,
-                    (t_acts - t_state) / 1e6,
                 )
-                if late and core.due():
-                    io.event(
-                        EventKind.LAGGARD,
-                        f"tick {n}: no actions from robots {late} within {cfg.lockstep_timeout_ms:g} ms",
-                        LaggardData(robots=late),
-                        tick=n,
-                    )
+            if lockstep:
+                self._await_actions((start, t_verdict, t_state) if debug else None)
             else:
                 next_ns += period
                 now = self.clock.now_ns()
