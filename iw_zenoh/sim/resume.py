@@ -115,7 +115,10 @@ def resume(core: WorldCore, snap: WorldSnapshot, now_ns: int) -> None:
     reg = core.registry
     for r in snap.robots:
         e = reg.add(spec_from_msg(r.spec), r.agent, now_ns, pose=r.pose)
-        e.last_action_tick = snap.tick  # lock-step: its first readings are of the next tick
+        # lock-step: nor is the next tick waited for. Its readings may already have gone out
+        # (the sensors publish on a confirming verdict, before the state) and been answered to
+        # the world that died: its agent would not answer that tick again
+        e.last_action_tick = snap.tick + 1
         if r.agent:
             e.lost_ns = now_ns
     core._build()
