@@ -7,6 +7,7 @@ calls :func:`admit` for a new one.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
@@ -93,7 +94,7 @@ def owned_id(
         return f"agent {agent!r} may register no robot: the policy does not name it an agent"
     mine = owners[agent]
     if mine is None:
-        return robot_id
+        return _unreserved(owners, registry, agent, robot_id)
     if robot_id and robot_id not in mine:
         return f"robot {robot_id} is not agent {agent!r}'s: the policy gives it {list(mine)}"
     if robot_id:
@@ -107,3 +108,17 @@ def _refuse(core: WorldCore, req: RegisterRequest, reason: str) -> tuple[Registe
     return reply, [
         core.event(EventKind.REFUSED, reason, req.spec.id, payload=RefusedData(name=req.spec.name, agent=req.agent))
     ]
+
+
+def _unreserved(owners: dict[str, tuple[int, ...] | None], registry: Registry, agent: str, robot_id: int) -> int | str:
+    """For an agent the policy lets register any robot (a legacy bridge registering for its UDP
+    clients): ``robot_id`` unless the policy gives it to another agent; for 0, the first id neither
+    taken nor another agent's (so a legacy client cannot take, or block, an agent's own robot)."""
+    theirs = {r: a for a, rs in owners.items() if a != agent and rs for r in rs}
+    if robot_id in theirs:
+        return (
+            f"robot {robot_id} is agent {theirs[robot_id]!r}'s by the policy; ask for another id, or 0 for a free one"
+        )
+    if robot_id or not theirs:
+        return robot_id
+    return next(k for k in itertools.count(1) if k not in registry.entries and k not in theirs)

@@ -48,3 +48,15 @@ def test_a_bridge_registers_any_robot() -> None:
 
 def test_an_open_world_registers_any_robot_for_anyone() -> None:
     assert _ask(_core(None), "mallory", 1)[:2] == (True, 1)
+
+
+def test_a_bridge_cannot_take_a_robot_the_policy_gives_an_agent() -> None:
+    core = _core()
+    ok, _, reason = _ask(core, "bridge", 2)
+    assert not ok
+    assert "agent 'alice''s by the policy" in reason
+    # asking for any robot, it gets the first id neither taken nor an agent's
+    assert _ask(core, "bridge", 0, "a")[:2] == (True, 1)
+    assert _ask(core, "bridge", 0, "b")[:2] == (True, 4)
+    # and the agent still gets its own
+    assert _ask(core, "alice", 0, "c")[:2] == (True, 2)
