@@ -23,7 +23,7 @@ __all__ = ["PROFILE", "SIM_INDEX", "Recorder"]
 logger = logging.getLogger(__name__)
 
 PROFILE = "iw-zenoh"
-SIM_INDEX = "iw.sim_time_index"  # metadata: sim time -> log time, one entry per simulated second
+SIM_INDEX = "iw.sim_time_index"  # metadata: sim time -> log time, one entry per simulated second and the last state
 SIM_INDEX_STEP_NS = 1_000_000_000
 
 
@@ -53,6 +53,7 @@ class Recorder:
         self.counts: dict[str, int] = {}
         self.bytes = 0
         self._sim_index: list[tuple[int, int]] = []
+        self._last_state: tuple[int, int] | None = None  # (sim ns, log ns) of the last state recorded
         self._finished = False
         self._scene = Derivation() if scene else None
         base = {"iw-zenoh": __version__}
@@ -93,10 +94,10 @@ class Recorder:
         self.bytes += len(data)
         if self._scene is not None:
             self._derive(key, data, log_time_ns, sim_ns)
-        if keys.topic_kind(key) == "state" and (
-            not self._sim_index or sim_ns >= self._sim_index[-1][0] + SIM_INDEX_STEP_NS
-        ):
-            self._sim_index.append((sim_ns, log_time_ns))
+        if keys.topic_kind(key) == "state":
+            self._last_state = (sim_ns, log_time_ns)
+            if not self._sim_index or sim_ns >= self._sim_index[-1][0] + SIM_INDEX_STEP_NS:
+                self._sim_index.append((sim_ns, log_time_ns))
 
     def _derive(self, key: str, data: bytes, log_time_ns: int, sim_ns: int) -> None:
         """Adds the Foxglove scene messages a world message implies (never fails the recording)."""
@@ -116,7 +117,9 @@ class Recorder:
         if self._finished:
             return
         self._finished = True
-        self._w.add_metadata(SIM_INDEX, {str(s): str(t) for s, t in self._sim_index})
+        last = self._last_state
+        ends = [last] if last is not None and last[0] > self._sim_index[-1][0] else []
+        self._w.add_metadata(SIM_INDEX, {str(s): str(t) for s, t in self._sim_index + ends})
         self._w.add_metadata("iw.counts", {k: str(v) for k, v in sorted(self.counts.items())})
         for name, data in (extra or {}).items():
             self._w.add_metadata(name, data)

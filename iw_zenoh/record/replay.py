@@ -61,7 +61,9 @@ def sim_index(f: IO[bytes] | RecordingReader) -> tuple[list[int], list[int], str
     """Sorted (sim times, log times) of the recording's states, and its simulation name.
 
     Uses the recorder's indexes when every part has one, else scans the state channels (a part
-    cut off, or recovered, has none: its recorder never finished it).
+    cut off, or recovered, has none: its recorder never finished it). The recorder indexes one
+    state a simulated second, so the states after its last entry (up to a second of the
+    recording's tail) are read too: the last time is always the last state's.
 
     Raises:
         RecordingError: When the recording cannot be read.
@@ -75,13 +77,12 @@ def sim_index(f: IO[bytes] | RecordingReader) -> tuple[list[int], list[int], str
     for topic in sorted(rec.topics()):
         if keys.topic_kind(topic) == "state":
             sim_name = keys.sim_of(topic)
-    if not sims:
-        for r in rec.raw(("state",)):
-            sim_name = keys.sim_of(r.topic)
-            _, s = stamp_of(r.data)
-            if not sims or s > sims[-1]:
-                sims.append(s)
-                logs.append(r.log_time)
+    for r in rec.raw(("state",), window=Window(log_start=logs[-1] if logs else None)):
+        sim_name = keys.sim_of(r.topic)
+        _, s = stamp_of(r.data)
+        if not sims or s > sims[-1]:
+            sims.append(s)
+            logs.append(r.log_time)
     return sims, logs, sim_name
 
 

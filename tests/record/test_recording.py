@@ -194,3 +194,12 @@ def test_a_laser_scan_is_recorded_as_a_foxglove_laser_scan_in_its_robots_frame(t
     assert scan["intensities"] == [1.0, 0.0, 1.0]
     assert (scan["start_angle"], scan["end_angle"]) == (-math.pi / 2, math.pi / 2)
     assert scan["pose"]["position"]["x"] == 0.2
+
+
+def test_the_sim_time_index_has_a_state_a_simulated_second_and_the_last_state(tmp_path: Path) -> None:
+    path = tmp_path / "r.mcap"
+    _write(path, 25)  # states 0.1 s to 2.5 s apart by 0.1 s
+    with path.open("rb") as f:
+        meta = {m.name: m.metadata for m in make_reader(f).iter_metadata()}
+    index = sorted((int(k), int(v)) for k, v in meta[SIM_INDEX].items())
+    assert index == [(s, 1_000_000_000 + s) for s in (100_000_000, 1_100_000_000, 2_100_000_000, 2_500_000_000)]

@@ -73,3 +73,25 @@ def test_a_replay_plays_to_its_end_holds_there_and_seeks_back_to_show_that_momen
         assert "recording" in source.command(PageCommand(cmd="remove", robot_id=1))
     finally:
         source.close()
+
+
+def test_a_replays_timeline_ends_at_the_last_state_and_seeking_there_shows_it() -> None:
+    # the sample's recorder indexed one state a simulated second, not its last: its last 0.2 s
+    # were missing from the timeline
+    with open_recording(SAMPLE) as rec:
+        states = [r.message for r in rec.records(("state",)) if isinstance(r.message, WorldState)]
+    source = ReplaySource(SAMPLE, threading.Event(), rate=1)
+    try:
+        feed = Feed(source.sim)
+        source.command(PageCommand(cmd="pause"))
+        _until(source, feed, lambda _: source.player.paused)  # (the player takes it in its own thread)
+        [timeline] = source.extra()
+        assert isinstance(timeline, PageTimeline)
+        assert timeline.end_ns == states[-1].sim_time_ns
+        source.command(PageCommand(cmd="seek", at_ns=timeline.end_ns))
+        _until(source, feed, lambda _: feed.state is not None and feed.state.tick == states[-1].tick)
+        assert feed.state is not None
+        assert feed.state.x == pytest.approx(states[-1].x)
+        assert source.timeline().position_ns == states[-1].sim_time_ns
+    finally:
+        source.close()
