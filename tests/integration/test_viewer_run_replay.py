@@ -149,6 +149,31 @@ def test_a_run_recorded_now_replays_with_every_robot_its_agents_seek_and_step(
     page.close()
 
 
+def test_the_timeline_ends_at_the_last_recorded_state_and_seeking_to_its_end_shows_it(
+    recorded: Path, replay: str, browser: Browser
+) -> None:
+    _, states, _ = _contents(recorded)
+    last = states[-1]
+    page = browser.new_page(viewport={"width": 1200, "height": 800})
+    page.goto(replay)
+    page.wait_for_function("window.iwz && window.iwz.world.timeline", timeout=WAIT_MS * 2)
+    assert page.evaluate("window.iwz.world.timeline.end_ns") == last.sim_time_ns
+    assert page.inner_text("#tl-end") == f"{last.sim_time_ns / 1e9:.1f} s"
+    page.click("#btn-pause")
+    page.wait_for_function("!window.iwz.world.timeline.playing", timeout=WAIT_MS)
+    page.focus("#tl-range")
+    page.keyboard.press("End")  # the track's end
+    page.wait_for_function(f"window.iwz.world.tick === {last.tick}", timeout=WAIT_MS)
+    assert page.evaluate("window.iwz.sent.filter((c) => c.cmd === 'seek').pop().at_ns") == last.sim_time_ns
+    robots = {r["id"]: r for r in page.evaluate("window.iwz.robots()")}
+    assert set(robots) == set(last.ids)
+    for i, rid in enumerate(last.ids):
+        assert (robots[rid]["x"], robots[rid]["y"]) == pytest.approx((last.x[i], last.y[i]), abs=1e-3)
+    page.wait_for_function(f"window.iwz.world.timeline.position_ns === {last.sim_time_ns}", timeout=WAIT_MS)
+    assert page.inner_text("#tl-pos") == page.inner_text("#tl-end")
+    page.close()
+
+
 def _wall_hit(page: Page) -> list[float]:
     """The drawn scan hit on the wall's face (x = 15) nearest the chair's line (y = 5): the middle
     beam's."""
