@@ -233,11 +233,14 @@ PageMessage = (
 
 class PageCommand(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """What the page asks: a world control (``start`` ... ``remove_obstacle``), a robot's
-    ``reading``, or, in a replay, ``seek`` (``at_ns``) and ``rate``."""
+    ``reading``, in a replay ``seek`` (``at_ns``) and ``rate``, or which laser scans it draws
+    (``scans``: every robot's with ``scans="all"``, only robot ``robot_id``'s with
+    ``scans="selected"``, no robot's with ``scans="none"``; every robot's until it says)."""
 
-    cmd: Literal[WorldCommand, "reading", "seek", "rate"]
+    cmd: Literal[WorldCommand, "reading", "seek", "rate", "scans"]
     robot_id: Annotated[int, msgspec.Meta(ge=0)] = 0
     obstacle: Obstacle | None = None
     steps: Annotated[int, msgspec.Meta(ge=1, le=10_000)] = 1
     at_ns: Annotated[int, msgspec.Meta(ge=0)] = 0
     rate: Annotated[float, msgspec.Meta(ge=0.0, le=1000.0)] = 1.0
+    scans: Literal["all", "selected", "none"] = "all"

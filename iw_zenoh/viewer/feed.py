@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import collections
 import itertools
+from dataclasses import dataclass
 from typing import Any
 
 import msgspec
@@ -31,6 +32,7 @@ from iw_zenoh.messages import (
     event_payload,
 )
 from iw_zenoh.messages.page import (
+    PageCommand,
     PageEvent,
     PageFrame,
     PageHeard,
@@ -46,7 +48,7 @@ from iw_zenoh.messages.page import (
     PageWall,
 )
 
-__all__ = ["Feed"]
+__all__ = ["Feed", "ScansWanted"]
 
 EVENTS_KEPT = 20  # a robot's recent events shown in its panel
 RTF_WINDOW_NS = 2_000_000_000  # the real-time factor is measured over the last 2 s of wall time
@@ -95,6 +97,35 @@ def _scans(r: SensorReading, order: list[int]) -> list[list[float | None]]:
     """A reading's laser ranges, one list per scanner in ``order`` (empty: not in the reading)."""
     by_id = {a.id: a.ranges for a in r.lasers} if isinstance(r.lasers, list) else {}
     return [_prox(by_id.get(i, [])) for i in order]
+
+
+@dataclass(frozen=True)
+class ScansWanted:
+    """Which robots' laser scans one page draws, so only those are sent to it.
+
+    Attributes:
+        every: Every robot's (the scans toggle on; what a page gets until it says).
+        robot_id: Otherwise only this robot's (the selected one; ``None``: no robot's).
+    """
+
+    every: bool = True
+    robot_id: int | None = None
+
+    @classmethod
+    def of(cls, cmd: PageCommand) -> ScansWanted:
+        """What a page's ``scans`` command asks for."""
+        if cmd.scans == "all":
+            return cls()
+        return cls(every=False, robot_id=cmd.robot_id if cmd.scans == "selected" else None)
+
+    def keep(self, msg: PageScans) -> PageScans | None:
+        """The part of ``msg`` this page draws (``None``: nothing of it)."""
+        if self.every:
+            return msg
+        key = str(self.robot_id)
+        if self.robot_id is None or key not in msg.scans:
+            return None
+        return PageScans(tick=msg.tick, scans={key: msg.scans[key]})
 
 
 class Feed:
@@ -348,7 +379,12 @@ class Feed:
                     tick=self.state.tick if self.state else 0, prox={str(k): v for k, v in self._sent_prox.items()}
                 )
             )
-        if self._sent_scans:
-            tick = self.state.tick if self.state else 0
-            out.append(PageScans(tick=tick, scans={str(k): v for k, v in self._sent_scans.items()}))
-        return out
+        scans = self.scans_now()
+        return out + [scans] if scans is not None else out
+
+    def scans_now(self) -> PageScans | None:
+        """Every scanner's last scan sent (what a page that asks for more scans lacks); ``None``: none yet."""
+        if not self._sent_scans:
+            return None
+        tick = self.state.tick if self.state else 0
+        return PageScans(tick=tick, scans={str(k): v for k, v in self._sent_scans.items()})

@@ -2,8 +2,10 @@
 and one WebSocket per page (aiohttp serves both from one asyncio loop).
 
 A pump thread drains the source into the :class:`~iw_zenoh.viewer.feed.Feed` and encodes each
-page message once; the loop hands it to every page. A page that joins, or falls too far behind
-(:data:`MAX_BACKLOG` messages unsent), is given the feed's snapshot and goes on from there.
+page message once; the loop hands it to every page. Laser scans go to each page only for the
+robots it draws (its ``scans`` command, :class:`~iw_zenoh.viewer.feed.ScansWanted`), encoded once
+per choice. A page that joins, or falls too far behind (:data:`MAX_BACKLOG` messages unsent), is
+given the feed's snapshot and goes on from there.
 """
 
 from __future__ import annotations
@@ -21,11 +23,11 @@ import msgspec
 from aiohttp import WSMsgType, web
 
 from iw_zenoh import __version__
-from iw_zenoh.messages.page import PageCommand, PageError, PageHello, PageMessage
-from iw_zenoh.viewer.feed import Feed
+from iw_zenoh.messages.page import PageCommand, PageError, PageHello, PageMessage, PageScans
+from iw_zenoh.viewer.feed import Feed, ScansWanted
 from iw_zenoh.viewer.sources import Source
 
-__all__ = ["STATIC", "Client", "Pump", "make_app"]
+__all__ = ["STATIC", "Client", "Pump", "Scans", "make_app"]
 
 logger = logging.getLogger(__name__)
 
@@ -38,13 +40,41 @@ _COMMAND = msgspec.json.Decoder(PageCommand)
 
 @dataclass(eq=False)
 class Client:
-    """One page: its socket, what waits to be sent to it, whether it has its snapshot."""
+    """One page: its socket, what waits to be sent to it, whether it has its snapshot, whose laser
+    scans it draws."""
 
     ws: web.WebSocketResponse
     waiting: collections.deque[str] = field(default_factory=collections.deque)
     ready: asyncio.Event = field(default_factory=asyncio.Event)
     joined: bool = False
     closed: bool = False
+    scans: ScansWanted = field(default_factory=ScansWanted)
+
+
+class Scans:
+    """Laser scans to hand out, encoded once for each page's choice of robots (on the server's loop).
+
+    Args:
+        msg: Every scan that changed.
+    """
+
+    def __init__(self, msg: PageScans) -> None:
+        self.msg = msg
+        self._encoded: dict[ScansWanted, str | None] = {}
+
+    def for_page(self, wanted: ScansWanted) -> str | None:
+        """The message for a page that draws ``wanted`` (``None``: nothing it draws changed)."""
+        if wanted not in self._encoded:
+            kept = wanted.keep(self.msg)
+            self._encoded[wanted] = None if kept is None else _ENCODER.encode(kept).decode()
+        return self._encoded[wanted]
+
+
+Outgoing = str | Scans  # an encoded message for every page, or scans to encode per page
+
+
+def _encoded(msgs: list[PageMessage]) -> list[Outgoing]:
+    return [Scans(m) if isinstance(m, PageScans) else _ENCODER.encode(m).decode() for m in msgs]
 
 
 class Pump(threading.Thread):
@@ -62,7 +92,7 @@ class Pump(threading.Thread):
         source: Source,
         feed: Feed,
         wake: threading.Event,
-        deliver: collections.abc.Callable[[Client | None, list[str], bool], None],
+        deliver: collections.abc.Callable[[Client | None, list[Outgoing], bool], None],
     ) -> None:
         super().__init__(name="viewer-pump", daemon=True)
         self.source = source
@@ -89,10 +119,10 @@ class Pump(threading.Thread):
                 logger.exception("the viewer's source failed")
                 out = []
             if out:
-                self.deliver(None, [_ENCODER.encode(m).decode() for m in out], False)
+                self.deliver(None, _encoded(out), False)
             while not self.requests.empty():
                 client, cmd = self.requests.get()
-                self.deliver(client, [_ENCODER.encode(m).decode() for m in self._answer(cmd, now)], cmd is None)
+                self.deliver(client, _encoded(self._answer(cmd, now)), cmd is None)
 
     def _answer(self, cmd: PageCommand | None, now: int) -> list[PageMessage]:
         if cmd is None:
@@ -100,6 +130,9 @@ class Pump(threading.Thread):
             return [hello, *self.feed.snapshot(now), *self.source.extra()]
         if cmd.cmd == "reading":
             return [self.feed.reading(cmd.robot_id)]
+        if cmd.cmd == "scans":  # the page draws other robots' scans now: their last ones (filtered on the loop)
+            scans = self.feed.scans_now()
+            return [scans] if scans is not None else []
         why = self.source.command(cmd)
         return [PageError(error=why)] if why else []
 
@@ -138,8 +171,9 @@ class _Pages:
         assert self.pump is not None
         self.pump.ask(client, cmd)
 
-    def on_loop(self, target: Client | None, data: list[str], snapshot: bool) -> None:
-        """Queues what the pump encoded for one page, or for every page that has its snapshot."""
+    def on_loop(self, target: Client | None, data: list[Outgoing], snapshot: bool) -> None:
+        """Queues what the pump encoded for one page, or for every page that has its snapshot
+        (of the laser scans, only those each page draws)."""
         for c in [target] if target is not None else list(self.clients):
             if c.closed or not (c.joined or snapshot):
                 continue
@@ -149,14 +183,17 @@ class _Pages:
                 self._ask(c, None)
                 continue
             c.joined = True
-            c.waiting.extend(data)
+            for d in data:
+                text = d if isinstance(d, str) else d.for_page(c.scans)
+                if text is not None:
+                    c.waiting.append(text)
             c.ready.set()
 
     async def start(self, app: web.Application) -> None:
         """Starts the pump."""
         loop = asyncio.get_running_loop()
 
-        def deliver(c: Client | None, d: list[str], s: bool) -> None:
+        def deliver(c: Client | None, d: list[Outgoing], s: bool) -> None:
             loop.call_soon_threadsafe(self.on_loop, c, d, s)
 
         self.pump = Pump(self.source, self.feed, self.wake, deliver)
@@ -187,9 +224,13 @@ class _Pages:
                 if msg.type != WSMsgType.TEXT:
                     continue
                 try:
-                    self._ask(client, _COMMAND.decode(msg.data))
+                    cmd = _COMMAND.decode(msg.data)
                 except msgspec.DecodeError as e:  # ValidationError is one
                     _refuse(client, str(e))
+                    continue
+                if cmd.cmd == "scans":  # from now on: what follows is filtered before it is queued
+                    client.scans = ScansWanted.of(cmd)
+                self._ask(client, cmd)
         finally:
             client.closed = True
             self.clients.discard(client)

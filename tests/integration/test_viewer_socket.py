@@ -49,6 +49,7 @@ def _next_error(ws: ClientConnection) -> str:
         ("[]", "Expected `object`, got `array`"),
         ('{"cmd": "step", "steps": -1}', "Expected `int` >= 1 - at `$.steps`"),
         ('{"cmd": "pause", "extra": 1}', "unknown field `extra`"),
+        ('{"cmd": "scans", "scans": "mine"}', "Invalid enum value 'mine' - at `$.scans`"),
     ],
 )
 def test_a_hostile_command_is_refused_with_a_reason_and_the_server_answers_on(

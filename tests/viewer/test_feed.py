@@ -22,8 +22,17 @@ from iw_zenoh.messages import (
     WorldState,
     make_event,
 )
-from iw_zenoh.messages.page import PageEvent, PageFrame, PageReadings, PageScans, PageScene, PageStatus
-from iw_zenoh.viewer.feed import Feed
+from iw_zenoh.messages.page import (
+    PageCommand,
+    PageEvent,
+    PageFrame,
+    PageReadings,
+    PageScans,
+    PageScene,
+    PageStatus,
+)
+from iw_zenoh.viewer.feed import Feed, ScansWanted
+from iw_zenoh.viewer.server import Scans
 
 WALL = WallMsg(corners=[(1.0, 1.0), (2.0, 1.0), (2.0, 2.0)], height=2.0)
 OB = Obstacle(name="box", x0=5.0, y0=5.0, x1=6.0, y1=6.0)
@@ -236,3 +245,40 @@ def test_a_scanners_place_and_its_scans_reach_the_page_only_when_they_move() -> 
     feed.on_state(_state(3, [1, 2]), wall_ns=0)
     [snap] = [m for m in feed.snapshot(wall_ns=0) if isinstance(m, PageScans)]
     assert snap.scans == {"1": [[1.23, 2.0, 4.0]]}  # a page that joins sees the last scan
+
+
+def _wanted(scans: str, robot_id: int = 0) -> ScansWanted:
+    return ScansWanted.of(
+        msgspec.json.decode(
+            msgspec.json.encode({"cmd": "scans", "scans": scans, "robot_id": robot_id}), type=PageCommand
+        )
+    )
+
+
+def test_a_page_is_sent_the_scans_of_every_robot_of_the_one_it_selected_or_none() -> None:
+    msg = PageScans(tick=4, scans={"1": [[1.0, None]], "2": [[2.0, 3.0]]})
+    assert ScansWanted().keep(msg) is msg  # a page that never said: every robot's, as before
+    assert _wanted("all", 2).keep(msg) is msg
+    assert _wanted("selected", 2).keep(msg) == PageScans(tick=4, scans={"2": [[2.0, 3.0]]})
+    assert _wanted("selected", 0).keep(msg) is None  # robot 0 is selected: its scans did not change
+    assert _wanted("none", 2).keep(msg) is None
+    one = Scans(msg)
+    assert msgspec.json.decode(one.for_page(_wanted("selected", 1)) or "") == {
+        "type": "scans",
+        "tick": 4,
+        "scans": {"1": [[1.0, None]]},
+    }
+    assert one.for_page(_wanted("none")) is None
+    assert msgspec.json.decode(one.for_page(ScansWanted()) or "")["scans"].keys() == {"1", "2"}
+
+
+def test_a_page_that_draws_more_scans_is_given_the_last_ones_sent() -> None:
+    feed = Feed("t")
+    assert feed.scans_now() is None
+    feed.on_info(_scanner_info())
+    feed.on_sensors(SensorBatch(tick=1, shard="1-1", readings=[_scanned(1, [1.0, None, 4.0]), _reading(2, 1)]))
+    feed.on_sensors(SensorBatch(tick=2, shard="1-1", readings=[_scanned(1, [1.001, None, 4.0], 2)]))  # not sent
+    feed.on_state(_state(2, [1, 2]), wall_ns=0)
+    assert feed.scans_now() == PageScans(tick=2, scans={"1": [[1.0, None, 4.0]]})
+    [snap] = [m for m in feed.snapshot(wall_ns=0) if isinstance(m, PageScans)]
+    assert snap == feed.scans_now()

@@ -31,6 +31,8 @@ let view2d = null;
 let view3d = null;
 let timeline = null;
 let scansChosen = false;  // the scans toggle was set by hand: the roster's size no longer sets it
+const SCANS_ALL = JSON.stringify({ cmd: "scans", scans: "all" });
+let scansSaid = SCANS_ALL;  // whose scans the server was last told this page draws (every robot's until told)
 
 const sent = [];  // the last commands sent (for tests and scripts: window.iwz.sent)
 
@@ -48,12 +50,26 @@ function toast(text) {
   toast.timer = setTimeout(() => { t.hidden = true; }, 5000);
 }
 
+// tells the server whose laser scans this page draws (every robot's, the selected one's, or none),
+// so that it sends no others, and forgets the ones it no longer draws
+function tellScans() {
+  const sel = world.selected && world.selected.kind === "robot" ? world.selected.id : null;
+  let want = { cmd: "scans", scans: "all" };
+  if (!$("opt-scans").checked) want = sel === null ? { cmd: "scans", scans: "none" } : { cmd: "scans", scans: "selected", robot_id: sel };
+  const key = JSON.stringify(want);
+  if (key === scansSaid || !ws || ws.readyState !== WebSocket.OPEN) return;
+  scansSaid = key;
+  if (want.scans !== "all") for (const id of [...world.scans.keys()]) if (id !== sel) world.scans.delete(id);
+  send(want);
+}
+
 function onScene(m) {
   world.scene = m;
   world.robots = new Map(m.robots.map((r) => [r.id, r]));
   for (const id of [...world.trails.keys()]) if (!world.robots.has(id)) world.trails.delete(id);
   for (const id of [...world.scans.keys()]) if (!world.robots.has(id)) world.scans.delete(id);
   if (!scansChosen) $("opt-scans").checked = m.robots.length <= SCANS_ALL_MAX;
+  tellScans();
   if (world.selected && world.selected.kind === "obstacle" &&
       !m.obstacles.some((o) => o.name === world.selected.name)) select(null);
   if (view2d && !view2d.fitted) view2d.fit();
@@ -125,7 +141,7 @@ const handlers = {
 
 function connect() {
   ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws`);
-  ws.onopen = () => { world.connected = true; hud(); };
+  ws.onopen = () => { world.connected = true; scansSaid = SCANS_ALL; tellScans(); hud(); };
   ws.onmessage = (e) => {
     const m = JSON.parse(e.data);
     const h = handlers[m.type];
@@ -169,6 +185,7 @@ export function select(sel) {
   $("btn-remove").hidden = !sel || sel.kind !== "robot";
   $("btn-obstacle-delete").hidden = !sel || sel.kind !== "obstacle";
   if (sel && sel.kind === "robot") send({ cmd: "reading", robot_id: sel.id });
+  tellScans();
   panel();
   world.version += 1;
 }
@@ -269,7 +286,7 @@ function controls() {
   $("panel-close").onclick = () => select(null);
   $("view-mode").onchange = viewMode;
   for (const id of ["opt-trails", "opt-cones", "opt-labels"]) $(id).onchange = () => { world.version += 1; };
-  $("opt-scans").onchange = () => { scansChosen = true; world.version += 1; };
+  $("opt-scans").onchange = () => { scansChosen = true; tellScans(); world.version += 1; };
   $("rate").onchange = () => send({ cmd: "rate", rate: Number($("rate").value) });
   setInterval(() => {
     if (world.selected && world.selected.kind === "robot") send({ cmd: "reading", robot_id: world.selected.id });
