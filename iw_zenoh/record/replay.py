@@ -116,7 +116,8 @@ class Player:
         self.control = Inbox(wake=self.wake)
         bus.subscribe(keys.control(self.target), self.control)
         self.paused = opts.paused
-        self.steps = 0
+        self.steps = 0  # ticks still to play paused (a step plays a state and the rest of its tick)
+        self._stepping: int | None = None  # sim time of the tick a step is playing the rest of
         self.sent = 0
         self.position_ns = 0  # sim time of the last state played
         self.progress: Callable[[float, str], None] | None = None  # told how far, at each state played
@@ -133,10 +134,11 @@ class Player:
             logger.info("not simulation keys, not played: %s", ", ".join(self.skipped))
 
     def log_time_at(self, sim_ns: int) -> int:
-        """The log time to start reading at to play from simulation time ``sim_ns``."""
+        """The log time to start reading at to play from simulation time ``sim_ns`` (an index
+        entry before it: a tick's readings may be received before its state)."""
         if not self.sims:
             return 0
-        i = bisect.bisect_right(self.sims, sim_ns) - 1
+        i = bisect.bisect_left(self.sims, sim_ns) - 1
         return self.logs[max(0, i)]
 
     @property
@@ -239,8 +241,15 @@ class Player:
             if not interrupted:
                 return not self.stop.is_set()
 
+    def _end_step(self) -> None:
+        """The step under way is over (the next tick begins, or the pass ends)."""
+        if self._stepping is not None:
+            self._stepping = None
+            self.steps = max(0, self.steps - 1)
+
     def _play(self, from_sim: int | None) -> bool:
         self._base = None
+        self._end_step()
         skipping = from_sim is not None
         played = False
         for r in self._messages(from_sim):
@@ -250,8 +259,9 @@ class Player:
                 return played
             kind = keys.topic_kind(topic)
             if skipping:
-                # start at the first state at or after the requested time (and what follows it)
-                if kind == "state" and from_sim is not None and pub_ns >= from_sim:
+                # start with the tick of the first state at or after the requested time: its
+                # readings and radio may have been published (and recorded) before its state
+                if from_sim is not None and pub_ns >= from_sim:
                     skipping = False
                 elif kind == "info":
                     self._last_info = data
@@ -260,6 +270,8 @@ class Player:
                     continue
             if self.opts.end_ns is not None and kind == "state" and pub_ns > self.opts.end_ns:
                 return played
+            if self._stepping is not None and (kind == "state" or pub_ns > self._stepping):
+                self._end_step()  # a step plays its tick's readings and radio too, which may follow its state
             if not self._pace(log_ns):
                 return played
             if kind == "info":
@@ -273,5 +285,5 @@ class Player:
                 if self.progress is not None:
                     self.progress(self.recording.progress(), f"t={pub_ns / 1e9:.1f} s")
                 if self.steps > 0:
-                    self.steps -= 1
+                    self._stepping = pub_ns
         return played
