@@ -22,11 +22,28 @@ from iw_zenoh.errors import IwError
 from iw_zenoh.net import NetConfig, zenoh_config
 from iw_zenoh.publishers import Publishers
 
-__all__ = ["Asked", "Bus", "Delivery", "Handle", "Inbox", "PendingQuery", "QueryInbox", "Queue", "ZenohBus"]
+__all__ = [
+    "INBOX_KEPT",
+    "NEWEST_KEPT",
+    "Asked",
+    "Bus",
+    "Delivery",
+    "Handle",
+    "Inbox",
+    "PendingQuery",
+    "QueryInbox",
+    "Queue",
+    "ZenohBus",
+]
 
 logger = logging.getLogger(__name__)
 
 Delivery = tuple[str, bytes, int]  # key, payload, receive time (ns, wall clock)
+
+# an inbox nobody drains for a while (a stalled loop, a flood) must not grow without bound:
+INBOX_KEPT = 100_000  # deliveries one holds at most: minutes of a busy key; beyond, the oldest are lost and logged
+NEWEST_KEPT = 16  # ... of a key whose next message supersedes the last (a state, a tick): the newest few
+LOST_LOG_S = 1.0  # losses are logged at most this often per inbox
 
 
 class Handle(Protocol):
@@ -45,17 +62,29 @@ class Inbox:
     burst of deliveries wakes the loop once: a loop clears ``wake`` before it drains, so nothing
     put after the clear goes unseen).
 
+    Bounded: beyond ``maxlen`` deliveries waiting, the oldest is lost; :attr:`lost` counts the
+    losses (seen when the inbox is read), which are logged unless ``newest_only`` says they are
+    expected.
+
     Args:
-        maxlen: Keep only the newest ``maxlen`` deliveries (``None``: keep all).
+        maxlen: Keep only the newest ``maxlen`` deliveries.
         wake: An event set on every delivery (one node loop waits on one event for all inboxes).
+        newest_only: Only the newest deliveries matter to the reader (older ones are superseded):
+            losing older ones is not worth a warning.
     """
 
-    def __init__(self, maxlen: int | None = None, wake: threading.Event | None = None) -> None:
+    def __init__(
+        self, maxlen: int = INBOX_KEPT, wake: threading.Event | None = None, *, newest_only: bool = False
+    ) -> None:
         self._q: collections.deque[Delivery] = collections.deque(maxlen=maxlen)
         self._cv = threading.Condition()
         self._waiters = 0  # threads in get() or wait(), counted under _cv
         self._wake = wake
         self.received = 0
+        self.lost = 0
+        self._taken = 0
+        self._newest_only = newest_only
+        self._logged = -LOST_LOG_S
 
     def put(self, item: Delivery) -> None:
         """Adds a delivery (called from the bus's thread)."""
@@ -77,12 +106,15 @@ class Inbox:
             try:
                 if not self._q and not self._cv.wait_for(lambda: bool(self._q), timeout=timeout_s):
                     return None
+                self._count_lost()
+                self._taken += 1
                 return self._q.popleft()
             finally:
                 self._waiters -= 1
 
     def drain(self) -> list[Delivery]:
         """Every delivery waiting now, oldest first."""
+        self._count_lost()
         out: list[Delivery] = []
         pop = self._q.popleft
         try:
@@ -90,7 +122,24 @@ class Inbox:
                 out.append(pop())
         except IndexError:  # a bounded inbox dropped its oldest for a newer one meanwhile
             pass
+        self._taken += len(out)
         return out
+
+    def _count_lost(self) -> None:
+        """Counts the deliveries lost to the bound: received, but neither taken nor waiting (by the one
+        reader: ``put`` appends before it counts, so a loss is never over-counted)."""
+        lost = self.received - self._taken - len(self._q)
+        if lost <= self.lost:
+            return
+        self.lost = lost
+        now = time.monotonic()
+        if not self._newest_only and now - self._logged >= LOST_LOG_S:
+            self._logged = now
+            logger.warning(
+                "an inbox overflowed: %d deliveries lost so far, the oldest of %d waiting (its reader fell behind)",
+                lost,
+                self._q.maxlen,
+            )
 
     def wait(self, timeout_s: float) -> bool:
         """Waits until something is waiting; False on timeout."""

@@ -351,6 +351,18 @@ def topic_kind(key: str) -> str | None:
     return None
 
 
+_SUPERSEDED = frozenset({"info", "tick", "proposed", "verdict", "state"})
+
+
+def superseded(key_expr: str) -> bool:
+    """Whether each message on ``key_expr`` supersedes the one before (the world's state, clock,
+    proposal, verdict, description): a reader behind needs only the newest few.
+
+    Every other key (actions, events, control, radio, readings) carries messages that each count.
+    """
+    return topic_kind(key_expr) in _SUPERSEDED
+
+
 def with_sim(key: str, sim: str) -> str:
     """The same key in another simulation (a replay beside a live run)."""
     parts = str(key).split("/")

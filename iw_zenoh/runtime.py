@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from typing import Any, TypeVar, overload
 
 from iw_zenoh import keys
-from iw_zenoh.bus import Bus, Delivery, Inbox, ZenohBus
+from iw_zenoh.bus import INBOX_KEPT, NEWEST_KEPT, Bus, Delivery, Inbox, ZenohBus
 from iw_zenoh.cliargs import add_common_arguments, net_from_args
 from iw_zenoh.errors import DecodeError, IwError
 from iw_zenoh.messages import EventData, EventKind, Message, Outgoing, decode, encode, make_event
@@ -61,8 +61,17 @@ class NodeIO:
         self.bad_messages = 0
 
     def inbox(self, key_expr: str, maxlen: int | None = None) -> Inbox:
-        """Subscribes ``key_expr`` into a new inbox that wakes this node."""
-        box = Inbox(maxlen=maxlen, wake=self.wake)
+        """Subscribes ``key_expr`` into a new inbox that wakes this node.
+
+        Args:
+            key_expr: The key expression.
+            maxlen: Deliveries kept waiting at most (None: by what the key carries, the newest
+                :data:`~iw_zenoh.bus.NEWEST_KEPT` of a key whose messages supersede each other,
+                else :data:`~iw_zenoh.bus.INBOX_KEPT`, beyond which losses are logged).
+        """
+        newest = keys.superseded(key_expr)
+        kept = maxlen if maxlen is not None else NEWEST_KEPT if newest else INBOX_KEPT
+        box = Inbox(maxlen=kept, wake=self.wake, newest_only=newest)
         self.bus.subscribe(key_expr, box)
         return box
 

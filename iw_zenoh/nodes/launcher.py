@@ -168,9 +168,9 @@ class Launcher:
     def observe(self, bus: ZenohBus) -> tuple[Inbox, Inbox, Inbox]:
         """Subscribes to state, events and the world's description, and watches liveliness
         (agents alive; restarted roles back)."""
-        states = Inbox(maxlen=1)
-        events = Inbox()
-        infos = Inbox(maxlen=1)
+        states = Inbox(maxlen=1, newest_only=True)
+        events = Inbox()  # every event counts (a removal, a hold): INBOX_KEPT, losses logged
+        infos = Inbox(maxlen=1, newest_only=True)
         bus.subscribe(keys.state(self.sim), states)
         bus.subscribe(keys.all_events(self.sim), events)
         bus.subscribe(keys.info(self.sim), infos)

@@ -45,6 +45,9 @@ logger = logging.getLogger(__name__)
 
 WORLD_CONTROLS = ("start", "pause", "step", "stop", "remove", "add_obstacle", "move_obstacle", "remove_obstacle")
 TIMELINE_EVERY_NS = 200_000_000  # a playing replay's position is told the pages this often
+# a live page shows the present: a viewer behind keeps the newest deliveries of all its keys,
+# about a minute of a busy run (a state, a tick, a batch per shard, radio and events each tick)
+LIVE_KEPT = 4096
 
 
 class Source(Protocol):
@@ -121,7 +124,7 @@ class LiveSource:
     def __init__(self, bus: Bus, sim: str, wake: threading.Event) -> None:
         self.bus = bus
         self.sim = sim
-        self.inbox = Inbox(wake=wake)
+        self.inbox = Inbox(maxlen=LIVE_KEPT, wake=wake)
         for key in (
             keys.info(sim),
             keys.tick(sim),
