@@ -15,6 +15,11 @@ from iw_zenoh.errors import SpecError
 
 __all__ = [
     "LEGACY_MAX_IR",
+    "MAX_BODY_M",
+    "MAX_BUMPERS",
+    "MAX_BUMPER_CORNERS",
+    "MAX_IR",
+    "MAX_LASERS",
     "MAX_SPEED_MPS",
     "NAME_MAX_CHARS",
     "BodyShape",
@@ -37,6 +42,13 @@ DEFAULT_IR_RANGE_M = 4.0  # choice: a sonar's useful range; the seed gives none
 LASER_MAX_BEAMS = 4096  # a 0.1-degree scanner over 360 degrees is 3,600 beams
 LASER_MAX_RANGE_M = 100.0  # beyond any indoor scanner's (and any lab's diagonal here)
 MAX_SPEED_MPS = 100.0  # far past any wheelchair's; a faster one's poses overflow to beyond the wire's limits
+# one registration must not make every tick's cost (and memory) huge; the seed bounds only the
+# legacy sensors (8), so these are choices, generous for any chair, door or Ciber-Rato robot:
+MAX_IR = 64  # proximity sensors of a native robot (a ring of sonars every 6 degrees is 60)
+MAX_LASERS = 8  # laser scanners, each of at most LASER_MAX_BEAMS beams
+MAX_BUMPERS = 16  # contact sensors ...
+MAX_BUMPER_CORNERS = 64  # ... each a polygon of at most this many corners
+MAX_BODY_M = 10.0  # width and height: a bed, a revolving door's wings, a car are under it
 
 
 class RobotType(enum.StrEnum):
@@ -225,6 +237,8 @@ class BumperSpec:
     def __post_init__(self) -> None:
         if len(self.corners) < 3:
             raise SpecError(f"bumper[{self.id}].corners", f"needs at least 3 corners, got {len(self.corners)}")
+        if len(self.corners) > MAX_BUMPER_CORNERS:
+            raise SpecError(f"bumper[{self.id}].corners", f"at most {MAX_BUMPER_CORNERS}, got {len(self.corners)}")
         for i, (cx, cy) in enumerate(self.corners):
             _finite(f"bumper[{self.id}].corners[{i}].x", cx)
             _finite(f"bumper[{self.id}].corners[{i}].y", cy)
@@ -242,6 +256,21 @@ class EncoderSpec:
 
     def __post_init__(self) -> None:
         _positive("encoder.ticks_per_m", self.ticks_per_m)
+
+
+def _bounded(spec: RobotSpec) -> None:
+    """Refuses a body over :data:`MAX_BODY_M`, more sensors than :data:`MAX_IR`,
+    :data:`MAX_LASERS` or :data:`MAX_BUMPERS` (what one robot costs every tick is bounded)."""
+    for name, m in (("width", spec.width_m), ("height", spec.height_m)):
+        if m > MAX_BODY_M:
+            raise SpecError(name, f"must be at most {MAX_BODY_M:g} m, got {m!r}")
+    for name, n, most in (
+        ("ir_sensors", len(spec.ir_sensors), MAX_IR),
+        ("lasers", len(spec.lasers), MAX_LASERS),
+        ("bumpers", len(spec.bumpers), MAX_BUMPERS),
+    ):
+        if n > most:
+            raise SpecError(name, f"at most {most} per robot, got {n} (every tick computes each one)")
 
 
 PROTOTYPE_SENSOR_LAYOUT = (
@@ -305,17 +334,17 @@ class RobotSpec:
         type: Simulated, Real or Door.
         shape: Rectangle or disc (Ciber-Rato's is 1 across); a disc's width and height are its
             diameter.
-        width_m: Length along the heading, > 0.
-        height_m: Size across the heading and wheel base, > 0.
+        width_m: Length along the heading, in ]0;10] m (MAX_BODY_M).
+        height_m: Size across the heading and wheel base, in ]0;10] m.
         com: Centre of movement as a fraction of width from the rear, in ]0;1[.
         x_m: Start x (> 0), or ``None`` for the grid position.
         y_m: Start y (> 0), or ``None`` for the grid position.
         dir_deg: Start heading in [-180;180], or ``None`` for the grid's.
         max_speed_mps: Top speed at power 0.15 on both wheels, in ]0;100] m/s.
         acceleration_curve: Motor inertia, in ]0;1].
-        ir_sensors: Proximity sensors; empty means the four defaults of Table 4.5.
-        bumpers: Contact sensors.
-        lasers: 2D laser range finders (none by default).
+        ir_sensors: Proximity sensors (at most 64; 8 when legacy); empty means the four defaults of Table 4.5.
+        bumpers: Contact sensors (at most 16, of 3 to 64 corners).
+        lasers: 2D laser range finders (none by default; at most 8).
         encoder: Wheel encoder parameters.
         noise: Sensor and movement noise.
         legacy: A Ciber-Rato / Intellwheels registration: at most 8 sensors with ids 0..7.
@@ -362,6 +391,7 @@ class RobotSpec:
             raise SpecError("shape", f"must be rect or circle, got {self.shape!r}") from None
         _positive("width", self.width_m)
         _positive("height", self.height_m)
+        _bounded(self)
         _within("com", self.com, 0.0, 1.0, lo_open=True, hi_open=True)
         for name, v in (("x", self.x_m), ("y", self.y_m)):
             if v is not None:
