@@ -138,10 +138,12 @@ class Referee:
         """
         specs = {s.id: s.name for s in (info.robots if info else [])}
         out = []
+        natives: list[int] = []  # the native robots of this state
         for rid, x, y, h, hit in zip(st.ids, st.x, st.y, st.heading, st.collided, strict=True):
             robot = robots.get(rid)
             g = robot.game if robot is not None else None
             if g is None:  # a native robot: no legacy game, its collisions counted here
+                natives.append(rid)
                 if hit and not self._hit.get(rid, False):
                     self._collisions[rid] = self._collisions.get(rid, 0) + 1
                 self._hit[rid] = hit
@@ -162,4 +164,12 @@ class Referee:
                     visited_mask=g.visited_mask if g is not None else "0" * len(info.lab.targets if info else ()),
                 )
             )
+        if len(self._hit) > len(natives):
+            self._forget(natives)
         return out
+
+    def _forget(self, natives: list[int]) -> None:
+        """Forgets the native robots a state no longer holds (removed: their counts go with them)."""
+        here = set(natives)
+        self._hit = {rid: v for rid, v in self._hit.items() if rid in here}
+        self._collisions = {rid: n for rid, n in self._collisions.items() if rid in here}

@@ -20,6 +20,9 @@ class Tally:
     """What the launcher saw of the run.
 
     Attributes:
+        positions: Where each robot of the last state is, and where each robot the criteria name
+            was last seen (bounded by what the world holds, not by how many robots came and went).
+        reached: When each robot the criteria name first reached its goal (it counts after it left).
         owners: The agent of every robot registered and not removed (``registered`` events).
         agents_alive: Agent processes whose liveliness token is there.
         running: False while the world is paused.
@@ -62,12 +65,15 @@ class Tally:
             self.holding = ""
 
     def on_state(self, st: WorldState, reach: tuple[Reach, ...], doors: tuple[DoorCriterion, ...] = ()) -> None:
-        """Keeps the tick, the time and every robot's position; notes each goal when first reached
-        and what the doors of ``doors`` did."""
+        """Keeps the tick, the time and the position of every robot of the state (and the last one
+        of a robot named by ``reach`` that left); notes each goal when first reached and what the
+        doors of ``doors`` did."""
         self.tick, self.sim_s, self.robots = st.tick, st.sim_time_ns / 1e9, len(st.ids)
         self.state = st
-        for rid, x, y in zip(st.ids, st.x, st.y, strict=True):
-            self.positions[rid] = (x, y)
+        # the robots of this state, and the last place of those the criteria name that have left
+        # (a verdict says where): a robot that left and nobody judges is forgotten
+        kept = {r.robot: self.positions[r.robot] for r in reach if r.robot in self.positions}
+        self.positions = kept | {rid: (x, y) for rid, x, y in zip(st.ids, st.x, st.y, strict=True)}
         if doors:
             poses = {rid: (x, y, h) for rid, x, y, h in zip(st.ids, st.x, st.y, st.heading, strict=True)}
             door_ids = {r.id for r in self.info.robots if r.type == "Door"} if self.info is not None else set()
