@@ -62,7 +62,7 @@ logger = logging.getLogger(__name__)
 BATCH_FROM = 8  # robots in one host from which `iwz agent` reads and answers in batches
 SILENT_S = 2.0  # no readings this long: the host asks the world whether its robots are still there
 UNANSWERED_S = 0.3  # and asks again this soon when no world answered
-HEARD_KEPT = 64  # radio batches kept for ticks not answered yet (a host whose robots are gone answers none)
+HEARD_KEPT = 64  # radio batches, fresh counts kept for ticks not answered yet (robots gone answer none)
 
 
 class Agent(Protocol):
@@ -221,7 +221,7 @@ class AgentHost:
             ev = self.io.decode(d, Event)
             h = self.hosted.get(ev.robot_id) if ev is not None else None
             if ev is not None and h is not None:
-                del self.hosted[ev.robot_id]
+                self._let_go(ev.robot_id)
                 if "by control" in ev.reason:
                     logger.warning("robot %d was removed by control: not registered again", ev.robot_id)
                 else:
@@ -249,8 +249,16 @@ class AgentHost:
             for rid, h in list(self.hosted.items()):
                 if (rid, h.spec.name) not in there:
                     logger.warning("robot %d is no longer in the world: registering it again", rid)
-                    del self.hosted[rid]
+                    self._let_go(rid)
                     self._orphans.append(h.agent)
+
+    def _let_go(self, robot_id: int) -> None:
+        """Forgets a hosted robot the world no longer has, and stops listening for its readings
+        (registered again, it gets a subscription of its own: none is left behind)."""
+        del self.hosted[robot_id]
+        sub = self._subscribed.pop(robot_id, None)
+        if sub is not None:
+            sub.undeclare()
 
     def _register_again(self, now: float) -> None:
         """Registers the orphans again; one refused (its start place taken) is tried again later."""
@@ -342,6 +350,8 @@ class AgentHost:
             h.reading = r
             if r.tick > h.answered:
                 self._fresh[r.tick] = self._fresh.get(r.tick, 0) + 1
+                if len(self._fresh) > HEARD_KEPT:  # ticks never answered (a robot whose readings stopped)
+                    del self._fresh[min(self._fresh)]
         elif r.tick == h.reading.tick > h.answered:
             h.reading = r
 

@@ -108,6 +108,7 @@ class Registrar:
         params, nb = self.told(info)
         if reg.kind in ("view", "panel"):
             return Admission(viewer=reg.kind, params=params, nb=nb)
+        self.carriers &= set(registered)  # those let go since carry nothing here any more
         try:
             spec = registration_spec(reg, self.params)
         except IwError as e:
@@ -119,7 +120,6 @@ class Registrar:
         # beacons robots carry: those the world's description lists, and those accepted or being
         # registered here since (the description is published a moment later)
         carried = {r.id for r in info.robots if r.beacon_height is not None} if info else set()
-        self.carriers &= set(registered)  # those let go since carry nothing here any more
         carried |= self.carriers
         n_carried = len(carried) + sum(1 for p in self.pending.values() if p.spec.beacon_height_m is not None)
         if reg.kind == "beacon" and (nb or n_carried):
