@@ -56,6 +56,10 @@ class Publishers(Generic[P]):
     def __len__(self) -> int:
         return len(self._pubs)
 
+    def peek(self, key: str) -> P | None:
+        """The publisher of ``key`` if one is declared (nothing declared, not noted as in use)."""
+        return self._pubs.get(key)
+
     def get(self, key: str) -> P:
         """The publisher of ``key``, declared now if it has none (noted as in use either way)."""
         self._used.add(key)  # before the look-up: a sweep never takes a publisher being fetched

@@ -27,6 +27,7 @@ from iw_zenoh import keys
 from iw_zenoh.bus import Asked, Delivery, Handle, Inbox
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import encode
+from iw_zenoh.publishers import Publishers
 from iw_zenoh.record.channels import ENCODING, SCHEMA_ENCODING, ChannelSpec, Derivation, key_channel
 from iw_zenoh.record.foxglove import SCENE_TOPIC, TF_TOPIC
 from iw_zenoh.runtime import NodeIO, Process, start_role
@@ -38,6 +39,7 @@ logger = logging.getLogger(__name__)
 DEFAULT_HOST = "127.0.0.1"  # loopback only: a viewer on another machine is asked for with --host
 DEFAULT_PORT = 8765  # Foxglove's own default for a WebSocket data source
 BACKLOG = 20_000  # deliveries kept when the server falls behind (the newest; a viewer may skip)
+CHANNELS_KEPT = 4096  # channels (a Zenoh key each, a laser per robot) before the quiet ones are closed
 POLL_S = 0.1  # the loop looks at its stop flag at least this often
 INFO_TIMEOUT_S = 2.0
 
@@ -63,6 +65,17 @@ class _Listener(ServerListener):
         self._wake.set()
 
 
+class _Channel:
+    """A channel kept like a publisher: given up (closed, unadvertised) once its key is quiet."""
+
+    def __init__(self, channel: foxglove.Channel) -> None:
+        self.channel = channel
+
+    def undeclare(self) -> None:
+        """Closes it."""
+        self.channel.close()
+
+
 class FoxgloveLive:
     """A Foxglove WebSocket server fed from the bus (see :func:`start_foxglove_live`).
 
@@ -81,9 +94,12 @@ class FoxgloveLive:
             name=f"iw-zenoh {io.sim}", host=host, port=port, context=self._ctx, server_listener=self._listener
         )
         self.port: int = self._server.port
-        self._channels: dict[str, foxglove.Channel] = {}
+        # a channel per key and per robot's laser: those of robots that left are closed once quiet
+        self._channels: Publishers[_Channel] = Publishers(self._declare, CHANNELS_KEPT)
+        self._declaring: ChannelSpec | None = None  # the spec of the channel being fetched
         self._derivation = Derivation()
-        self._latched: dict[str, bytes] = {}  # topic -> last message a late subscriber needs (info, walls)
+        # topic -> what a late subscriber needs (info, walls): its channel's spec and last message
+        self._latched: dict[str, tuple[ChannelSpec, bytes]] = {}
         self._info_revision = -1
         self._asked: Asked | None = None
         self._taken = 0  # answers to it served so far
@@ -94,38 +110,42 @@ class FoxgloveLive:
         self._thread.start()
 
     def _channel(self, spec: ChannelSpec) -> foxglove.Channel:
-        ch = self._channels.get(spec.topic)
-        if ch is None:
-            schema = (
-                foxglove.Schema(name=spec.schema_name, encoding=SCHEMA_ENCODING, data=spec.schema)
-                if spec.schema_name
-                else None
-            )
-            ch = foxglove.Channel(
+        """The channel of ``spec``'s topic, advertised now if it has none (the loop's thread only)."""
+        self._declaring = spec
+        return self._channels.get(spec.topic).channel
+
+    def _declare(self, topic: str) -> _Channel:
+        """Advertises the channel of ``topic``: the spec being fetched, or the Zenoh key's."""
+        spec = self._declaring if self._declaring is not None and self._declaring.topic == topic else key_channel(topic)
+        schema = (
+            foxglove.Schema(name=spec.schema_name, encoding=SCHEMA_ENCODING, data=spec.schema)
+            if spec.schema_name
+            else None
+        )
+        return _Channel(
+            foxglove.Channel(
                 spec.topic, schema=schema, message_encoding=ENCODING, context=self._ctx, metadata=spec.metadata
             )
-            self._channels[spec.topic] = ch
-        return ch
+        )
 
     def _drawing(self) -> bool:
         """Whether a client watches the scene (drawing every state costs; the world's description
         is always taken, so the first scene a client gets is whole)."""
-        scene, tf = self._channels.get(SCENE_TOPIC), self._channels.get(TF_TOPIC)
-        return scene is None or tf is None or scene.has_sinks() or tf.has_sinks()  # offered once, then on demand
+        scene, tf = self._channels.peek(SCENE_TOPIC), self._channels.peek(TF_TOPIC)
+        return scene is None or tf is None or scene.channel.has_sinks() or tf.channel.has_sinks()  # then on demand
 
     def _publish(self, delivery: Delivery) -> None:
         key, data, t = delivery
-        ch = self._channels.get(key)
-        (ch or self._channel(key_channel(key))).log(data, log_time=t)
+        self._channels.get(key).channel.log(data, log_time=t)  # declared from key_channel(key)
         kind = keys.topic_kind(key)
         if kind == "info":
-            self._latched[key] = data
+            self._latched[key] = (key_channel(key), data)
         if kind == "info" or (kind in ("state", "sensors") and self._drawing()):
             for spec, msg in self._derivation.derive(key, data):
                 payload = encode(msg)
                 self._channel(spec).log(payload, log_time=t)
                 if kind == "info":
-                    self._latched[spec.topic] = payload  # the walls, drawn once per revision
+                    self._latched[spec.topic] = (spec, payload)  # the walls, drawn once per revision
         if kind == "state":
             self._want_info(data)
 
@@ -166,8 +186,8 @@ class FoxgloveLive:
             if self._listener.subscribed.is_set():
                 self._listener.subscribed.clear()
                 now = time.time_ns()
-                for topic, data in list(self._latched.items()):
-                    self._channels[topic].log(data, log_time=now)
+                for spec, data in list(self._latched.values()):
+                    self._channel(spec).log(data, log_time=now)
 
     def close(self) -> None:
         """Stops serving: the loop, the subscription, the server (idempotent)."""

@@ -257,6 +257,8 @@ class SceneBuilder:
                     ),
                 )
             )
+        if len(self.pose) > len(st.ids):  # robots that left: their last pose is of no use
+            self.pose = {rid: self.pose[rid] for rid in st.ids}
         out.insert(0, (SCENE_TOPIC, FgSceneUpdate(entities=entities)))
         return out
 
