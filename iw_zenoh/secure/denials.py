@@ -29,6 +29,7 @@ _STRANGER = re.compile(rb"([0-9a-f]+) did not match any configured ACL subject")
 _ACCESS_CONTROL = re.compile(rb"access_control|unauthorized")
 _NOTABLE = (b"unauthorized", b"caching permissions", b"ACL subject")  # words of the lines that matter
 REPEAT_NS = 1_000_000_000  # the same refusal again: counted, reported at most once a second
+KEPT = 4096  # sessions named, and refusals remembered for their repeats, at most (sessions come and go)
 
 
 @dataclass(frozen=True)
@@ -55,6 +56,7 @@ class DenialLog:
     _names: dict[str, str] = field(default_factory=dict)  # session id -> identity
     _caching: dict[str, str] = field(default_factory=dict)  # thread -> key whose permissions it works out
     _last: dict[tuple[str, str, str, str], tuple[int, int]] = field(default_factory=dict)  # -> (reported at, count)
+    _pruned: int = -(2**62)  # when _last was last pruned (ns)
 
     def read(self, block: bytes, now_ns: int) -> tuple[bytes, list[Denial]]:
         """Whole lines of Zenoh's log at once: the lines that are not about access control (to
@@ -95,7 +97,10 @@ class DenialLog:
         if m:
             thread, zid, subject, message, flow, key = (g.decode(errors="replace") for g in m.groups())
             cn = _CN.search(subject)
+            self._names.pop(zid, None)  # the newest last: the oldest named are forgotten past KEPT
             self._names[zid] = cn[1] if cn else subject
+            if len(self._names) > KEPT:
+                del self._names[next(iter(self._names))]
             if self._caching.get(thread) == key:
                 return None  # worked out in advance for a declared key, not a message sent
             return self._report(self._names[zid], message, flow, key, now_ns)
@@ -112,6 +117,9 @@ class DenialLog:
             self._last[what] = (at, count + 1)
             return None
         self._last[what] = (now_ns, 0)
+        if len(self._last) > KEPT and now_ns - self._pruned >= REPEAT_NS:  # at most once a second:
+            self._pruned = now_ns  # the refusals not repeated for a second are forgotten
+            self._last = {w: v for w, v in self._last.items() if now_ns - v[0] < REPEAT_NS}
         return Denial(identity, message, flow, key, times=count + 1)
 
 

@@ -10,9 +10,10 @@ import msgspec
 from iw_zenoh.core.lab import Lab, Wall, check_wall
 from iw_zenoh.messages import Obstacle
 
-__all__ = ["NAME_MAX", "Obstacles"]
+__all__ = ["MAX_OBSTACLES", "NAME_MAX", "Obstacles"]
 
 NAME_MAX = 64  # characters of an obstacle's name: a label on a page and a key in the world's table
+MAX_OBSTACLES = 1024  # at once: each is a wall every tick's collisions and readings look at
 
 
 class Obstacles:
@@ -52,6 +53,8 @@ class Obstacles:
             return f"obstacle {ob.name!r}: {why}"
         if command == "move_obstacle" and ob.name not in self.by_name:
             return f"no obstacle named {ob.name!r} to move"
+        if ob.name not in self.by_name and len(self.by_name) >= MAX_OBSTACLES:
+            return f"obstacle {ob.name!r}: the world holds {MAX_OBSTACLES} obstacles already, the most it takes"
         self.by_name[ob.name] = msgspec.structs.replace(ob, x0=x0, y0=y0, x1=x1, y1=y1)
         return ""
 

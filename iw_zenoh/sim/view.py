@@ -9,7 +9,9 @@ from iw_zenoh.core.lab import Scene
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.messages import WorldInfo
 
-__all__ = ["WorldView"]
+__all__ = ["ROSTERS_KEPT", "WorldView"]
+
+ROSTERS_KEPT = 8  # rosters whose bodies one view keeps (its own, and a few of states still in flight)
 
 
 @dataclass(frozen=True, eq=False)
@@ -26,5 +28,7 @@ class WorldView:
         key = tuple(ids)
         got = self._bodies.get(key)
         if got is None:
+            if len(self._bodies) >= ROSTERS_KEPT:  # states of older revisions, each a roster of its own
+                self._bodies.clear()
             got = self._bodies[key] = Bodies.from_specs([self.specs[i] for i in ids])
         return got
