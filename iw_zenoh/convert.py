@@ -22,6 +22,7 @@ from iw_zenoh.core.spec import (
     RobotSpec,
     RobotType,
     SensorNoise,
+    check_counts,
 )
 from iw_zenoh.errors import SpecError
 from iw_zenoh.messages import (
@@ -70,6 +71,8 @@ def spec_from_msg(m: RobotSpecMsg) -> RobotSpec:
         v = getattr(m, name)
         if not math.isfinite(v):
             raise SpecError(name, f"must be a finite number, got {v!r}")
+    # a hostile count is refused before a single sensor is built
+    check_counts(len(m.ir_sensors), len(m.lasers) if isinstance(m.lasers, list) else 0, len(m.bumpers))
     return RobotSpec(
         name=m.name,
         id=m.id,

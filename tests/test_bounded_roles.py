@@ -18,7 +18,7 @@ from iw_zenoh.agent import HEARD_KEPT, AgentHost
 from iw_zenoh.bus import INBOX_KEPT, NEWEST_KEPT, Inbox
 from iw_zenoh.config import Criteria, Reach
 from iw_zenoh.convert import spec_from_msg
-from iw_zenoh.core.lab import Lab, Scene
+from iw_zenoh.core.lab import Grid, GridPosition, Lab, Scene
 from iw_zenoh.core.params import SimParameters
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.hosting import Command
@@ -27,9 +27,11 @@ from iw_zenoh.messages import (
     Event,
     EventKind,
     Heard,
+    IrSensorMsg,
     LabMsg,
     Obstacle,
     RegisterReply,
+    RegisterRequest,
     RobotSpecMsg,
     SensorReading,
     WorldInfo,
@@ -41,8 +43,10 @@ from iw_zenoh.nodes.tally import Tally
 from iw_zenoh.record.foxglove import SceneBuilder
 from iw_zenoh.runtime import NodeIO
 from iw_zenoh.secure.denials import KEPT, REPEAT_NS, DenialLog
+from iw_zenoh.sim.config import WorldConfig
 from iw_zenoh.sim.obstacles import MAX_OBSTACLES, Obstacles
 from iw_zenoh.sim.view import ROSTERS_KEPT, WorldView
+from iw_zenoh.sim.world import WorldCore
 from tests.bridges.fakes import FakeBus
 
 COMERS = 5000  # robots, sessions or keys that come and go in a long run
@@ -302,3 +306,24 @@ def test_foxglove_live_closes_the_channels_of_keys_gone_quiet_and_keeps_those_in
         assert live._channels.get(keys.actions("t", 1)).channel is first  # never closed while in use
     finally:
         live.close()
+
+
+# --- hostile registrations ----------------------------------------------------------------------
+
+
+def test_the_world_refuses_a_registration_too_big_for_every_tick_with_the_limit() -> None:
+    core = WorldCore(WorldConfig(sim="t"), Lab("t", 20.0, 10.0, ()), Grid((GridPosition(2, 5, 0),)))
+    sonars = [IrSensorMsg(id=i) for i in range(100_000)]
+    reply, out = core.register(RegisterRequest(spec=RobotSpecMsg(name="a", ir_sensors=sonars), agent="x"), 0)
+    assert not reply.ok
+    assert reply.reason == "field ir_sensors: at most 64 per robot, got 100000 (every tick computes each one)"
+    assert len(core.registry.entries) == 0
+    reply, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="b", width=1e6), agent="x"), 0)
+    assert (reply.ok, reply.reason) == (False, "field width: must be at most 10 m, got 1000000.0")
+
+
+def test_a_legacy_registration_too_big_is_refused_with_the_limit() -> None:
+    reg = Registrar(FakeBus(), "s", "ciberrato", SimParameters())
+    adm = reg.admit(parse_registration(b'<Robot Name="x" Width="20" Height="20"/>'), ("127.0.0.1", 4000), None, (), 0.0)
+    assert adm.answer
+    assert "must be at most 10 m, got 20.0" in adm.refused

@@ -31,6 +31,7 @@ __all__ = [
     "RobotSpec",
     "RobotType",
     "SensorNoise",
+    "check_counts",
     "default_ir_sensors",
     "prototype_chair",
     "prototype_sensors",
@@ -259,15 +260,24 @@ class EncoderSpec:
 
 
 def _bounded(spec: RobotSpec) -> None:
-    """Refuses a body over :data:`MAX_BODY_M`, more sensors than :data:`MAX_IR`,
-    :data:`MAX_LASERS` or :data:`MAX_BUMPERS` (what one robot costs every tick is bounded)."""
+    """Refuses a body over :data:`MAX_BODY_M` and more sensors than :func:`check_counts` takes."""
     for name, m in (("width", spec.width_m), ("height", spec.height_m)):
         if m > MAX_BODY_M:
             raise SpecError(name, f"must be at most {MAX_BODY_M:g} m, got {m!r}")
+    check_counts(len(spec.ir_sensors), len(spec.lasers), len(spec.bumpers))
+
+
+def check_counts(ir_sensors: int, lasers: int, bumpers: int) -> None:
+    """Refuses more sensors than :data:`MAX_IR`, :data:`MAX_LASERS` or :data:`MAX_BUMPERS`
+    (checked before a registration's sensors are built, and again by :class:`RobotSpec`).
+
+    Raises:
+        SpecError: Naming the field, its limit and the count.
+    """
     for name, n, most in (
-        ("ir_sensors", len(spec.ir_sensors), MAX_IR),
-        ("lasers", len(spec.lasers), MAX_LASERS),
-        ("bumpers", len(spec.bumpers), MAX_BUMPERS),
+        ("ir_sensors", ir_sensors, MAX_IR),
+        ("lasers", lasers, MAX_LASERS),
+        ("bumpers", bumpers, MAX_BUMPERS),
     ):
         if n > most:
             raise SpecError(name, f"at most {most} per robot, got {n} (every tick computes each one)")

@@ -1,8 +1,23 @@
 from __future__ import annotations
 
+import math
+
 import pytest
 
-from iw_zenoh.core.spec import IrSensorSpec, RobotSpec, RobotType, default_ir_sensors
+from iw_zenoh.core.spec import (
+    LASER_MAX_BEAMS,
+    MAX_BODY_M,
+    MAX_BUMPER_CORNERS,
+    MAX_BUMPERS,
+    MAX_IR,
+    MAX_LASERS,
+    BumperSpec,
+    IrSensorSpec,
+    LaserSpec,
+    RobotSpec,
+    RobotType,
+    default_ir_sensors,
+)
 from iw_zenoh.errors import SpecError
 
 
@@ -113,3 +128,51 @@ def test_the_prototype_chair_is_the_one_measured_at_liacc() -> None:
         (0.72, -0.24, 0.0, 60.0),
     ]
     assert len(c.sensors) == 8
+
+
+EACH = "per robot"
+WHY = "(every tick computes each one)"
+
+
+def _bumper(i: int, corners: int = 4) -> BumperSpec:
+    return BumperSpec(i, tuple((math.cos(k), math.sin(k)) for k in range(corners)))
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field", "reason"),
+    [
+        (
+            {"ir_sensors": tuple(IrSensorSpec(i) for i in range(MAX_IR + 1))},
+            "ir_sensors",
+            f"at most 64 {EACH}, got 65 {WHY}",
+        ),
+        ({"lasers": tuple(LaserSpec(i) for i in range(MAX_LASERS + 1))}, "lasers", f"at most 8 {EACH}, got 9 {WHY}"),
+        ({"bumpers": tuple(_bumper(i) for i in range(MAX_BUMPERS + 1))}, "bumpers", f"at most 16 {EACH}, got 17 {WHY}"),
+        ({"width_m": MAX_BODY_M + 0.5}, "width", "must be at most 10 m, got 10.5"),
+        ({"height_m": 1e9}, "height", "must be at most 10 m, got 1000000000.0"),
+    ],
+)
+def test_a_registration_too_big_for_every_tick_is_refused_with_the_limit(
+    kwargs: dict[str, object], field: str, reason: str
+) -> None:
+    with pytest.raises(SpecError) as e:
+        RobotSpec("c", **kwargs)  # type: ignore[arg-type]
+    assert str(e.value) == f"{field}: {reason}"
+
+
+def test_a_bumper_of_too_many_corners_is_refused_with_the_limit() -> None:
+    with pytest.raises(SpecError) as e:
+        _bumper(3, MAX_BUMPER_CORNERS + 1)
+    assert str(e.value) == f"bumper[3].corners: at most {MAX_BUMPER_CORNERS}, got {MAX_BUMPER_CORNERS + 1}"
+
+
+def test_a_robot_at_every_limit_is_taken() -> None:
+    s = RobotSpec(
+        "c",
+        width_m=MAX_BODY_M,
+        height_m=MAX_BODY_M,
+        ir_sensors=tuple(IrSensorSpec(i) for i in range(MAX_IR)),
+        lasers=tuple(LaserSpec(i, beams=LASER_MAX_BEAMS) for i in range(MAX_LASERS)),
+        bumpers=tuple(_bumper(i, MAX_BUMPER_CORNERS) for i in range(MAX_BUMPERS)),
+    )
+    assert (len(s.sensors), len(s.lasers), len(s.bumpers)) == (MAX_IR, MAX_LASERS, MAX_BUMPERS)
