@@ -62,6 +62,9 @@ logger = logging.getLogger(__name__)
 BATCH_FROM = 8  # robots in one host from which `iwz agent` reads and answers in batches
 SILENT_S = 2.0  # no readings this long: the host asks the world whether its robots are still there
 UNANSWERED_S = 0.3  # and asks again this soon when no world answered
+# sensor batches waiting at most (a shard's batch a tick, each up to a few hundred robots' readings):
+# only each robot's newest reading is answered, so a host that fell behind needs the newest ticks'
+BATCHES_KEPT = 1024
 HEARD_KEPT = 64  # radio batches, fresh counts kept for ticks not answered yet (robots gone answer none)
 
 
@@ -109,7 +112,7 @@ class AgentHost:
         self.batched = batched
         self.readings = Inbox(wake=self.io.wake)  # fed one key per hosted robot
         # batched: every shard's batch, subscribed before any registration (no first tick lost)
-        self.batches = self.io.inbox(keys.all_sensor_batches(sim)) if batched else None
+        self.batches = self.io.inbox(keys.all_sensor_batches(sim), maxlen=BATCHES_KEPT) if batched else None
         self.radio = self.io.inbox(keys.radio(sim))
         self.radio_alive: set[str] = set()
         self._heard: dict[int, dict[int, list[Heard]]] = {}

@@ -14,7 +14,7 @@ from iw_zenoh.bridges.ciberrato.registration import parse_registration
 from iw_zenoh.bridges.ciberrato.scoring import Mode
 
 from iw_zenoh import keys
-from iw_zenoh.agent import HEARD_KEPT, AgentHost
+from iw_zenoh.agent import BATCHES_KEPT, HEARD_KEPT, AgentHost
 from iw_zenoh.bus import INBOX_KEPT, NEWEST_KEPT, Inbox
 from iw_zenoh.config import Criteria, Reach
 from iw_zenoh.convert import spec_from_msg
@@ -234,6 +234,15 @@ def test_the_agent_host_keeps_a_bounded_count_of_ticks_it_cannot_answer_yet() ->
     assert max(host._fresh) == COMERS + 1  # the newest kept
     host.readings.put((keys.sensors("t", 2), encode(_reading(COMERS + 1, rid=2)), 0))
     assert host.step(timeout_s=0)  # answered once the last robot's reading comes
+
+
+def test_a_batched_agent_host_that_fell_behind_keeps_the_newest_sensor_batches() -> None:
+    host = AgentHost(FakeBus(), "t", "host", batched=True)
+    assert host.batches is not None
+    for n in range(COMERS):
+        host.batches.put((keys.sensor_batch("t", (1, 1)), b"", n))
+    assert len(host.batches) == BATCHES_KEPT
+    assert host.batches.drain()[-1][2] == COMERS - 1
 
 
 def _reading(tick: int, rid: int = 1) -> SensorReading:
