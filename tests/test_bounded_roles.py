@@ -6,6 +6,7 @@ the Foxglove scene and live channels, the router's refusal log, the world's obst
 from __future__ import annotations
 
 import logging
+import threading
 
 import pytest
 from iw_zenoh.bridges.ciberrato.referee import Referee
@@ -47,6 +48,7 @@ from iw_zenoh.sim.config import WorldConfig
 from iw_zenoh.sim.obstacles import MAX_OBSTACLES, Obstacles
 from iw_zenoh.sim.view import ROSTERS_KEPT, WorldView
 from iw_zenoh.sim.world import WorldCore
+from iw_zenoh.viewer.sources import LIVE_KEPT, LiveSource
 from tests.bridges.fakes import FakeBus
 
 COMERS = 5000  # robots, sessions or keys that come and go in a long run
@@ -109,6 +111,14 @@ def test_a_nodes_inbox_keeps_the_newest_few_of_a_key_whose_messages_supersede_ea
         assert states.drain()[-1][2] == 999
     assert states.lost == 1000 - NEWEST_KEPT
     assert caplog.records == []  # losing superseded states is expected: no warning
+
+
+def test_a_live_viewer_page_source_keeps_the_newest_deliveries() -> None:
+    src = LiveSource(FakeBus(), "t", threading.Event())
+    for n in range(COMERS):
+        src.inbox.put((keys.state("t"), b"", n))
+    assert len(src.inbox) == LIVE_KEPT
+    assert src.inbox.drain()[0][2] == COMERS - LIVE_KEPT
 
 
 # --- the launcher's tally ---------------------------------------------------------------------
