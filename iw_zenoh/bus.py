@@ -279,6 +279,21 @@ def _endpoints(conf: zenoh.Config, key: str, mode: str) -> list[str]:
     return [str(v) for v in value or []]
 
 
+class _Kept:
+    """A declared subscription or token that leaves its bus's table when undeclared (an agent
+    host drops a removed robot's subscription), so the table holds what is declared now, not
+    everything ever declared; the bus undeclares what is left when it closes."""
+
+    def __init__(self, handle: Handle, table: dict[int, Handle]) -> None:
+        self._handle = handle
+        self._table = table
+        table[id(self)] = self
+
+    def undeclare(self) -> None:
+        self._table.pop(id(self), None)
+        self._handle.undeclare()
+
+
 class ZenohBus:
     """The bus over a real Zenoh session.
 
@@ -301,7 +316,7 @@ class ZenohBus:
             ) from None
         # per-key publishers, those of keys gone quiet (robots that left) undeclared
         self._pubs: Publishers[zenoh.Publisher] = Publishers(self._declare_publisher)
-        self._handles: list[Handle] = []
+        self._handles: dict[int, Handle] = {}  # what is declared now, in order
 
     def _declare_publisher(self, key: str) -> zenoh.Publisher:
         return self.session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK)
@@ -321,20 +336,18 @@ class ZenohBus:
         # a plain function runs in zenoh-python's own Python thread (Callback indirect=True);
         # run on Zenoh's network thread (indirect=False) it cost more CPU per message (bus_floor:
         # 0.125-0.139 against 0.109-0.111 ms) and, while the loop computed, delivered 3-15x later
-        sub = self.session.declare_subscriber(key_expr, on_sample)
-        self._handles.append(sub)
-        return sub
+        return _Kept(self.session.declare_subscriber(key_expr, on_sample), self._handles)
 
     def queue(self, key_expr: str, capacity: int = 200_000) -> Queue:
         """A lossless queue on ``key_expr``: samples wait in Zenoh's own channel (no Python
         callback, no GIL on the network path); when full, the sender is held back."""
         q = _ZenohQueue(self.session, key_expr, capacity)
-        self._handles.append(q)
+        self._handles[id(q)] = q
         return q
 
     def serve(self, key: str) -> QueryInbox:
         q = _ZenohQueryInbox(self.session, key)
-        self._handles.append(q)
+        self._handles[id(q)] = q
         return q
 
     def query(self, key: str, payload: bytes = b"", timeout_s: float = 2.0) -> list[bytes]:
@@ -355,20 +368,20 @@ class ZenohBus:
         return asked
 
     def token(self, key: str) -> Handle:
-        tok = self.session.liveliness().declare_token(key)
-        self._handles.append(tok)
-        return tok
+        return _Kept(self.session.liveliness().declare_token(key), self._handles)
 
     def watch_alive(self, key_expr: str, on_change: Callable[[str, bool], None]) -> Handle:
         def on_sample(sample: zenoh.Sample) -> None:
             on_change(str(sample.key_expr), sample.kind == zenoh.SampleKind.PUT)
 
-        sub = self.session.liveliness().declare_subscriber(key_expr, on_sample, history=True)
-        self._handles.append(sub)
-        return sub
+        return _Kept(self.session.liveliness().declare_subscriber(key_expr, on_sample, history=True), self._handles)
+
+    def declared(self) -> int:
+        """How many subscriptions, tokens, queues and queryables this bus holds declared now."""
+        return len(self._handles)
 
     def close(self) -> None:
-        for h in reversed(self._handles):
+        for h in reversed(list(self._handles.values())):
             try:
                 h.undeclare()
             except Exception:  # already gone with a closing session
