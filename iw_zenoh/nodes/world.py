@@ -46,6 +46,7 @@ logger = logging.getLogger(__name__)
 
 UNKNOWN_EVERY_NS = 1_000_000_000  # messages for a robot the world does not have: one event a second
 UNKNOWN_KEPT = 1_000  # robots remembered for that (forged ids by the million cost no memory)
+BATCHES_KEPT = 4_096  # agent hosts' action batches waiting, at most
 
 
 class _World:
@@ -57,7 +58,9 @@ class _World:
         sim = core.cfg.sim
         self.io = io or NodeIO(bus, sim, "world", name)
         self.actions = self.io.inbox(keys.all_actions(sim))
-        self.batches = self.io.inbox(keys.all_agent_actions(sim))
+        # a host's batch holds every robot's command of a tick (a thousand chairs: ~15 kB); a
+        # world that stalled keeps the newest 4,096 (each robot's newest command is what applies)
+        self.batches = self.io.inbox(keys.all_agent_actions(sim), maxlen=BATCHES_KEPT)
         self.reports = self.io.inbox(keys.all_pose_reports(sim))
         self.control = self.io.inbox(keys.control(sim))
         self.verdicts = self.io.inbox(keys.verdict(sim))
