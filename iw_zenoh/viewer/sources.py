@@ -13,7 +13,7 @@ import time
 from collections.abc import Callable
 from contextlib import ExitStack
 from pathlib import Path
-from typing import Protocol
+from typing import Protocol, get_args
 
 import msgspec
 
@@ -33,6 +33,7 @@ from iw_zenoh.messages import (
     decode,
     encode,
 )
+from iw_zenoh.messages.events import WorldCommand
 from iw_zenoh.messages.page import PageCommand, PageMessage, PageTimeline, TimelineMark
 from iw_zenoh.record.incidents import find_incidents
 from iw_zenoh.record.reader import open_recording
@@ -43,7 +44,7 @@ __all__ = ["LiveSource", "LocalBus", "ReplaySource", "Source"]
 
 logger = logging.getLogger(__name__)
 
-WORLD_CONTROLS = ("start", "pause", "step", "stop", "remove", "add_obstacle", "move_obstacle", "remove_obstacle")
+WORLD_CONTROLS: tuple[str, ...] = get_args(WorldCommand)  # the page commands that go to the world as they are
 TIMELINE_EVERY_NS = 200_000_000  # a playing replay's position is told the pages this often
 # a live page shows the present: a viewer behind keeps the newest deliveries of all its keys,
 # about a minute of a busy run (a state, a tick, a batch per shard, radio and events each tick)
