@@ -86,10 +86,21 @@ class _Loop:
             elif st is not None and st.tick == self.node.early_tick:
                 self._check_early(st)
             elif st is not None:
+                early = self.node.early_tick
+                if early is not None and st.tick > early:
+                    self.node.forget_early()  # its state will not come (a restarted world's is newer)
                 io.send_all(self.node.on_state(st))
                 self.last_tick = st.tick
         p = self.proposal
-        if p is not None and p.tick == self.last_tick + 1 and p.tick in self.said and confirms(p, self.said[p.tick]):
+        # the next tick goes out early only once the state of the last early one checked it: a
+        # verdict may come before the state it follows (two processes, no order between them)
+        if (
+            p is not None
+            and self.node.early_tick is None
+            and p.tick == self.last_tick + 1
+            and p.tick in self.said
+            and confirms(p, self.said[p.tick])
+        ):
             self.proposal = None
             io.send_all(self.node.send_early(p))
             self.last_tick = p.tick

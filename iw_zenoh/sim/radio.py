@@ -83,6 +83,11 @@ class RadioNode:
         self.corrections += 1
         return [(k, m) for k, m in self._deliver(msg, said, {}) if not isinstance(m, Event)]
 
+    def forget_early(self) -> None:
+        """Forgets the tick delivered early without checking it: its state will not come (a newer
+        state came instead, e.g. a restarted world's)."""
+        self._early = None
+
     @property
     def early_tick(self) -> int | None:
         """The tick delivered early whose state has not come yet, or None."""
