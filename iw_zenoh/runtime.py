@@ -60,7 +60,7 @@ class NodeIO:
         self.stop = threading.Event()
         self.bad_messages = 0
 
-    def inbox(self, key_expr: str, maxlen: int | None = None) -> Inbox:
+    def inbox(self, key_expr: str, maxlen: int | None = None, *, ordered: bool = False) -> Inbox:
         """Subscribes ``key_expr`` into a new inbox that wakes this node.
 
         Args:
@@ -68,11 +68,13 @@ class NodeIO:
             maxlen: Deliveries kept waiting at most (None: by what the key carries, the newest
                 :data:`~iw_zenoh.bus.NEWEST_KEPT` of a key whose messages supersede each other,
                 else :data:`~iw_zenoh.bus.INBOX_KEPT`, beyond which losses are logged).
+            ordered: Delivered in the network's order with the node's other ordered inboxes
+                (see :meth:`iw_zenoh.bus.Bus.subscribe`).
         """
         newest = keys.superseded(key_expr)
         kept = maxlen if maxlen is not None else NEWEST_KEPT if newest else INBOX_KEPT
         box = Inbox(maxlen=kept, wake=self.wake, newest_only=newest)
-        self.bus.subscribe(key_expr, box)
+        self.bus.subscribe(key_expr, box, ordered=ordered)
         return box
 
     def alive(self) -> None:

@@ -200,7 +200,7 @@ class _SubscribingBus(FakeBus):
         self.subscribed: list[str] = []
         self.undeclared: list[str] = []
 
-    def subscribe(self, key_expr: str, inbox: Inbox) -> _Sub:  # type: ignore[override]
+    def subscribe(self, key_expr: str, inbox: Inbox, *, ordered: bool = False) -> _Sub:  # type: ignore[override]
         self.subscribed.append(key_expr)
         return _Sub(key_expr, self.undeclared)
 

@@ -55,10 +55,13 @@ class _Loop:
 
     def __init__(self, io: NodeIO, sim: str, cfg: RadioConfig | None, *, early: bool) -> None:
         self.io = io
-        self.says = io.inbox(keys.all_say(sim))
-        self.states = io.inbox(keys.state(sim))
-        self.proposals = io.inbox(keys.proposed(sim)) if early else Inbox()
-        self.verdicts = io.inbox(keys.verdict(sim)) if early else Inbox()
+        # in the network's order: a tick's says come before the verdict (or state) that follows
+        # them, so all of them are in once it is (each subscription on its own thread, a say
+        # could be overtaken and heard a tick late: not the same run twice)
+        self.says = io.inbox(keys.all_say(sim), ordered=True)
+        self.states = io.inbox(keys.state(sim), ordered=True)
+        self.proposals = io.inbox(keys.proposed(sim), ordered=True) if early else Inbox()
+        self.verdicts = io.inbox(keys.verdict(sim), ordered=True) if early else Inbox()
         self.node = RadioNode(sim, cfg)
         self.window = TickWindow()  # a state too far ahead is refused (its hear lists would be too)
         self.proposal: WorldState | None = None  # the newest proposal, as the state it would commit

@@ -203,7 +203,7 @@ class LocalBus:
         sub = self._subs.get(key)  # (an empty inbox is falsy: no `or` here)
         (self.out if sub is None else sub).put((key, data, time.time_ns()))
 
-    def subscribe(self, key_expr: str, inbox: Inbox) -> Handle:
+    def subscribe(self, key_expr: str, inbox: Inbox, *, ordered: bool = False) -> Handle:
         """Subscribes one exact key."""
         self._subs[key_expr] = inbox
         return _Nothing()

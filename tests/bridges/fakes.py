@@ -49,7 +49,7 @@ class FakeBus:
     def publish(self, key: str, data: bytes) -> None:
         self.published.append((key, data))
 
-    def subscribe(self, key_expr: str, inbox: Inbox) -> Handle:
+    def subscribe(self, key_expr: str, inbox: Inbox, *, ordered: bool = False) -> Handle:
         return _Handle()
 
     def queue(self, key_expr: str, capacity: int = 200_000) -> FakeQueue:
