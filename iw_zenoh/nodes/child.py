@@ -11,11 +11,14 @@ from pathlib import Path
 
 import msgspec
 
-__all__ = ["Child", "stop_in_order"]
+__all__ = ["RECORDER_STOP_S", "Child", "stop_in_order"]
 
 logger = logging.getLogger(__name__)
 
 STOP_ORDER = {"agent": 0, "world": 2, "record": 3, "router": 4}  # by role; the rest 1
+# a stopped recorder writes what is still in flight (up to recorder.DRAIN_MAX_S, 30 s: a lock-step
+# run's backlog on a loaded machine) and then finishes the file; killed before, the file is cut off
+RECORDER_STOP_S = 45.0
 
 
 @dataclass
@@ -92,12 +95,14 @@ class Child:
 
 def stop_in_order(children: list[Child], timeout_s: float = 8.0) -> None:
     """Stops children group by group: agents first, then the roles beside the world, the world,
-    the recorder, the router last; each group is waited for, SIGKILLed after ``timeout_s``."""
+    the recorder, the router last; each group is waited for, SIGKILLed after ``timeout_s`` (the
+    recorder after :data:`RECORDER_STOP_S` at least: it finishes its file)."""
     for group in sorted(set(STOP_ORDER.values()) | {1}):
         members = [c for c in children if STOP_ORDER.get(c.role, 1) == group]
         for c in members:
             c.stop()
-        deadline = time.monotonic() + timeout_s
+        wait_s = max(timeout_s, RECORDER_STOP_S) if any(c.role == "record" for c in members) else timeout_s
+        deadline = time.monotonic() + wait_s
         for c in members:
             if c.proc is None:
                 continue
