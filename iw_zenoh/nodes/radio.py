@@ -16,19 +16,17 @@ from collections.abc import Sequence
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus, Delivery, Inbox
 from iw_zenoh.errors import IwError, ProtocolError
-from iw_zenoh.messages import Proposed, Say, Verdict, WorldState, decode
+from iw_zenoh.messages import Proposed, Say, WorldState, decode
 from iw_zenoh.nodes.role_options import RadioOptions, add_radio_arguments
 from iw_zenoh.options import options_from_args
 from iw_zenoh.runtime import NodeIO, start_role
-from iw_zenoh.sim.early import confirms, state_from_proposal
+from iw_zenoh.sim.early import Verdicts, state_from_proposal
 from iw_zenoh.sim.radio import RadioConfig, RadioNode
 from iw_zenoh.ticks import TickWindow, too_far_ahead
 
 __all__ = ["main", "run"]
 
 logger = logging.getLogger(__name__)
-
-VERDICTS_KEPT = 4  # verdicts kept for a proposal not come yet (one comes a tick)
 
 
 def run(
@@ -65,7 +63,7 @@ class _Loop:
         self.node = RadioNode(sim, cfg)
         self.window = TickWindow()  # a state too far ahead is refused (its hear lists would be too)
         self.proposal: WorldState | None = None  # the newest proposal, as the state it would commit
-        self.said: dict[int, Verdict] = {}  # the newest verdicts, by tick
+        self.said = Verdicts()  # the newest verdicts, by tick
         self.last_tick = -1  # the newest tick delivered
 
     def once(self) -> bool:
@@ -97,13 +95,7 @@ class _Loop:
         p = self.proposal
         # the next tick goes out early only once the state of the last early one checked it: a
         # verdict may come before the state it follows (two processes, no order between them)
-        if (
-            p is not None
-            and self.node.early_tick is None
-            and p.tick == self.last_tick + 1
-            and p.tick in self.said
-            and confirms(p, self.said[p.tick])
-        ):
+        if p is not None and self.node.early_tick is None and p.tick == self.last_tick + 1 and self.said.confirm(p):
             self.proposal = None
             io.send_all(self.node.send_early(p))
             self.last_tick = p.tick
@@ -117,12 +109,7 @@ class _Loop:
                 p = decode(data, Proposed)
                 if not too_far_ahead(p.tick, max(self.last_tick, 0)):
                     self.proposal = state_from_proposal(p)
-        for _, data, _ in verdicts:
-            with contextlib.suppress(IwError):
-                v = decode(data, Verdict)
-                self.said[v.tick] = v
-        for t in sorted(self.said)[:-VERDICTS_KEPT]:
-            del self.said[t]
+        self.said.take(data for _, data, _ in verdicts)
 
     def _check_early(self, st: WorldState) -> None:
         out = self.node.check_early(st)

@@ -23,12 +23,12 @@ from iw_zenoh import keys
 from iw_zenoh.bus import Bus, Delivery, Inbox
 from iw_zenoh.core import cones, laser
 from iw_zenoh.core.modes import Profile
-from iw_zenoh.errors import IwError, ProtocolError
-from iw_zenoh.messages import Proposed, Verdict, WorldState, decode, encode_sensor_batch
+from iw_zenoh.errors import ProtocolError
+from iw_zenoh.messages import Proposed, WorldState, encode_sensor_batch
 from iw_zenoh.nodes.info import InfoCache
 from iw_zenoh.nodes.role_options import SensorsOptions, add_sensors_arguments, parse_shard
 from iw_zenoh.runtime import NodeIO, options_from_args, start_role
-from iw_zenoh.sim.early import confirms
+from iw_zenoh.sim.early import Verdicts
 from iw_zenoh.sim.sensors import Computed, SensorsNode
 from iw_zenoh.sim.view import WorldView
 from iw_zenoh.ticks import ViewWindow
@@ -40,7 +40,6 @@ logger = logging.getLogger(__name__)
 CATCH_UP = 2  # states computed at once after a stall: the newest and the one before
 MISSED_AHEAD = 0.25  # a tick whose readings were this much computed again ...
 PAUSE_AHEAD = 20  # ... stops computing ahead for this many ticks (stuck robots collide every tick)
-VERDICTS_KEPT = 4  # verdicts kept for a proposal not computed yet (one comes a tick)
 
 
 def run(
@@ -78,7 +77,7 @@ class _Loop:
         self.ahead: Computed | None = None  # the next tick's readings, computed from its proposal
         self.legacy = False  # ... in the ciberrato profile
         self.proposal: Delivery | None = None  # the newest proposal not computed yet
-        self.said: dict[int, Verdict] = {}  # the newest verdicts, by tick
+        self.said = Verdicts()  # the newest verdicts, by tick
         self.ahead_from = 0  # compute ahead from this tick on
 
     def once(self) -> None:
@@ -107,15 +106,7 @@ class _Loop:
 
     def _take_verdicts(self) -> None:
         """Keeps the newest verdicts (the world reports one that does not decode: not again here)."""
-        for _, data, _ in self.verdicts.drain():
-            try:
-                v = decode(data, Verdict)
-            except IwError:
-                continue
-            self.said[v.tick] = v
-        if len(self.said) > VERDICTS_KEPT:
-            for t in sorted(self.said)[:-VERDICTS_KEPT]:
-                del self.said[t]
+        self.said.take(data for _, data, _ in self.verdicts.drain())
 
     def _send_early(self) -> bool:
         """Publishes the readings computed ahead if the verdict on their proposal confirms it
@@ -124,8 +115,7 @@ class _Loop:
         a, node = self.ahead, self.node
         if a is None or node is None or node.early is not None or a.msg.tick != node.last_tick + 1:
             return False
-        v = self.said.get(a.msg.tick)
-        if v is None or not confirms(a.msg, v) or self.legacy:
+        if self.legacy or not self.said.confirm(a.msg):
             return False
         node.send_early(a)
         self.ahead = None

@@ -13,9 +13,12 @@ world then holds every robot, and a receiver that published early learns it from
 
 from __future__ import annotations
 
-from iw_zenoh.messages import Proposed, Verdict, WorldState
+from collections.abc import Iterable
 
-__all__ = ["confirms", "state_from_proposal"]
+from iw_zenoh.errors import IwError
+from iw_zenoh.messages import Proposed, Verdict, WorldState, decode
+
+__all__ = ["Verdicts", "confirms", "state_from_proposal"]
 
 
 def state_from_proposal(p: Proposed) -> WorldState:
@@ -42,3 +45,34 @@ def confirms(p: Proposed | WorldState, v: Verdict) -> bool:
     very proposal, as the world checks one (its tick, revision and robots), and flags no robot, so
     the world, if it takes it, commits :func:`state_from_proposal` of it."""
     return v.tick == p.tick and v.revision == p.revision and v.ids == p.ids and not any(v.collided)
+
+
+class Verdicts:
+    """The newest verdicts heard, by tick: a verdict may come before the proposal it answers (each
+    subscription is delivered on its own), so it waits here until that proposal is computed.
+
+    Args:
+        kept: Verdicts kept (one comes a tick).
+    """
+
+    def __init__(self, kept: int = 4) -> None:
+        self.kept = kept
+        self._by_tick: dict[int, Verdict] = {}
+
+    def take(self, payloads: Iterable[bytes]) -> None:
+        """Keeps the verdicts of ``payloads`` (one that does not decode is skipped: the world, which
+        acts on verdicts, reports it)."""
+        for data in payloads:
+            try:
+                v = decode(data, Verdict)
+            except IwError:
+                continue
+            self._by_tick[v.tick] = v
+        if len(self._by_tick) > self.kept:
+            for t in sorted(self._by_tick)[: -self.kept]:
+                del self._by_tick[t]
+
+    def confirm(self, p: Proposed | WorldState) -> bool:
+        """Whether a verdict heard confirms ``p`` (:func:`confirms`)."""
+        v = self._by_tick.get(p.tick)
+        return v is not None and confirms(p, v)

@@ -124,3 +124,25 @@ def test_a_verdict_the_world_did_not_take_in_time_confirms_but_the_tick_is_held(
     held = _commit(core, None)
     assert held.held
     assert _read(held) != _read(state_from_proposal(p))
+
+
+def test_the_verdict_store_keeps_the_newest_and_confirms_only_its_own_tick() -> None:
+    from iw_zenoh.messages import encode
+    from iw_zenoh.sim.early import Verdicts
+
+    store = Verdicts(kept=2)
+    ok = [Verdict(tick=t, revision=1, ids=[1], collided=[False]) for t in (1, 2, 3)]
+    store.take([encode(ok[0]), b"not a verdict", b'{"tick": -1}', encode(ok[1]), encode(ok[2])])
+
+    def asked(tick: int) -> WorldState:
+        return WorldState(
+            tick=tick, sim_time_ns=0, revision=1, ids=[1], x=[1.0], y=[1.0], heading=[0.0],
+            collided=[False], rolled_left=[0.0], rolled_right=[0.0], speed=[0.0],
+        )  # fmt: skip
+
+    assert not store.confirm(asked(1))  # the oldest went: two kept
+    assert store.confirm(asked(2))
+    assert store.confirm(asked(3))
+    assert not store.confirm(asked(4))  # no verdict for it yet
+    store.take([encode(Verdict(tick=4, revision=1, ids=[1], collided=[True]))])
+    assert not store.confirm(asked(4))  # a verdict that flags the robot confirms nothing
