@@ -4,7 +4,7 @@
     python benchmarks/scale.py --json     # the same figures as one JSON object
     python benchmarks/scale.py --only lockstep10 rt100
     python benchmarks/scale.py --secure   # each figure with TLS and access control beside without, as a ratio
-    python benchmarks/scale.py --secure --quick   # lockstep10 (5 s) and rt10 only: about a minute
+    python benchmarks/scale.py --secure --quick   # lockstep10 (10 s) and rt10 only: about a minute
     python benchmarks/scale.py --quick --json --only lockstep10   # a before/after check, about a minute
     python benchmarks/scale.py --secure --security acl --only lockstep10   # access control, no refusal log
 
@@ -48,7 +48,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks import bus_floor, exit_on_sigterm, scale_run, workdir  # noqa: E402
+from benchmarks import bus_floor, chain_floor, exit_on_sigterm, scale_run, workdir  # noqa: E402
 
 # Run is re-exported: profile_tick.py and memory.py import it from here
 from benchmarks.scale_run import Run  # noqa: E402
@@ -84,6 +84,7 @@ def measure_lockstep(
             bus.subscribe(keys.state("bench"), box)
             first = last = None
             ticks = 0
+            warm = warm_ticks(duration_s)
             cpu0: dict[str, float] = {}
             cpu1: dict[str, float] = {}
             cpu_ticks = 0
@@ -94,12 +95,16 @@ def measure_lockstep(
                     if world.poll() is not None:
                         break
                     continue
+                ticks += 1
+                if ticks <= warm:
+                    continue  # warm-up, left out as the floors leave theirs out
                 st = decode(d[1], WorldState)
                 if first is None:
                     first = (d[2], st.tick)
                     cpu0 = run.cpu_s()
+                    ticks = 1
+                    warm = 0
                 last = (d[2], st.tick)
-                ticks += 1
                 if ticks % 10 == 0:
                     cpu1 = run.cpu_s()  # the world's CPU is read before it ends the run
                     cpu_ticks = ticks - 1
@@ -122,6 +127,13 @@ def measure_lockstep(
             return res
         finally:
             run.stop()
+
+
+def warm_ticks(duration_s: float) -> int:
+    """Ticks left out at the start of a lock-step measurement: a tenth of them, at least 10, as
+    ``bus_floor.py`` and ``chain_floor.py`` leave out their warm-up rounds (the first ticks
+    include processes still settling: caches, first calls of compiled kernels, late joiners)."""
+    return max(10, round(duration_s / 0.1) // 10)
 
 
 def measure_rt(
@@ -173,12 +185,19 @@ def with_floor(res: dict[str, float], processes: int, quick: bool) -> dict[str, 
         return res  # the measurement failed: nothing to compare
     floor = bus_floor.measure(processes, "fifo", floor_rounds(processes, quick))
     best = float(floor["best_rtf"])
-    return {
+    out = {
         **res,
         "floor_rtf": best,
         "floor_ms_per_round": float(floor["ms_per_round"]),
         "floor_ratio": res["rtf"] / best,
     }
+    if res["chairs"] == processes:  # one chair a process: the chain's stand-ins are the same processes
+        chain = chain_floor.measure(processes, floor_rounds(processes, quick))
+        out["chain_rtf"] = float(chain["best_rtf"])
+        out["chain_ms_per_tick"] = float(chain["ms_per_round"])
+        out["chain_cpu_ms_per_tick"] = float(chain["cpu_ms_per_round"])
+        out["chain_ratio"] = res["rtf"] / float(chain["best_rtf"])
+    return out
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -205,14 +224,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--quick",
         action="store_true",
-        help="lockstep10 for 5 s and rt10 only, a quarter of the floor's rounds (about a minute): to compare "
+        help="lockstep10 for 10 s and rt10 only, a quarter of the floor's rounds (about a minute): to compare "
         "before and after a change back to back, not to quote",
     )
     ap.add_argument(
         "--no-floor", action="store_true", help="skip the bus floor (no floor_ratio): the lock-step runs only"
     )
     ap.add_argument(
-        "--duration", type=float, default=20.0, help="simulated seconds per lock-step measurement (default 20)"
+        "--duration",
+        type=float,
+        help="simulated seconds per lock-step measurement (default: lockstep10 100, lockstep100 40, "
+        "lockstep1000 10; a tenth of the ticks, at least 10, is warm-up and left out)",
     )
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     ap.add_argument(
@@ -238,12 +260,15 @@ def main(argv: list[str] | None = None) -> int:
     todo = args.only or (
         ["lockstep10", "rt10"] if args.quick else ["lockstep10", "lockstep100", "lockstep1000", "rt100"]
     )
-    duration = 5.0 if args.quick else args.duration
+
+    def duration(full: float) -> float:
+        return args.duration or (min(full, 10.0) if args.quick else full)
+
     res: dict[str, dict[str, float]] = {}
     plans = {
-        "lockstep10": lambda s: measure_lockstep(10, 10, duration, args.logs, secure=s),
-        "lockstep100": lambda s: measure_lockstep(100, 100, duration, args.logs, secure=s),
-        "lockstep1000": lambda s: measure_lockstep(1000, 4, min(duration, 10.0), args.logs, secure=s),
+        "lockstep10": lambda s: measure_lockstep(10, 10, duration(100.0), args.logs, secure=s),
+        "lockstep100": lambda s: measure_lockstep(100, 100, duration(40.0), args.logs, secure=s),
+        "lockstep1000": lambda s: measure_lockstep(1000, 4, duration(10.0), args.logs, secure=s),
         "rt100": lambda s: measure_rt(100, 4, 20.0, args.logs, secure=s),
         "rt10": lambda s: measure_rt(10, 2, 10.0, args.logs, secure=s),
     }
