@@ -45,6 +45,7 @@ VERDICT = b"v" * 170
 READING = b"r" * 500
 ACTIONS = b"a" * 140
 BLOCK = zenoh.CongestionControl.BLOCK
+Answers = zenoh.Subscriber[zenoh.Handler[zenoh.Sample]]
 
 
 def _session(endpoint: str) -> zenoh.Session:
@@ -86,7 +87,7 @@ def _cpu_s(pids: list[int]) -> float:
     return total / tick
 
 
-def _rounds(propose: zenoh.Publisher, answers: zenoh.Subscriber[zenoh.Handler[zenoh.Sample]], n: int, rounds: int) -> None:
+def _rounds(propose: zenoh.Publisher, answers: Answers, n: int, rounds: int) -> None:
     for _ in range(rounds):
         propose.put(PROPOSAL)
         for _ in range(n):
@@ -130,7 +131,7 @@ def measure(n: int, rounds: int) -> dict[str, float | int]:
         stop_all(procs, timeout_s=10)
 
 
-def _wait_for_all(propose: zenoh.Publisher, answers: zenoh.Subscriber[zenoh.Handler[zenoh.Sample]], n: int) -> None:
+def _wait_for_all(propose: zenoh.Publisher, answers: Answers, n: int) -> None:
     """Proposes until one round brings every agent's answer (each stage joins in its own time),
     then lets the stragglers of the greetings drain."""
     deadline = time.monotonic() + 120
