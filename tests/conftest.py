@@ -1,6 +1,8 @@
-"""Shared fixtures: a seeded generator, a small map and its scene."""
+"""Shared fixtures and builders: a seeded generator, a small map and its scene, a world state."""
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numpy as np
 import pytest
@@ -8,6 +10,7 @@ from hypothesis import HealthCheck, settings
 
 from iw_zenoh.core import cones, contact
 from iw_zenoh.core.lab import Lab, Scene, Wall
+from iw_zenoh.messages import WorldState
 
 settings.register_profile("ci", deadline=None, suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile("ci")
@@ -39,6 +42,42 @@ def random_scene(g: np.random.Generator) -> Scene:
 def random_poses(g: np.random.Generator, n: int) -> np.ndarray:
     """(n, 3) poses anywhere in :func:`random_scene`'s lab, facing anywhere."""
     return np.column_stack([g.uniform(0.5, 9.5, n), g.uniform(0.5, 9.5, n), g.uniform(-np.pi, np.pi, n)])
+
+
+def world_state(
+    tick: int,
+    ids: Sequence[int] = (1,),
+    *,
+    revision: int = 1,
+    x: float | Sequence[float] = 1.0,
+    y: float = 1.0,
+    heading: float = 0.0,
+    collided: bool | Sequence[bool] = False,
+    rolled: float = 0.0,
+    speed: float = 0.0,
+    held: bool = False,
+    held_reason: str = "",
+) -> WorldState:
+    """The world's state of ``tick`` (at 100 ms a tick) for robots ``ids``: every robot alike, each
+    scalar given for all of them, ``x`` and ``collided`` also one a robot."""
+    n = len(ids)
+    xs = [x] * n if isinstance(x, float | int) else list(x)
+    hits = [collided] * n if isinstance(collided, bool) else list(collided)
+    return WorldState(
+        tick=tick,
+        sim_time_ns=tick * 100_000_000,
+        revision=revision,
+        ids=list(ids),
+        x=[float(v) for v in xs],
+        y=[y] * n,
+        heading=[heading] * n,
+        collided=hits,
+        rolled_left=[rolled] * n,
+        rolled_right=[rolled] * n,
+        speed=[speed] * n,
+        held=held,
+        held_reason=held_reason,
+    )
 
 
 DEAD_END = Lab(

@@ -36,7 +36,6 @@ from iw_zenoh.messages import (
     RobotSpecMsg,
     SensorReading,
     WorldInfo,
-    WorldState,
     encode,
 )
 from iw_zenoh.nodes import foxglove_live
@@ -50,25 +49,9 @@ from iw_zenoh.sim.view import ROSTERS_KEPT, WorldView
 from iw_zenoh.sim.world import WorldCore
 from iw_zenoh.viewer.sources import LIVE_KEPT, LiveSource
 from tests.bridges.fakes import FakeBus
+from tests.conftest import world_state
 
 COMERS = 5000  # robots, sessions or keys that come and go in a long run
-
-
-def _state(tick: int, ids: list[int], x: float = 1.0) -> WorldState:
-    n = len(ids)
-    return WorldState(
-        tick=tick,
-        sim_time_ns=tick * 100_000_000,
-        revision=1,
-        ids=ids,
-        x=[x] * n,
-        y=[1.0] * n,
-        heading=[0.0] * n,
-        collided=[True] * n,
-        rolled_left=[0.0] * n,
-        rolled_right=[0.0] * n,
-        speed=[0.0] * n,
-    )
 
 
 # --- inboxes ----------------------------------------------------------------------------------
@@ -127,9 +110,9 @@ def test_a_live_viewer_page_source_keeps_the_newest_deliveries() -> None:
 def test_the_tally_forgets_robots_that_left_but_not_one_the_criteria_judge() -> None:
     t = Tally()
     crit = Criteria(reach=(Reach(robot=2, x=1.0, y=1.0, within=0.5),))
-    t.on_state(_state(1, [1, 2]), crit.reach)  # robot 2 reaches its goal ...
-    for tick in range(2, COMERS):
-        t.on_state(_state(tick, [1, tick + 10], x=3.0), crit.reach)  # ... and leaves; others come and go
+    t.on_state(world_state(1, [1, 2], collided=True), crit.reach)  # robot 2 reaches its goal ...
+    for tick in range(2, COMERS):  # ... and leaves; others come and go
+        t.on_state(world_state(tick, [1, tick + 10], x=3.0, collided=True), crit.reach)
         assert len(t.positions) <= 3
     assert sorted(t.positions) == [1, 2, COMERS + 9]
     assert t.reached == {2: 0.1}
@@ -141,9 +124,9 @@ def test_the_tally_forgets_robots_that_left_but_not_one_the_criteria_judge() -> 
 def test_a_robot_named_by_the_criteria_that_left_is_judged_where_it_was_last_seen() -> None:
     t = Tally()
     crit = Criteria(reach=(Reach(robot=2, x=9.0, y=1.0, within=0.5),))
-    t.on_state(_state(1, [1, 2], x=4.0), crit.reach)
+    t.on_state(world_state(1, [1, 2], x=4.0, collided=True), crit.reach)
     for tick in range(2, 100):
-        t.on_state(_state(tick, [1], x=5.0), crit.reach)
+        t.on_state(world_state(tick, [1], x=5.0, collided=True), crit.reach)
     ok, lines = t.verdict(crit)
     assert not ok
     assert lines == ["FAIL robot 2 within 0.5 m of (9, 1): last at (4.00, 1.00)"]
@@ -156,7 +139,7 @@ def test_the_referee_forgets_the_collision_counts_of_native_robots_that_left() -
     referee = Referee(SimParameters(), Mode.COMPETITIVE, lambda: None)
     for n in range(COMERS):
         ids = [1, n + 2]  # robot 1 stays, colliding all along; another comes, collides and goes
-        referee.robot_states(_state(n, ids), {}, None, running=True)
+        referee.robot_states(world_state(n, ids, collided=True), {}, None, running=True)
         assert len(referee._hit) == len(referee._collisions) == 2
     assert sorted(referee._collisions) == [1, COMERS + 1]
     assert referee._collisions[1] == 1  # one collision all along: still counted once
@@ -269,7 +252,7 @@ def test_the_foxglove_scene_forgets_the_poses_of_robots_that_left() -> None:
     robots = [RobotSpecMsg(name=f"r{i}", id=i, x=1.0, y=1.0) for i in range(1, COMERS + 2)]
     scene.on_info(WorldInfo(revision=1, lab=LabMsg(name="l", width=9, height=9), period_ns=1, robots=robots))
     for tick in range(1, COMERS):
-        scene.on_state(_state(tick, [1, tick + 1]))
+        scene.on_state(world_state(tick, [1, tick + 1], collided=True))
         assert len(scene.pose) <= 2
     assert sorted(scene.pose) == [1, COMERS]
 

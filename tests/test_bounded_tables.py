@@ -20,7 +20,6 @@ from iw_zenoh.messages import (
     RobotSpecMsg,
     SensorReading,
     WorldInfo,
-    WorldState,
     make_event,
 )
 from iw_zenoh.publishers import Publishers
@@ -30,6 +29,7 @@ from iw_zenoh.sim.view import WorldView
 from iw_zenoh.sim.world import ANSWERS_KEPT, WorldCore
 from iw_zenoh.viewer.feed import Feed
 from tests.bridges.fakes import FakeTransport
+from tests.conftest import world_state
 
 COMERS = 5000  # robots, requests or keys that come and go in a long run
 
@@ -55,28 +55,16 @@ def _sensors_view(ids: list[int]) -> WorldView:
     return WorldView(info, Scene(lab), {r.id: spec_from_msg(r) for r in robots})
 
 
-def _state(tick: int, ids: list[int]) -> WorldState:
-    n = len(ids)
-    return WorldState(
-        tick=tick,
-        sim_time_ns=tick * 100_000_000,
-        revision=1,
-        ids=ids,
-        x=[1.0 + 0.5 * i for i in ids],
-        y=[5.0] * n,
-        heading=[0.0] * n,
-        collided=[False] * n,
-        rolled_left=[0.0] * n,
-        rolled_right=[0.0] * n,
-        speed=[0.0] * n,
-    )
-
-
 def test_the_sensors_node_forgets_the_keys_of_robots_that_left() -> None:
     node = SensorsNode("t")
     for tick in range(1, 2000):
         ids = [1, 2, tick + 2]  # two robots stay, a third comes and goes every tick
-        keys_out = [key for key, _ in node.on_state(_state(tick, ids), _sensors_view(ids))]
+        keys_out = [
+            key
+            for key, _ in node.on_state(
+                world_state(tick, ids, x=[1.0 + 0.5 * i for i in ids], y=5.0), _sensors_view(ids)
+            )
+        ]
         assert len(keys_out) == 3
     assert sorted(node._keys) == [1, 2, 2001]
 

@@ -7,10 +7,11 @@ import time
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Inbox
-from iw_zenoh.messages import Proposed, RadioBatch, Say, Verdict, WorldState, decode, encode
+from iw_zenoh.messages import Proposed, RadioBatch, Say, Verdict, decode, encode
 from iw_zenoh.nodes.radio import _Loop
 from iw_zenoh.runtime import NodeIO
 from iw_zenoh.viewer.sources import LocalBus
+from tests.conftest import world_state
 
 SIM = "s"
 
@@ -24,14 +25,6 @@ def _proposed(tick: int) -> Proposed:
     )  # fmt: skip
 
 
-def _state(tick: int) -> WorldState:
-    one = [1.0]
-    return WorldState(
-        tick=tick, sim_time_ns=tick * 100_000_000, revision=1, ids=[1], x=one, y=one, heading=[0.0],
-        collided=[False], rolled_left=[0.0], rolled_right=[0.0], speed=[0.0],
-    )  # fmt: skip
-
-
 def _put(box: Inbox, key: str, data: bytes) -> None:
     box.put((key, data, time.time_ns()))
 
@@ -39,14 +32,14 @@ def _put(box: Inbox, key: str, data: bytes) -> None:
 def test_the_next_tick_waits_for_the_state_of_the_last_early_one() -> None:
     out = Inbox()
     loop = _Loop(NodeIO(LocalBus(out), SIM, "radio", "radio"), SIM, None, early=True)
-    _put(loop.states, keys.state(SIM), encode(_state(1)))
+    _put(loop.states, keys.state(SIM), encode(world_state(1)))
     loop.once()
     for tick in (2, 3):
         _put(loop.says, keys.say(SIM, 1), encode(Say(robot_id=1, text=f"for {tick}")))
         _put(loop.proposals, keys.proposed(SIM), encode(_proposed(tick)))
         _put(loop.verdicts, keys.verdict(SIM), encode(Verdict(tick=tick, revision=1, ids=[1], collided=[False])))
         loop.once()  # tick 2 goes out early; tick 3 not yet: the state of tick 2 has not come
-    _put(loop.states, keys.state(SIM), encode(_state(2)))  # it comes after verdict 3
+    _put(loop.states, keys.state(SIM), encode(world_state(2)))  # it comes after verdict 3
     loop.once()
     batches = [decode(d[1], RadioBatch) for d in out.drain() if d[0] == keys.radio(SIM)]
     assert [(b.tick, [m.text for h in b.hear for m in h.messages]) for b in batches] == [

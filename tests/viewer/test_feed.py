@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import msgspec
 import pytest
 
@@ -33,6 +35,7 @@ from iw_zenoh.messages.page import (
 )
 from iw_zenoh.viewer.feed import Feed, ScansWanted
 from iw_zenoh.viewer.server import Scans
+from tests.conftest import world_state
 
 WALL = WallMsg(corners=[(1.0, 1.0), (2.0, 1.0), (2.0, 2.0)], height=2.0)
 OB = Obstacle(name="box", x0=5.0, y0=5.0, x1=6.0, y1=6.0)
@@ -49,21 +52,10 @@ def _info(revision: int, ids: list[int], obstacles: list[Obstacle] = []) -> Worl
     )
 
 
-def _state(tick: int, ids: list[int], collided: list[bool] | None = None, **kw: object) -> WorldState:
-    n = len(ids)
-    return WorldState(
-        tick=tick,
-        sim_time_ns=tick * 100_000_000,
-        revision=0,
-        ids=ids,
-        x=[float(i) for i in ids],
-        y=[1.0] * n,
-        heading=[0.123456789] * n,
-        collided=collided or [False] * n,
-        rolled_left=[0.1] * n,
-        rolled_right=[0.1] * n,
-        speed=[0.3] * n,
-        **kw,  # type: ignore[arg-type]
+def _state(tick: int, ids: list[int], **kw: Any) -> WorldState:
+    """The feed's tests' state: each robot at x = its id, a heading to round, moving."""
+    return world_state(
+        tick, ids, revision=0, x=[float(i) for i in ids], heading=0.123456789, rolled=0.1, speed=0.3, **kw
     )
 
 
