@@ -4,15 +4,34 @@ download: the README's test command installs the chromium package)."""
 from __future__ import annotations
 
 import re
+import subprocess
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
+from pathlib import Path
 
 import pytest
 from playwright.sync_api import Browser, sync_playwright
 
 from benchmarks.chromium import CHROMIUM, INSTALL, launch
-from tests.integration.harness import Proc
+from tests.integration.harness import Net, Proc, iwz_run_argv, stop_run
+
+RUN_S = 180  # a lock-step run of a few seconds, recorded, on a loaded machine
+WALL_LAB = """<Lab Name="scan" Width="20" Height="10">
+  <Wall Height="1.0"><Corner X="15" Y="1"/><Corner X="16" Y="1"/><Corner X="16" Y="9"/><Corner X="15" Y="9"/></Wall>
+</Lab>"""  # a wall across the lab whose west face is at x = 15, for chairs to drive and scan towards
+RUN_HEAD = """name = "{name}"
+
+[world]
+map = "lab.xml"
+mode = "lockstep"
+seed = 1
+duration_s = 3
+
+[roles]
+radio = false
+
+"""  # a reproducible three-second run in WALL_LAB, agents to follow
 
 
 @contextmanager
@@ -41,3 +60,33 @@ def viewer_url(proc: Proc, timeout_s: float = 60.0) -> str:
         assert proc.popen.poll() is None, f"iwz view died:\n{proc.output()}"
         assert time.monotonic() < deadline, f"iwz view did not serve within {timeout_s} s:\n{proc.output()}"
         time.sleep(0.05)  # polling its log: there is no event to wait on
+
+
+def record_run(tmp: Path, sim: str, *, name: str, agents: str) -> Path:
+    """Runs a lock-step scenario of three seconds in WALL_LAB with ``agents`` (its ``[[agents]]``
+    tables) by ``iwz run``, recorded; the recording. Fails with the run's output if it fails or is
+    still running after RUN_S."""
+    (tmp / "lab.xml").write_text(WALL_LAB)
+    (tmp / "scenario.toml").write_text(RUN_HEAD.format(name=name) + agents)
+    rec = tmp / "run.mcap"
+    argv = iwz_run_argv(tmp / "scenario.toml", tmp, sim, record=rec)
+    p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        out, err = p.communicate(timeout=RUN_S)
+    except subprocess.TimeoutExpired:
+        out, err = stop_run(p)
+        pytest.fail(f"iwz run still running after {RUN_S} s, stopped:\n{out}{err}")
+    assert p.returncode == 0, out + err
+    assert rec.exists(), out + err
+    return rec
+
+
+@contextmanager
+def replay_page(recorded: Path, sim: str, name: str) -> Iterator[str]:
+    """``iwz view`` replaying ``recorded`` (no router: a replay needs none); the page's address.
+    The viewer is stopped on leaving."""
+    net = Net(recorded.parent, sim=sim)
+    try:
+        yield viewer_url(net.spawn("view", str(recorded), "--port", "0", name=name, connect=False))
+    finally:
+        net.close()

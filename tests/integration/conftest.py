@@ -4,11 +4,15 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pytest
 
 from tests.integration.harness import Net
 from tests.integration.legacy import LegacyClient
+
+if TYPE_CHECKING:
+    from playwright.sync_api import Browser
 
 
 @pytest.fixture
@@ -29,3 +33,13 @@ def clients() -> Iterator[list[LegacyClient]]:
     yield made
     for c in made:
         c.close()
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[Browser]:
+    """Debian's Chromium under Playwright, shared by a module's page tests (imported here only when
+    a test asks for it: the other integration tests need no browser)."""
+    from tests.integration.browser import chromium  # noqa: PLC0415 - see the docstring
+
+    with chromium() as b:
+        yield b

@@ -17,7 +17,7 @@ from iw_zenoh import keys
 from iw_zenoh.bus import ZenohBus
 from iw_zenoh.messages import SensorBatch, Tick, WorldInfo, WorldState
 from iw_zenoh.record.reader import open_recording
-from tests.integration.browser import chromium, viewer_url
+from tests.integration.browser import viewer_url
 from tests.integration.harness import ROOT, Net, subscribe, wait_event, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
@@ -30,12 +30,6 @@ CHAIRS = {  # name: start, waypoints (back and forth along the lab: they keep dr
 }
 SAMPLE = ROOT / "recordings" / "demo-sample.mcap"
 WAIT_MS = 30_000
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Browser]:
-    with chromium() as b:
-        yield b
 
 
 @pytest.fixture(scope="module")

@@ -5,7 +5,6 @@ seek and step, the scan drawn where its beams hit, the scanner's nearest range i
 
 from __future__ import annotations
 
-import subprocess
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -14,29 +13,14 @@ from playwright.sync_api import Browser, Page
 
 from iw_zenoh.messages import SensorBatch, SensorReading, WorldInfo, WorldState
 from iw_zenoh.record.reader import open_recording
-from tests.integration.browser import chromium, viewer_url
-from tests.integration.harness import Net, iwz_run_argv, stop_run
+from tests.integration.browser import record_run, replay_page
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(300)]
 
 SIM = "scanview"
-LAB = """<Lab Name="scan" Width="20" Height="10">
-  <Wall Height="1.0"><Corner X="15" Y="1"/><Corner X="16" Y="1"/><Corner X="16" Y="9"/><Corner X="15" Y="9"/></Wall>
-</Lab>"""
 # the scanner's chair drives east along y = 5 towards the wall's face at x = 15; its middle beam
 # (of 9 over 180 degrees) looks straight at it; the other chair drives along y = 2, in its first beam
-SCENARIO = """name = "scan-replay"
-
-[world]
-map = "lab.xml"
-mode = "lockstep"
-seed = 1
-duration_s = 3
-
-[roles]
-radio = false
-
-[[agents]]
+AGENTS = """[[agents]]
 program = "waypoint"
 args = ["--waypoints", "12,5", "--start", "5,5,0", "--robot-name", "scanner", "--id", "1"]
 name = "scanner-agent"
@@ -54,37 +38,14 @@ WAIT_MS = 30_000
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A lock-step run of the scenario, recorded by ``iwz run``."""
-    tmp = tmp_path_factory.mktemp("scanrun")
-    (tmp / "lab.xml").write_text(LAB)
-    (tmp / "scan.toml").write_text(SCENARIO)
-    rec = tmp / "run.mcap"
-    p = subprocess.Popen(
-        iwz_run_argv(tmp / "scan.toml", tmp, SIM, record=rec), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
-    )
-    try:
-        out, err = p.communicate(timeout=180)
-    except subprocess.TimeoutExpired:
-        out, err = stop_run(p)
-        pytest.fail(f"iwz run still running after 180 s, stopped:\n{out}{err}")
-    assert p.returncode == 0, out + err
-    assert rec.exists(), out + err
-    return rec
+    return record_run(tmp_path_factory.mktemp("scanrun"), SIM, name="scan-replay", agents=AGENTS)
 
 
 @pytest.fixture(scope="module")
 def replay(recorded: Path) -> Iterator[str]:
-    """``iwz view`` replaying it (no router: a replay needs none)."""
-    net = Net(recorded.parent, sim=SIM)
-    try:
-        yield viewer_url(net.spawn("view", str(recorded), "--port", "0", name="view-replay", connect=False))
-    finally:
-        net.close()
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Browser]:
-    with chromium() as b:
-        yield b
+    """``iwz view`` replaying it."""
+    with replay_page(recorded, SIM, "view-replay") as url:
+        yield url
 
 
 def _contents(rec: Path) -> tuple[WorldInfo, list[WorldState], dict[int, SensorReading]]:

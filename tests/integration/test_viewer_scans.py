@@ -5,7 +5,6 @@ page's WebSocket is counted while its scans toggle and its selection change."""
 from __future__ import annotations
 
 import json
-import subprocess
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -15,29 +14,14 @@ from playwright.sync_api import Browser, Page, WebSocket
 
 from iw_zenoh.messages import WorldState
 from iw_zenoh.record.reader import open_recording
-from tests.integration.browser import chromium, viewer_url
-from tests.integration.harness import Net, iwz_run_argv, stop_run
+from tests.integration.browser import record_run, replay_page
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(300)]
 
 SIM = "scansent"
-LAB = """<Lab Name="scan" Width="20" Height="10">
-  <Wall Height="1.0"><Corner X="15" Y="1"/><Corner X="16" Y="1"/><Corner X="16" Y="9"/><Corner X="15" Y="9"/></Wall>
-</Lab>"""
 LASER = "spec = { lasers = [{ id = 0, x = 0.5, fov_deg = 90, beams = 5, range_m = 12 }], noise = false }"
 # both chairs drive east towards the wall: every tick each scan moves by a few centimetres
-SCENARIO = f"""name = "scans-sent"
-
-[world]
-map = "lab.xml"
-mode = "lockstep"
-seed = 1
-duration_s = 3
-
-[roles]
-radio = false
-
-[[agents]]
+AGENTS = f"""[[agents]]
 program = "waypoint"
 args = ["--waypoints", "12,3", "--start", "5,3,0", "--robot-name", "low", "--id", "1"]
 name = "low-agent"
@@ -56,39 +40,14 @@ STEPS = 4  # steps played in each phase
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A lock-step run of the scenario, recorded by ``iwz run``."""
-    tmp = tmp_path_factory.mktemp("scansent")
-    (tmp / "lab.xml").write_text(LAB)
-    (tmp / "scans.toml").write_text(SCENARIO)
-    rec = tmp / "run.mcap"
-    p = subprocess.Popen(
-        iwz_run_argv(tmp / "scans.toml", tmp, SIM, record=rec),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    try:
-        out, err = p.communicate(timeout=180)
-    except subprocess.TimeoutExpired:
-        out, err = stop_run(p)
-        pytest.fail(f"iwz run still running after 180 s, stopped:\n{out}{err}")
-    assert p.returncode == 0, out + err
-    return rec
+    return record_run(tmp_path_factory.mktemp("scansent"), SIM, name="scans-sent", agents=AGENTS)
 
 
 @pytest.fixture(scope="module")
 def replay(recorded: Path) -> Iterator[str]:
-    """``iwz view`` replaying it (no router: a replay needs none)."""
-    net = Net(recorded.parent, sim=SIM)
-    try:
-        yield viewer_url(net.spawn("view", str(recorded), "--port", "0", name="view-scans", connect=False))
-    finally:
-        net.close()
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Browser]:
-    with chromium() as b:
-        yield b
+    """``iwz view`` replaying it."""
+    with replay_page(recorded, SIM, "view-scans") as url:
+        yield url
 
 
 def _listen(page: Page, got: list[dict[str, Any]]) -> None:
