@@ -75,11 +75,26 @@ class TickWindow:
         if self.newest is None:
             self.anchor(tick, now_ns)
             return ""
-        stepped = int(max(0, now_ns - self._at_ns) * self.rate_per_s / 1e9)
-        why = too_far_ahead(tick, self.newest, self.window + stepped)
+        why = self.ahead(tick, now_ns)
         if not why and tick >= self.newest:
             self.newest, self._at_ns = tick, now_ns
         return why
+
+    def ahead(self, tick: int, now_ns: int) -> str:
+        """Why ``tick`` is too far ahead, or ``""``, leaving the window where it is: for a message
+        that follows the world's tick without setting it (a collision verdict).
+
+        Args:
+            tick: A message's tick.
+            now_ns: The receiver's monotonic clock (ns).
+
+        Returns:
+            The reason (see :func:`too_far_ahead`); empty when it is within, or nothing is known yet.
+        """
+        if self.newest is None:
+            return ""
+        stepped = int(max(0, now_ns - self._at_ns) * self.rate_per_s / 1e9)
+        return too_far_ahead(tick, self.newest, self.window + stepped)
 
 
 class _Info(Protocol):

@@ -52,6 +52,16 @@ def test_the_window_follows_the_ticks_it_accepts_and_never_a_refused_one() -> No
     assert w.newest == 9
 
 
+def test_a_tick_checked_without_setting_the_window_leaves_it_where_it_was() -> None:
+    w = TickWindow()
+    assert w.ahead(10**15, 0) == ""  # nothing known yet
+    assert w.newest is None
+    w.refuse(8, 0)
+    assert w.ahead(8 + WINDOW_TICKS, 0) == ""
+    assert "ahead of the world's tick 8" in w.ahead(10**15, 0)
+    assert w.newest == 8  # neither moved it
+
+
 def test_a_receiver_that_was_stalled_catches_up_with_the_world() -> None:
     w = TickWindow()
     w.refuse(100, 0)

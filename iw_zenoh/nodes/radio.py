@@ -8,21 +8,20 @@ world's state too; in the rare tick the world held after all, the state corrects
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import time
 from collections.abc import Sequence
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus, Delivery, Inbox
-from iw_zenoh.errors import IwError, ProtocolError
-from iw_zenoh.messages import Proposed, Say, WorldState, decode
+from iw_zenoh.errors import ProtocolError
+from iw_zenoh.messages import Proposed, Say, WorldState
 from iw_zenoh.nodes.role_options import RadioOptions, add_radio_arguments
 from iw_zenoh.options import options_from_args
 from iw_zenoh.runtime import NodeIO, start_role
 from iw_zenoh.sim.early import Verdicts, state_from_proposal
 from iw_zenoh.sim.radio import RadioConfig, RadioNode
-from iw_zenoh.ticks import TickWindow, too_far_ahead
+from iw_zenoh.ticks import TickWindow
 
 __all__ = ["main", "run"]
 
@@ -63,8 +62,9 @@ class _Loop:
         self.node = RadioNode(sim, cfg)
         self.window = TickWindow()  # a state too far ahead is refused (its hear lists would be too)
         self.proposal: WorldState | None = None  # the newest proposal, as the state it would commit
-        self.said = Verdicts()  # the newest verdicts, by tick
+        self.said = Verdicts()  # the verdicts of the next ticks
         self.last_tick = -1  # the newest tick delivered
+        self.roster: tuple[int, list[int]] | None = None  # the newest state's revision and robots
 
     def once(self) -> bool:
         """One pass; False when nothing came. What was said is taken after the states and
@@ -80,18 +80,7 @@ class _Loop:
                 self.node.on_say(msg)
         self._keep(props, verdicts)
         for d in states:
-            st = io.decode(d, WorldState)
-            why = self.window.refuse(st.tick, time.monotonic_ns()) if st is not None else ""
-            if why:
-                io.bad_message(d[0], ProtocolError(why))
-            elif st is not None and st.tick == self.node.early_tick:
-                self._check_early(st)
-            elif st is not None:
-                early = self.node.early_tick
-                if early is not None and st.tick > early:
-                    self.node.forget_early()  # its state will not come (a restarted world's is newer)
-                io.send_all(self.node.on_state(st))
-                self.last_tick = st.tick
+            self._on_state(d)
         p = self.proposal
         # the next tick goes out early only once the state of the last early one checked it: a
         # verdict may come before the state it follows (two processes, no order between them)
@@ -101,15 +90,56 @@ class _Loop:
             self.last_tick = p.tick
         return bool(states or verdicts or props or says)
 
+    def _on_state(self, d: Delivery) -> None:
+        """Delivers a state's tick (or checks the one delivered early), unless it is refused."""
+        io = self.io
+        st = io.decode(d, WorldState)
+        if st is None:
+            return
+        why = self.window.refuse(st.tick, time.monotonic_ns())
+        if why:
+            io.bad_message(d[0], ProtocolError(why))
+            return
+        self.roster = (st.revision, st.ids)
+        self.said.settle(st)
+        self._report_verdicts()
+        if st.tick == self.node.early_tick:
+            self._check_early(st)
+            return
+        early = self.node.early_tick
+        if early is not None and st.tick > early:
+            self.node.forget_early()  # its state will not come (a restarted world's is newer)
+        io.send_all(self.node.on_state(st))
+        self.last_tick = st.tick
+
     def _keep(self, props: list[Delivery], verdicts: list[Delivery]) -> None:
-        """Keeps the newest proposal and verdicts (one that does not decode is the world's and the
-        collision process's to report, not again here)."""
-        for _, data, _ in props[-1:]:
-            with contextlib.suppress(IwError):
-                p = decode(data, Proposed)
-                if not too_far_ahead(p.tick, max(self.last_tick, 0)):
-                    self.proposal = state_from_proposal(p)
-        self.said.take(data for _, data, _ in verdicts)
+        """Keeps the newest proposal and the verdicts; each one refused is reported as a bad
+        message: malformed, a tick too far ahead, robots the world's revision does not have."""
+        io, now = self.io, time.monotonic_ns()
+        for d in props:
+            p = io.decode(d, Proposed)
+            why = self._refuse(p, now) if p is not None else ""
+            if why:
+                io.bad_message(d[0], ProtocolError(why))
+            elif p is not None:
+                self.proposal = state_from_proposal(p)
+        self.said.take((data for _, data, _ in verdicts), lambda tick: self.window.ahead(tick, now))
+        self._report_verdicts()
+
+    def _refuse(self, p: Proposed, now_ns: int) -> str:
+        """Why proposal ``p`` is refused, or ``""``."""
+        if why := self.window.ahead(p.tick, now_ns):
+            return why
+        last = self.roster  # one revision, one roster: the world bumps it when a robot comes or goes
+        if last is None or p.revision != last[0] or p.ids == last[1]:
+            return ""
+        ids, theirs = p.ids, last[1]
+        return f"robots {ids[:5]} ({len(ids)}) not the world's at revision {p.revision}: {theirs[:5]} ({len(theirs)})"
+
+    def _report_verdicts(self) -> None:
+        """Reports each verdict refused as a bad message with its reason."""
+        for why in self.said.refusals():
+            self.io.bad_message(keys.verdict(self.io.sim), ProtocolError(why))
 
     def _check_early(self, st: WorldState) -> None:
         out = self.node.check_early(st)

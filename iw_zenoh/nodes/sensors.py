@@ -76,8 +76,8 @@ class _Loop:
         self.node: SensorsNode | None = None
         self.ahead: Computed | None = None  # the next tick's readings, computed from its proposal
         self.legacy = False  # ... in the ciberrato profile
-        self.proposal: Delivery | None = None  # the newest proposal not computed yet
-        self.said = Verdicts()  # the newest verdicts, by tick
+        self.proposal: tuple[Proposed, WorldView] | None = None  # the newest proposal not computed yet, its view
+        self.said = Verdicts()  # the verdicts of the next ticks
         self.ahead_from = 0  # compute ahead from this tick on
 
     def once(self) -> None:
@@ -91,12 +91,14 @@ class _Loop:
         node = self.node
         props = self.proposals.drain()
         if props and node is not None and node.last_tick + 1 >= self.ahead_from:
-            self.proposal = props[-1]
+            for d in props:  # each checked, so a bad one is reported even when a newer one follows
+                p = self.io.decode(d, Proposed)
+                view = _checked(self.io, self.window, d[0], p) if p is not None else None
+                if p is not None and view is not None:
+                    self.proposal = (p, view)
         if self.proposal is not None and node is not None and node.early is None:
-            d, self.proposal = self.proposal, None
-            c, view = _ahead(self.io, self.window, node, d)
-            if view is not None:  # else the older one stays, as it did
-                self.ahead, self.legacy = c, view.info.profile == Profile.CIBERRATO
+            (p, view), self.proposal = self.proposal, None
+            self.ahead, self.legacy = node.ahead(p, view), view.info.profile == Profile.CIBERRATO
             self._send_early()
             return
         if self._send_early():
@@ -105,8 +107,15 @@ class _Loop:
         self.io.wait(0.2)
 
     def _take_verdicts(self) -> None:
-        """Keeps the newest verdicts (the world reports one that does not decode: not again here)."""
-        self.said.take(data for _, data, _ in self.verdicts.drain())
+        """Keeps the verdicts of the next ticks; each refused is reported (:meth:`_report_verdicts`)."""
+        now, ticks = time.monotonic_ns(), self.window.ticks
+        self.said.take((data for _, data, _ in self.verdicts.drain()), lambda tick: ticks.ahead(tick, now))
+        self._report_verdicts()
+
+    def _report_verdicts(self) -> None:
+        """Reports each verdict refused as a bad message with its reason."""
+        for why in self.said.refusals():
+            self.io.bad_message(keys.verdict(self.sim), ProtocolError(why))
 
     def _send_early(self) -> bool:
         """Publishes the readings computed ahead if the verdict on their proposal confirms it
@@ -134,6 +143,8 @@ class _Loop:
             view = _checked(io, self.window, keys.state(self.sim), msg)
             if view is None:
                 continue
+            self.said.settle(msg)
+            self._report_verdicts()
             if self.node is None:
                 self.node = SensorsNode(self.sim, view.info.seed, self.shard)
             node = self.node
@@ -198,19 +209,6 @@ def _checked(io: NodeIO, window: ViewWindow[WorldView], key: str, msg: WorldStat
     elif view is None:
         logger.warning("tick %d: no world info for revision %d and robots %s", msg.tick, msg.revision, msg.ids[:5])
     return view
-
-
-def _ahead(
-    io: NodeIO, window: ViewWindow[WorldView], node: SensorsNode, d: Delivery
-) -> tuple[Computed | None, WorldView | None]:
-    """Tick n's readings computed ahead from its proposal while the collision process checks it,
-    with the view they were computed in (None when the proposal cannot be used: malformed,
-    refused, no world info for it, or not computable ahead now)."""
-    p = io.decode(d, Proposed)
-    view = _checked(io, window, d[0], p) if p is not None else None
-    if p is not None and view is not None:
-        return node.ahead(p, view), view
-    return None, None
 
 
 def _publish(bus: Bus, sim: str, shard: tuple[int, int], c: Computed) -> None:

@@ -7,11 +7,11 @@ from __future__ import annotations
 import msgspec
 
 from iw_zenoh.core.lab import Grid, GridPosition, Lab
-from iw_zenoh.messages import Actions, PoseReport, Proposed, RegisterRequest, RobotSpecMsg, Verdict, WorldState
+from iw_zenoh.messages import Actions, PoseReport, Proposed, RegisterRequest, RobotSpecMsg, Verdict, WorldState, encode
 from iw_zenoh.sim.config import MS, WorldConfig
-from iw_zenoh.sim.early import confirms, state_from_proposal
+from iw_zenoh.sim.early import VERDICTS_A_TICK, Verdicts, confirms, state_from_proposal
 from iw_zenoh.sim.world import WorldCore
-from tests.conftest import box_wall
+from tests.conftest import box_wall, world_state
 
 
 def _core(*robots: RobotSpecMsg, **kw: object) -> WorldCore:
@@ -146,3 +146,46 @@ def test_the_verdict_store_keeps_the_newest_and_confirms_only_its_own_tick() -> 
     assert not store.confirm(asked(4))  # no verdict for it yet
     store.take([encode(Verdict(tick=4, revision=1, ids=[1], collided=[True]))])
     assert not store.confirm(asked(4))  # a verdict that flags the robot confirms nothing
+
+
+def _v(tick: int, ids: list[int] | None = None, *, revision: int = 1, collided: bool = False) -> bytes:
+    ids = [1] if ids is None else ids
+    return encode(Verdict(tick=tick, revision=revision, ids=ids, collided=[collided] * len(ids)))
+
+
+def test_the_verdict_store_refuses_garbage_a_tick_too_far_ahead_and_too_many_for_a_tick_saying_why() -> None:
+    store = Verdicts()
+    store.settle(world_state(10))
+    far = "tick 1000000000000000 is too far"
+    store.take([b"\xff garbage", _v(10**15)], ahead=lambda t: far if t > 1000 else "")
+    store.take([_v(11, collided=True) for _ in range(VERDICTS_A_TICK + 2)])
+    why = store.refusals()
+    assert len(why) == 4
+    assert "JSON" in why[0] or "decode" in why[0].lower(), why[0]
+    assert why[1] == f"verdict: {far}"
+    assert why[2] == f"a verdict of tick 11 past the {VERDICTS_A_TICK} kept for a tick"
+    assert why[3] == why[2]
+    assert store.refusals() == []  # told once
+
+
+def test_the_first_verdict_that_answers_the_proposal_counts_and_the_others_are_refused_with_its_state() -> None:
+    store = Verdicts(per_tick=5)
+    store.settle(world_state(10))
+    store.take([_v(11, revision=7), _v(11, [1, 999]), _v(11, list(range(1, 100_001))), _v(11), _v(11, collided=True)])
+    assert store.confirm(world_state(11))  # the other revision and robots do not answer it; then the first that does
+    assert store.refusals() == []  # nothing is refused before the state of its tick says what the world had
+    store.settle(world_state(11))
+    why = store.refusals()
+    assert len(why) == 3
+    assert "answers revision 7 and robots [1]" in why[0]
+    assert "robots [1, 999] (2)" in why[1]
+    assert "(100000), not the world's: revision 1, robots [1] (1)" in why[2]
+    assert not store.confirm(world_state(11))  # forgotten once its state came
+
+
+def test_verdicts_of_ticks_settled_or_beyond_the_kept_ones_are_dropped_unrefused() -> None:
+    store = Verdicts(kept=4)
+    store.settle(world_state(10))
+    store.take([_v(9), _v(10), _v(15), _v(14)])  # late ones; one further ahead than the four kept
+    assert store.refusals() == []
+    assert [store.confirm(world_state(t)) for t in (9, 10, 14, 15)] == [False, False, True, False]
