@@ -1,4 +1,5 @@
-"""Shared fixtures and builders: a seeded generator, a small map and its scene, a world state."""
+"""Shared fixtures and builders: a seeded generator, a small map and its scene, a world state and
+its proposal."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ from hypothesis import HealthCheck, settings
 
 from iw_zenoh.core import cones, contact
 from iw_zenoh.core.lab import Lab, Scene, Wall
-from iw_zenoh.messages import WorldState
+from iw_zenoh.messages import Proposed, WorldState
 
 settings.register_profile("ci", deadline=None, suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile("ci")
@@ -77,6 +78,29 @@ def world_state(
         speed=[speed] * n,
         held=held,
         held_reason=held_reason,
+    )
+
+
+def proposal_of(st: WorldState) -> Proposed:
+    """The world's proposal whose next poses and distances rolled are those of ``st`` (every robot
+    from the origin, active): what commits ``st`` if no robot collides."""
+    n = len(st.ids)
+    return Proposed(
+        tick=st.tick,
+        sim_time_ns=st.sim_time_ns,
+        revision=st.revision,
+        ids=st.ids,
+        x=[0.0] * n,
+        y=[0.0] * n,
+        heading=[0.0] * n,
+        next_x=st.x,
+        next_y=st.y,
+        next_heading=st.heading,
+        linear=[0.0] * n,
+        active=[True] * n,
+        rolled_left=st.rolled_left,
+        rolled_right=st.rolled_right,
+        tick_wall_ns=st.tick_wall_ns,
     )
 
 

@@ -23,12 +23,12 @@ from iw_zenoh.messages import (
     RobotSpecMsg,
     SensorReading,
     WorldInfo,
-    WorldState,
     decode,
     encode,
 )
 from iw_zenoh.ticks import MAX_TICKS_PER_S, WINDOW_TICKS, TickWindow, ViewWindow, too_far_ahead
 from tests.bridges.fakes import FakeBus
+from tests.conftest import world_state
 
 S = 1_000_000_000
 
@@ -91,35 +91,18 @@ class _View:
     specs: dict[int, object] = field(default_factory=dict)
 
 
-def _state(tick: int, revision: int, ids: list[int]) -> WorldState:
-    n = len(ids)
-    z = [0.0] * n
-    return WorldState(
-        tick=tick,
-        revision=revision,
-        ids=ids,
-        x=z,
-        y=z,
-        heading=z,
-        collided=[False] * n,
-        rolled_left=z,
-        rolled_right=z,
-        speed=z,
-    )
-
-
 def test_a_view_window_anchors_on_the_world_info_and_refuses_robots_the_world_does_not_have() -> None:
     view = _View(_Info(tick=500, revision=3), {1: "spec", 2: "spec"})
     w: ViewWindow[_View] = ViewWindow(lambda rev: view if rev <= 3 else None)
-    got, why = w.view(_state(10**15, 3, [1]), 0)  # a forged first state: the info is the anchor
+    got, why = w.view(world_state(10**15, [1], revision=3), 0)  # a forged first state: the info is the anchor
     assert got is None
     assert "ahead of the world's tick 500" in why
-    assert w.view(_state(501, 3, [1, 2]), 0) == (view, "")
-    got, why = w.view(_state(502, 3, [1, 9]), 0)
+    assert w.view(world_state(501, [1, 2], revision=3), 0) == (view, "")
+    got, why = w.view(world_state(502, [1, 9], revision=3), 0)
     assert got is None
     assert "robots [9] are not in the world's revision 3" in why
-    assert w.view(_state(502, 2, [1, 7]), 0) == (None, "")  # an older roster: late, not bad
-    assert w.view(_state(503, 4, [1]), 0) == (None, "")  # no world info for it (yet)
+    assert w.view(world_state(502, [1, 7], revision=2), 0) == (None, "")  # an older roster: late, not bad
+    assert w.view(world_state(503, [1], revision=4), 0) == (None, "")  # no world info for it (yet)
 
 
 class _Forward:

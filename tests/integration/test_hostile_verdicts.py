@@ -12,7 +12,8 @@ import pytest
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Inbox, ZenohBus
-from iw_zenoh.messages import Event, Proposed, RadioBatch, Say, SensorReading, Verdict, WorldState, decode, encode
+from iw_zenoh.messages import Event, RadioBatch, Say, SensorReading, Verdict, WorldState, decode, encode
+from tests.conftest import proposal_of, world_state
 from tests.integration.harness import Net, subscribe, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
@@ -27,27 +28,6 @@ ROUNDS_S = 90.0  # the forgeries of the next ticks are sent again until both rol
 
 def _verdict(tick: int, revision: int, ids: list[int]) -> bytes:
     return encode(Verdict(tick=tick, revision=revision, ids=ids, collided=[False] * len(ids)))
-
-
-def _proposal(tick: int, revision: int, ids: list[int]) -> bytes:
-    z = [1.0] * len(ids)
-    return encode(
-        Proposed(
-            tick=tick,
-            revision=revision,
-            ids=ids,
-            x=z,
-            y=z,
-            heading=z,
-            next_x=z,
-            next_y=z,
-            next_heading=z,
-            linear=z,
-            active=[True] * len(ids),
-            rolled_left=z,
-            rolled_right=z,
-        )  # fmt: skip
-    )
 
 
 def _forgeries(sim: str, st: WorldState) -> dict[str, list[tuple[bytes, str]]]:
@@ -65,8 +45,8 @@ def _forgeries(sim: str, st: WorldState) -> dict[str, list[tuple[bytes, str]]]:
         ],
         keys.proposed(sim): [
             (b"[[[[", "Expected `object`"),
-            (_proposal(FAR, rev, ids), "ahead of the world's tick"),
-            (_proposal(st.tick + 1, rev, list(range(900, 900 + MANY))), "900"),
+            (encode(proposal_of(world_state(FAR, ids, revision=rev))), "ahead of the world's tick"),
+            (encode(proposal_of(world_state(st.tick + 1, range(900, 900 + MANY), revision=rev))), "900"),
         ],
     }
 

@@ -7,22 +7,13 @@ import time
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Inbox
-from iw_zenoh.messages import Proposed, RadioBatch, Say, Verdict, decode, encode
+from iw_zenoh.messages import RadioBatch, Say, Verdict, decode, encode
 from iw_zenoh.nodes.radio import _Loop
 from iw_zenoh.runtime import NodeIO
 from iw_zenoh.viewer.sources import LocalBus
-from tests.conftest import world_state
+from tests.conftest import proposal_of, world_state
 
 SIM = "s"
-
-
-def _proposed(tick: int) -> Proposed:
-    one = [1.0]
-    return Proposed(
-        tick=tick, sim_time_ns=tick * 100_000_000, revision=1, ids=[1], x=one, y=one, heading=[0.0],
-        next_x=one, next_y=one, next_heading=[0.0], linear=[0.0], active=[True],
-        rolled_left=[0.0], rolled_right=[0.0],
-    )  # fmt: skip
 
 
 def _put(box: Inbox, key: str, data: bytes) -> None:
@@ -36,7 +27,7 @@ def test_the_next_tick_waits_for_the_state_of_the_last_early_one() -> None:
     loop.once()
     for tick in (2, 3):
         _put(loop.says, keys.say(SIM, 1), encode(Say(robot_id=1, text=f"for {tick}")))
-        _put(loop.proposals, keys.proposed(SIM), encode(_proposed(tick)))
+        _put(loop.proposals, keys.proposed(SIM), encode(proposal_of(world_state(tick))))
         _put(loop.verdicts, keys.verdict(SIM), encode(Verdict(tick=tick, revision=1, ids=[1], collided=[False])))
         loop.once()  # tick 2 goes out early; tick 3 not yet: the state of tick 2 has not come
     _put(loop.states, keys.state(SIM), encode(world_state(2)))  # it comes after verdict 3

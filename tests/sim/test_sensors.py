@@ -7,10 +7,10 @@ import msgspec
 from iw_zenoh.convert import lab_to_msg, spec_to_msg
 from iw_zenoh.core.lab import Lab, Scene
 from iw_zenoh.core.spec import IrSensorSpec, LaserSpec, RobotSpec
-from iw_zenoh.messages import Proposed, SensorReading, WorldInfo, WorldState, encode
+from iw_zenoh.messages import SensorReading, WorldInfo, WorldState, encode
 from iw_zenoh.sim.sensors import SensorsNode
 from iw_zenoh.sim.view import WorldView
-from tests.conftest import box_wall
+from tests.conftest import box_wall, proposal_of
 
 LAB = Lab("t", 20.0, 10.0, (box_wall(9.0, 0.0, 10.0, 3.0),))
 CONES = tuple(IrSensorSpec(k, 0.3, 0.0, 90.0 * k - 90.0, 60.0, 4.0) for k in range(4))
@@ -75,27 +75,6 @@ def test_encoders_accumulate_and_a_robot_keeps_its_count_when_others_come_and_go
     assert [m.compass_deg for m in first] == [r[(t, 2)].compass_deg for t in (1, 2)]  # type: ignore[attr-defined]
 
 
-def _proposal(st: WorldState) -> Proposed:
-    n = len(st.ids)
-    return Proposed(
-        tick=st.tick,
-        sim_time_ns=st.sim_time_ns,
-        revision=st.revision,
-        ids=st.ids,
-        x=[0.0] * n,
-        y=[0.0] * n,
-        heading=[0.0] * n,
-        next_x=st.x,
-        next_y=st.y,
-        next_heading=st.heading,
-        linear=[0.0] * n,
-        active=[True] * n,
-        rolled_left=st.rolled_left,
-        rolled_right=st.rolled_right,
-        tick_wall_ns=st.tick_wall_ns,
-    )
-
-
 def test_readings_computed_ahead_from_the_proposal_equal_those_of_the_state_bit_for_bit() -> None:
     # robots 1-3 about 1.5 m apart, 4 and 5 far from them and from each other
     ids = [1, 2, 3, 4, 5]
@@ -124,7 +103,7 @@ def test_readings_computed_ahead_from_the_proposal_equal_those_of_the_state_bit_
         if tick == 4:  # everybody held: nobody moves
             committed = msgspec.structs.replace(proposed, x=state(tick - 1).x, rolled_left=[0.0] * 5)
         want = [encode(m) for _, m in reference.on_state(committed, view)]
-        ahead = ahead_node.ahead(_proposal(proposed), view)
+        ahead = ahead_node.ahead(proposal_of(proposed), view)
         assert ahead is not None
         got, again = ahead_node.settle(ahead, committed, view)
         assert got.encoded == want, f"tick {tick}"
@@ -137,16 +116,16 @@ def test_computing_ahead_needs_the_previous_ticks_readings_out() -> None:
     node = SensorsNode("t", seed=5)
     view = _view([1, 2], 1)
     node.on_state(_state(1, [1, 2], 1), view)
-    assert node.ahead(_proposal(_state(3, [1, 2], 1)), view) is None  # tick 2 not out yet
-    assert node.ahead(_proposal(_state(2, [1, 2], 1)), view) is not None
+    assert node.ahead(proposal_of(_state(3, [1, 2], 1)), view) is None  # tick 2 not out yet
+    assert node.ahead(proposal_of(_state(2, [1, 2], 1)), view) is not None
 
 
 def test_a_proposal_of_an_older_world_that_does_not_say_how_far_the_wheels_rolled_is_not_computed_ahead() -> None:
     node = SensorsNode("t", seed=5)
     st = _state(1, [1, 2], 1)
-    old = msgspec.structs.replace(_proposal(st), rolled_left=[], rolled_right=[])
+    old = msgspec.structs.replace(proposal_of(st), rolled_left=[], rolled_right=[])
     assert node.ahead(old, _view([1, 2], 1)) is None
-    assert node.ahead(_proposal(st), _view([1, 2], 1)) is not None
+    assert node.ahead(proposal_of(st), _view([1, 2], 1)) is not None
 
 
 def test_a_robot_with_a_laser_scanner_gets_its_scan_and_one_without_reads_as_before() -> None:
@@ -196,10 +175,10 @@ def test_readings_sent_early_then_checked_by_their_state_match_a_node_that_waite
                 proposed, x=_state(2, ids, 1).x, rolled_left=[0.0] * 3, rolled_right=[0.0] * 3, held=True
             )
         want = {m.robot_id: encode(m) for _, m in reference.on_state(committed, view)}  # type: ignore[attr-defined]
-        ahead = early.ahead(_proposal(proposed), view)
+        ahead = early.ahead(proposal_of(proposed), view)
         assert ahead is not None
         early.send_early(ahead)
-        assert early.ahead(_proposal(_state(tick + 1, ids, 1)), view) is None  # not before the state checked it
+        assert early.ahead(proposal_of(_state(tick + 1, ids, 1)), view) is None  # not before the state checked it
         sent = {m.robot_id: e for (_, m), e in zip(ahead.out, ahead.encoded, strict=True)}
         fixed = early.check_early(committed, view)
         if tick != 3:
