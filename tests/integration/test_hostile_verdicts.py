@@ -9,6 +9,7 @@ from __future__ import annotations
 import time
 
 import pytest
+from msgspec.structs import replace
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Inbox, ZenohBus
@@ -45,7 +46,10 @@ def _forgeries(sim: str, st: WorldState) -> dict[str, list[tuple[bytes, str]]]:
         ],
         keys.proposed(sim): [
             (b"[[[[", "Expected `object`"),
-            (encode(proposal_of(world_state(FAR, ids, revision=rev))), "ahead of the world's tick"),
+            (
+                encode(proposal_of(replace(world_state(FAR, ids, revision=rev), sim_time_ns=0))),
+                "ahead of the world's tick",
+            ),
             (encode(proposal_of(world_state(st.tick + 1, range(900, 900 + MANY), revision=rev))), "900"),
         ],
     }
