@@ -29,7 +29,7 @@ from iw_zenoh.messages import Control, Event, WorldInfo, WorldState, decode, enc
 from iw_zenoh.net import DEFAULT_PORT, NetConfig, free_port, port_in_use
 from iw_zenoh.nodes.child import Child, stop_in_order
 from iw_zenoh.nodes.restarts import MAX_RESTARTS, Restarts
-from iw_zenoh.nodes.run_args import build_parser, default_recording
+from iw_zenoh.nodes.run_args import build_parser, default_recording, scenario_from_args
 from iw_zenoh.nodes.run_plan import RunPlan
 from iw_zenoh.nodes.run_summary import print_summary
 from iw_zenoh.nodes.run_waits import wait_listening, wait_roles
@@ -346,9 +346,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     setup_logging(args.verbose, "run")
     try:
-        sc = load_scenario(args.scenario)
-        if args.lockstep:
-            sc = msgspec.structs.replace(sc, world=msgspec.structs.replace(sc.world, mode=Mode.LOCKSTEP))
+        sc = scenario_from_args(load_scenario(args.scenario), args)
         launcher = Launcher(
             sc,
             port=args.port,

@@ -1,4 +1,4 @@
-"""The arguments of ``iwz run`` and where it records by default."""
+"""The arguments of ``iwz run``, what they change in the scenario, and where it records by default."""
 
 from __future__ import annotations
 
@@ -6,7 +6,13 @@ import argparse
 import time
 from pathlib import Path
 
-__all__ = ["build_parser", "default_recording"]
+import msgspec
+
+from iw_zenoh.config import Scenario, SecuritySection
+from iw_zenoh.core.modes import Mode
+from iw_zenoh.errors import ConfigError
+
+__all__ = ["build_parser", "default_recording", "scenario_from_args"]
 
 
 def default_recording(name: str) -> Path:
@@ -26,6 +32,7 @@ def build_parser() -> argparse.ArgumentParser:
             "Examples:\n"
             "  iwz run maps/demo.toml              (Ctrl-C stops everything cleanly)\n"
             "  iwz run maps/demo.toml --secure     (every process its certificate; the router enforces the roles)\n"
+            "  iwz run maps/demo.toml --secure --no-audit   (enforced all the same, refusals not logged)\n"
             "  iwz run lab.toml --listen tls/10.0.0.1:7447 --ids ids          (host with the router)\n"
             "  iwz run lab.toml --host laptop2 --connect tls/10.0.0.1:7447 --ids ids   (another host)"
         ),
@@ -48,6 +55,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="every process with an identity of its own (certificates in --ids), the router enforcing over "
         "mutual TLS what each role may do (as [security] in the scenario)",
     )
+    g.add_argument(
+        "--no-audit",
+        dest="audit",
+        action="store_false",
+        help="a secured run's router enforces the policy without logging its refusals (as audit = false in "
+        "the scenario's [security]; docs/security.md has what the log costs)",
+    )
     g.add_argument("--ids", metavar="DIR", help="the run's identities, made there if missing (default LOG_DIR/ids)")
     g.add_argument("--host", default="", help="start only the processes [security] hosts gives this host")
     g.add_argument(
@@ -56,3 +70,31 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--listen", default="", metavar="ENDPOINT", help="where the router listens (default loopback)")
     p.add_argument("-v", "--verbose", action="count", default=0, help="log more")
     return p
+
+
+def scenario_from_args(sc: Scenario, args: argparse.Namespace) -> Scenario:
+    """The scenario as ``iwz run``'s options change it: ``--lockstep`` its mode, ``--no-audit``
+    its ``[security] audit``.
+
+    Args:
+        sc: The scenario as its file says.
+        args: ``iwz run``'s parsed arguments.
+
+    Returns:
+        The scenario to run.
+
+    Raises:
+        ConfigError: ``--no-audit`` for a run that is not secured (no router log to turn off).
+    """
+    replace = msgspec.structs.replace
+    if args.lockstep:
+        sc = replace(sc, world=replace(sc.world, mode=Mode.LOCKSTEP))
+    if not args.audit:
+        if not (args.secure or (sc.security is not None and sc.security.enabled)):
+            raise ConfigError(
+                "--no-audit",
+                "only a secured run's router logs refusals: add --secure (or [security] to the scenario), "
+                "or leave --no-audit out",
+            )
+        sc = replace(sc, security=replace(sc.security or SecuritySection(enabled=args.secure), audit=False))
+    return sc

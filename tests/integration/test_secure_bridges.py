@@ -86,13 +86,18 @@ def _pose(states: Inbox) -> tuple[float, float]:
     return s.x[i], s.y[i]
 
 
-@pytest.mark.parametrize("audit", [True, False], ids=["audit", "no-audit"])
+@pytest.mark.parametrize(
+    ("audit", "option"),
+    [(True, False), (False, False), (False, True)],
+    ids=["audit", "no-audit", "no-audit-option"],  # the last: `iwz run --no-audit` over the scenario's audit
+)
 def test_a_legacy_client_drives_its_robot_in_a_secured_run_and_a_rogue_agent_cannot(
-    tmp_path: Path, buses: list[ZenohBus], audit: bool
+    tmp_path: Path, buses: list[ZenohBus], audit: bool, option: bool
 ) -> None:
     port, ids = udp_port(), _ids(tmp_path)
     logs = tmp_path / "logs"
-    argv = iwz_run_argv(_scenario(tmp_path, port, audit), logs, SIM, extra=("--secure", "--ids", str(ids)))
+    extra = ("--secure", "--ids", str(ids), *(["--no-audit"] if option else []))
+    argv = iwz_run_argv(_scenario(tmp_path, port, audit or option), logs, SIM, extra=extra)
     endpoint = f"tls/127.0.0.1:{argv[argv.index('--port') + 1]}"
     run = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     robot = LegacyClient(port)

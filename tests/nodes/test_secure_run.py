@@ -8,6 +8,8 @@ from iw_zenoh.config import parse_scenario
 from iw_zenoh.errors import ConfigError
 from iw_zenoh.nodes.child import Child
 from iw_zenoh.nodes.launcher import Launcher
+from iw_zenoh.nodes.launcher import main as run_main
+from iw_zenoh.nodes.run_args import build_parser, scenario_from_args
 from iw_zenoh.nodes.secure_run import agent_robots, on_host
 from iw_zenoh.nodes.world_options import WorldOptions
 from iw_zenoh.secure.policy import load_policy, owners
@@ -90,6 +92,32 @@ def test_a_secured_scenario_says_whether_the_router_logs_refusals(tmp_path: Path
     router = next(c for c in launcher.children if c.role == "router")
     assert ("--no-audit" in router.argv) == quiet
     assert "--policy" in router.argv  # enforced all the same
+
+
+@pytest.mark.parametrize(
+    ("argv", "quiet"),
+    [([], False), (["--no-audit"], True), (["--secure", "--no-audit"], True), (["--secure"], False)],
+)
+def test_iwz_run_no_audit_starts_a_secured_runs_router_with_no_audit(
+    tmp_path: Path, argv: list[str], quiet: bool
+) -> None:
+    """The scenario's [security] secures the run (but for the last two: --secure does)."""
+    text = (MAPS / "ciberrato-c1.toml").read_text() + ("" if "--secure" in argv else "\n[security]\n")
+    args = build_parser().parse_args(["c1.toml", *argv])
+    sc = scenario_from_args(parse_scenario(text, MAPS, "c1"), args)
+    launcher = Launcher(sc, port=7447, log_dir=tmp_path, status=False, secure=args.secure or sc.security is not None)
+    launcher.plan()
+    router = next(c for c in launcher.children if c.role == "router")
+    assert ("--no-audit" in router.argv) == quiet
+    assert "--policy" in router.argv  # enforced all the same
+
+
+def test_iwz_run_no_audit_in_a_run_not_secured_is_refused_saying_what_to_add(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert run_main([str(MAPS / "demo.toml"), "--no-audit", "--no-status", "--no-record"]) == 2
+    out = capsys.readouterr().out
+    assert "iwz run: --no-audit: only a secured run's router logs refusals: add --secure" in out
 
 
 def test_an_audit_that_is_not_a_bool_is_refused_naming_it() -> None:
