@@ -18,7 +18,7 @@ from iw_zenoh.nodes.foxglove_live import FoxgloveLive, start_foxglove_live
 from iw_zenoh.record.reader import file_error
 from iw_zenoh.runtime import Process, start_role
 from iw_zenoh.viewer.feed import Feed
-from iw_zenoh.viewer.server import make_app
+from iw_zenoh.viewer.server import MAX_PAGES, make_app
 from iw_zenoh.viewer.sources import LiveSource, ReplaySource, Source
 
 __all__ = ["main"]
@@ -33,6 +33,7 @@ EPILOG = """Examples:
   iwz view --port 0                            any free port (the address is printed)
   iwz view --foxglove-port 9765                Foxglove / Lichtblick live on ws://127.0.0.1:9765
   iwz view --no-foxglove                       the page only
+  iwz view --max-pages 100                     up to 100 pages at once (default 32)
 
 A live viewer also serves the Foxglove WebSocket protocol (default
 ws://127.0.0.1:8765): Foxglove or Lichtblick connects to it and sees the same
@@ -77,6 +78,12 @@ def _arguments(p: argparse.ArgumentParser) -> None:
         help=f"live: the Foxglove WebSocket port, on --host (default {FOXGLOVE_PORT}; 0: any free port)",
     )
     p.add_argument("--no-foxglove", action="store_true", help="live: do not serve the Foxglove WebSocket protocol")
+    p.add_argument(
+        "--max-pages",
+        type=int,
+        default=MAX_PAGES,
+        help=f"pages open at once (default {MAX_PAGES}); the next is refused with HTTP 503 until one closes",
+    )
 
 
 def _check(args: argparse.Namespace) -> argparse.Namespace:
@@ -84,6 +91,8 @@ def _check(args: argparse.Namespace) -> argparse.Namespace:
         raise IwError(f"--port {args.port} is no TCP port: give 0..65535 (0: any free port)")
     if not 0 <= args.foxglove_port <= 65535:
         raise IwError(f"--foxglove-port {args.foxglove_port} is no TCP port: give 0..65535 (0: any free port)")
+    if args.max_pages < 1:
+        raise IwError(f"--max-pages {args.max_pages}: give 1 or more (pages open at once)")
     if args.rate < 0:
         raise IwError("--rate must be >= 0 (0: as fast as possible)")
     if args.recording is not None and not Path(args.recording).exists():
@@ -132,7 +141,7 @@ def _foxglove(proc: Process) -> FoxgloveLive | bool:
 
 
 async def _serve(proc: Process, source: Source, feed: Feed, wake: threading.Event) -> int:
-    runner = web.AppRunner(make_app(source, feed, wake), access_log=None)
+    runner = web.AppRunner(make_app(source, feed, wake, max_pages=proc.args.max_pages), access_log=None)
     await runner.setup()
     site = web.TCPSite(runner, proc.args.host, proc.args.port)
     try:

@@ -5,7 +5,9 @@ A pump thread drains the source into the :class:`~iw_zenoh.viewer.feed.Feed` and
 page message once; the loop hands it to every page. Laser scans go to each page only for the
 robots it draws (its ``scans`` command, :class:`~iw_zenoh.viewer.feed.ScansWanted`), encoded once
 per choice. A page that joins, or falls too far behind (:data:`MAX_BACKLOG` messages unsent), is
-given the feed's snapshot and goes on from there.
+given the feed's snapshot and goes on from there. At most :data:`MAX_PAGES` pages are open at once
+(each costs its queue and a share of every delivery): the next is refused with HTTP 503 and its
+reason, and logged.
 """
 
 from __future__ import annotations
@@ -27,13 +29,14 @@ from iw_zenoh.messages.page import PageCommand, PageError, PageHello, PageMessag
 from iw_zenoh.viewer.feed import Feed, ScansWanted
 from iw_zenoh.viewer.sources import Source
 
-__all__ = ["STATIC", "Client", "Pump", "Scans", "make_app"]
+__all__ = ["MAX_PAGES", "STATIC", "Client", "Pump", "Scans", "make_app"]
 
 logger = logging.getLogger(__name__)
 
 STATIC = Path(__file__).resolve().parent / "static"
 MAX_BACKLOG = 64  # messages waiting for one page; past that it is resynchronised from a snapshot
 MAX_COMMAND_BYTES = 64 * 1024  # a page's command is a small JSON object
+MAX_PAGES = 32  # pages open at once (iwz view --max-pages): a class watching one run, not a crowd
 _ENCODER = msgspec.json.Encoder()
 _COMMAND = msgspec.json.Decoder(PageCommand)
 
@@ -137,12 +140,18 @@ class Pump(threading.Thread):
         return [PageError(error=why)] if why else []
 
 
-def make_app(source: Source, feed: Feed, wake: threading.Event) -> web.Application:
+def make_app(source: Source, feed: Feed, wake: threading.Event, *, max_pages: int = MAX_PAGES) -> web.Application:
     """The web application: ``/`` the page, ``/static/`` its files, ``/ws`` its WebSocket.
 
     The pump starts with the application and stops with it.
+
+    Args:
+        source: What the pages show.
+        feed: The source's messages as page messages.
+        wake: Set when the source has something.
+        max_pages: Pages open at once; the next WebSocket is refused (HTTP 503).
     """
-    pages = _Pages(source, feed, wake)
+    pages = _Pages(source, feed, wake, max_pages)
     app = web.Application()
     app.on_startup.append(pages.start)
     app.on_cleanup.append(pages.cleanup)
@@ -160,10 +169,11 @@ class _Pages:
     """The open pages and the pump that feeds them (everything here runs on the server's loop,
     but what the pump hands over through ``call_soon_threadsafe``)."""
 
-    def __init__(self, source: Source, feed: Feed, wake: threading.Event) -> None:
+    def __init__(self, source: Source, feed: Feed, wake: threading.Event, max_pages: int) -> None:
         self.source = source
         self.feed = feed
         self.wake = wake
+        self.max_pages = max_pages
         self.clients: set[Client] = set()
         self.pump: Pump | None = None
 
@@ -208,12 +218,24 @@ class _Pages:
         for c in list(self.clients):
             await c.ws.close()
 
-    async def socket(self, request: web.Request) -> web.WebSocketResponse:
-        """One page's WebSocket: its snapshot, then what happens; its commands to the pump."""
+    async def socket(self, request: web.Request) -> web.StreamResponse:
+        """One page's WebSocket: its snapshot, then what happens; its commands to the pump. Past
+        ``max_pages`` pages open, refused with HTTP 503 and why."""
+        if len(self.clients) >= self.max_pages:
+            why = (
+                f"the viewer serves at most {self.max_pages} pages at once and all are open: close one, "
+                "or start it with a larger --max-pages"
+            )
+            logger.warning("refused a page from %s: %s", request.remote, why)
+            return web.Response(status=503, text=f"iwz view: {why}\n", headers={"Retry-After": "10"})
         ws = web.WebSocketResponse(max_msg_size=MAX_COMMAND_BYTES, heartbeat=30.0)
-        await ws.prepare(request)
         client = Client(ws)
-        self.clients.add(client)
+        self.clients.add(client)  # counted before the handshake's await: two pages cannot both take the last place
+        try:
+            await ws.prepare(request)
+        except BaseException:
+            self.clients.discard(client)
+            raise
         sender = asyncio.create_task(_send(client))
         self._ask(client, None)
         try:
