@@ -133,6 +133,25 @@ class Net:
             p.kill(signal.SIGTERM)
 
 
+OPEN_LAB = '<Lab Name="open" Width="40" Height="10"/>'  # a 40 x 10 m lab with no wall inside
+
+
+def watch(net: Net) -> tuple[ZenohBus, Inbox, Inbox]:
+    """The test's own session on the run, with its inboxes of every event and of the newest state
+    (opened before anything starts: nothing the run says is missed)."""
+    bus = net.client()
+    return bus, subscribe(bus, keys.all_events(net.sim)), subscribe(bus, keys.state(net.sim), maxlen=1)
+
+
+def start_world(net: Net, *roles: str, lab: str = OPEN_LAB) -> None:
+    """Writes ``lab`` as the run's map, starts the world on it, then each of ``roles`` (collision,
+    sensors, radio...), each its own process named after its role."""
+    (net.tmp / "lab.xml").write_text(lab)
+    net.spawn("world", str(net.tmp / "lab.xml"), name="world")
+    for role in roles:
+        net.spawn(role, name=role)
+
+
 def stop_run(p: subprocess.Popen[str]) -> tuple[str, str]:
     """Stops an ``iwz run`` launcher as Ctrl-C does (it stops every process it started; a kill
     would leave them running), killing it only if it is still up 30 s later; its output."""

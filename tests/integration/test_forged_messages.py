@@ -34,11 +34,10 @@ from iw_zenoh.messages import (
     decode,
     encode,
 )
-from tests.integration.harness import Net, subscribe, wait_msg
+from tests.integration.harness import Net, start_world, wait_msg, watch
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
 
-OPEN_LAB = '<Lab Name="open" Width="40" Height="10"/>'
 FAR = 10**15  # a tick no world reaches
 
 
@@ -106,14 +105,8 @@ def _forgeries(sim: str, st: WorldState, solo: int) -> list[tuple[str, bytes]]:
 
 
 def test_forged_inconsistent_messages_on_every_key_stop_no_role_and_each_is_refused_naming_its_key(net: Net) -> None:
-    (net.tmp / "lab.xml").write_text(OPEN_LAB)
-    bus = net.client()
-    events = subscribe(bus, keys.all_events(net.sim))
-    states = subscribe(bus, keys.state(net.sim), maxlen=1)
-    net.spawn("world", str(net.tmp / "lab.xml"))
-    net.spawn("collision")
-    net.spawn("sensors")
-    net.spawn("radio")
+    bus, events, states = watch(net)
+    start_world(net, "collision", "sensors", "radio")
     recorder = net.spawn("record", "-o", str(net.tmp / "run.mcap"), "--quiet")
     net.spawn("agent", "waypoint", "--waypoints", "35,3", "--start", "3,3,0", "--name", "solo", "--batch", "off")
     net.spawn("agent", "waypoint", "--waypoints", "35,7", "--start", "3,7,0", "--name", "batcher", "--batch", "on")

@@ -15,11 +15,10 @@ from iw_zenoh import keys
 from iw_zenoh.bus import Inbox, ZenohBus
 from iw_zenoh.messages import Event, RadioBatch, Say, SensorReading, Verdict, WorldState, decode, encode
 from tests.conftest import proposal_of, world_state
-from tests.integration.harness import Net, subscribe, wait_msg
+from tests.integration.harness import Net, start_world, subscribe, wait_msg, watch
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
 
-OPEN_LAB = '<Lab Name="open" Width="40" Height="10"/>'
 FAR = 10**15  # a tick no world reaches
 HUGE = 100_000  # robots in a forged verdict (about a megabyte)
 MANY = 5_000  # robots in a forged proposal
@@ -80,12 +79,8 @@ def _missing(forged: dict[str, list[tuple[bytes, str]]], seen: dict[tuple[str, s
 def test_the_sensors_and_the_radio_refuse_forged_verdicts_and_proposals_saying_why_and_the_run_goes_on(
     net: Net,
 ) -> None:
-    (net.tmp / "lab.xml").write_text(OPEN_LAB)
-    bus = net.client()
-    events = subscribe(bus, keys.all_events(net.sim))
-    states = subscribe(bus, keys.state(net.sim), maxlen=1)
-    for role in ("world", "collision", "sensors", "radio"):
-        net.spawn(role, *([str(net.tmp / "lab.xml")] if role == "world" else []), name=role)
+    bus, events, states = watch(net)
+    start_world(net, "collision", "sensors", "radio")
     for y in (3, 7):
         net.spawn(
             "agent", "waypoint", "--waypoints", f"35,{y}", "--start", f"3,{y},0", "--name", f"chair{y}",

@@ -8,17 +8,13 @@ import pytest
 
 from iw_zenoh import keys
 from iw_zenoh.messages import Event, Hear, RobotSpecMsg, Say, WorldState, decode, encode
-from tests.integration.harness import Net, register, subscribe, wait_event, wait_msg
+from tests.integration.harness import Net, register, start_world, subscribe, wait_event, wait_msg, watch
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(120)]
 
-OPEN_LAB = '<Lab Name="open" Width="40" Height="10"/>'
-
 
 def test_radio_delivers_within_range_and_enforces_byte_limits(net: Net) -> None:
-    (net.tmp / "lab.xml").write_text(OPEN_LAB)
-    net.spawn("world", str(net.tmp / "lab.xml"))
-    net.spawn("radio")
+    start_world(net, "radio")
     bus = net.client()
     hear = subscribe(bus, keys.all_hear(net.sim))
     events = subscribe(bus, keys.event(net.sim, "radio-dropped"))
@@ -68,14 +64,8 @@ def test_radio_delivers_within_range_and_enforces_byte_limits(net: Net) -> None:
 
 
 def test_malformed_messages_are_dropped_with_an_event_and_nothing_else_changes(net: Net, tmp_path: Path) -> None:
-    (net.tmp / "lab.xml").write_text(OPEN_LAB)
-    bus = net.client()
-    events = subscribe(bus, keys.all_events(net.sim))
-    states = subscribe(bus, keys.state(net.sim), maxlen=1)
-    net.spawn("world", str(net.tmp / "lab.xml"))
-    net.spawn("collision")
-    net.spawn("sensors")
-    net.spawn("radio")
+    bus, events, states = watch(net)
+    start_world(net, "collision", "sensors", "radio")
     net.spawn("agent", "waypoint", "--waypoints", "35,5", "--start", "3,5,0", "--name", "driver")
     first = wait_msg(states, WorldState, lambda m: len(m.ids) == 1 and m.speed[0] > 0.05 and not m.held)
     rid = first.ids[0]

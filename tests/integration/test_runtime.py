@@ -34,6 +34,7 @@ from tests.integration.harness import (
     wait_alive,
     wait_event,
     wait_msg,
+    watch,
 )
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(120)]
@@ -135,9 +136,7 @@ def test_lockstep_runs_with_one_seed_give_identical_state_streams(tmp_path: Path
 
 def test_a_killed_agent_stops_its_chair(net: Net) -> None:
     lab, grid = _maps(net.tmp)
-    bus = net.client()
-    events = subscribe(bus, keys.all_events(net.sim))
-    states = subscribe(bus, keys.state(net.sim), maxlen=1)
+    bus, events, states = watch(net)
     net.spawn("world", lab, "--grid", grid)
     net.spawn("collision")
     net.spawn("sensors")
@@ -157,9 +156,7 @@ def test_a_killed_agent_stops_its_chair(net: Net) -> None:
 
 def test_silent_controller_trips_the_watchdog(net: Net) -> None:
     lab, grid = _maps(net.tmp)
-    bus = net.client()
-    events = subscribe(bus, keys.all_events(net.sim))
-    states = subscribe(bus, keys.state(net.sim), maxlen=1)
+    bus, events, states = watch(net)
     net.spawn("world", lab, "--grid", grid, "--action-timeout-ms", "300")
     net.spawn("collision")
     # the one command must not go stale while the world holds the chair for want of verdicts
@@ -174,9 +171,7 @@ def test_silent_controller_trips_the_watchdog(net: Net) -> None:
 
 def test_without_collision_process_every_chair_is_held_until_it_returns(net: Net) -> None:
     lab, grid = _maps(net.tmp)
-    bus = net.client()
-    events = subscribe(bus, keys.all_events(net.sim))
-    states = subscribe(bus, keys.state(net.sim), maxlen=1)
+    bus, events, states = watch(net)
     net.spawn("world", lab, "--grid", grid)
     collision = net.spawn("collision")
     net.spawn("sensors")
@@ -272,9 +267,7 @@ def test_a_batched_agent_host_reads_sensor_batches_and_answers_in_one_message(ne
 
 def test_the_world_takes_a_batch_only_for_the_senders_own_robots(net: Net) -> None:
     lab, grid = _maps(net.tmp)
-    bus = net.client()
-    events = subscribe(bus, keys.all_events(net.sim))
-    states = subscribe(bus, keys.state(net.sim), maxlen=1)
+    bus, events, states = watch(net)
     net.spawn("world", lab, "--grid", grid)
     net.spawn("collision")
     mine = register(bus, net.sim, RobotSpecMsg(name="mine"), agent="tester").robot_id
