@@ -2,6 +2,7 @@
 
     python benchmarks/profile_tick.py                      # 10 one-chair agent processes, 10 s simulated
     python benchmarks/profile_tick.py --roles world sensors1 --duration 5 --top 40
+    python benchmarks/profile_tick.py --roles probe0         # one agent process
     python benchmarks/profile_tick.py --chairs 100 --processes 100 --out /tmp/prof100
     python benchmarks/profile_tick.py --roles --publish-times  # no profiler: how long each publish takes
 
@@ -39,7 +40,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks import exit_on_sigterm  # noqa: E402
 from benchmarks.scale import Run, measure_lockstep  # noqa: E402
 
-ROLES = ("world", "collision", "sensors1", "agent0", "router")
+# the names scale_run.Run gives its processes (an agent process is probeK, as its --name)
+ROLES = ("world", "collision", "sensors1", "probe0", "router")
 
 
 def _children(pid: int) -> list[int]:
@@ -78,7 +80,16 @@ def profiled_run(out: Path, roles: set[str], rate: int) -> type[Run]:
     return Profiled
 
 
-STARTUP = ("_find_and_load", "warm_up")  # frames of start-up, not per-tick work
+# frames of start-up, not per-tick work: imports, compiling the module run, kernels, joining the
+# bus, parsing arguments, registering (in a short run of a small process they outweigh its ticks)
+STARTUP = (
+    "_find_and_load",
+    "_get_module_details",
+    "warm_up",
+    "ZenohBus.__init__",
+    "_parse (iw_zenoh/runtime.py",
+    "AgentHost.add",
+)
 # leaves py-spy samples as busy while the thread waits in native code (a lock, Zenoh's own
 # threads between two callbacks, which show no Python frame at all)
 WAITING = ("", "Condition.wait (threading.py", "Event.wait (threading.py", "Thread.run (threading.py")
@@ -131,8 +142,8 @@ def main(argv: list[str] | None = None) -> int:
         nargs="*",
         default=list(ROLES[:4]),
         metavar="NAME",
-        help=f"processes to profile, among {', '.join(ROLES)} (agentK, sensorsK for others); default "
-        "world collision sensors1 agent0",
+        help=f"processes to profile, among {', '.join(ROLES)} (probeK, sensorsK for others); default "
+        "world collision sensors1 probe0",
     )
     ap.add_argument("--publish-times", action="store_true", help="time every publish of every process")
     ap.add_argument("--rate", type=int, default=1000, help="samples a second (default 1000)")
