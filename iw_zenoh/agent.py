@@ -126,6 +126,7 @@ class AgentHost:
         # SILENT_S and the world's description that no longer lists it
         self.removed = self.io.inbox(keys.event(sim, EventKind.REMOVED))
         self._subscribed: dict[int, Handle] = {}
+        self._robot_of_key: dict[str, int] = {}  # each subscribed sensors key's robot (not parsed every tick)
         self._last_reading = time.monotonic()
         self._asked_info: Asked | None = None
         self._asked_at = 0.0
@@ -155,7 +156,7 @@ class AgentHost:
         # made after the answer would be lost (the world then waits out its whole timeout)
         early = None
         if asked.id > 0 and not self.batched and asked.id not in self._subscribed:
-            early = self.io.bus.subscribe(keys.sensors(self.sim, asked.id), self.readings)
+            early = self._subscribe_sensors(asked.id)
         reg = self._ask(req, timeout_s)
         try:
             reply = reg.reply()
@@ -187,12 +188,17 @@ class AgentHost:
         if early is not None:
             self._subscribed[reply.robot_id] = early
         elif not self.batched and reply.robot_id not in self._subscribed:
-            key = keys.sensors(self.sim, reply.robot_id)
-            self._subscribed[reply.robot_id] = self.io.bus.subscribe(key, self.readings)
+            self._subscribed[reply.robot_id] = self._subscribe_sensors(reply.robot_id)
         on_reg = getattr(agent, "on_registered", None)
         if callable(on_reg):
             on_reg(reply.robot_id, spec)
         return reply.robot_id
+
+    def _subscribe_sensors(self, robot_id: int) -> Handle:
+        """Subscribes a robot's own sensors key into :attr:`readings`."""
+        key = keys.sensors(self.sim, robot_id)
+        self._robot_of_key[key] = robot_id
+        return self.io.bus.subscribe(key, self.readings)
 
     def _ask(self, req: RegisterRequest, timeout_s: float) -> WorldRegistration:
         """Asks the world for a robot on this agent's own key (the one a secured router lets only
@@ -259,6 +265,7 @@ class AgentHost:
         """Forgets a hosted robot the world no longer has, and stops listening for its readings
         (registered again, it gets a subscription of its own: none is left behind)."""
         del self.hosted[robot_id]
+        self._robot_of_key.pop(keys.sensors(self.sim, robot_id), None)
         sub = self._subscribed.pop(robot_id, None)
         if sub is not None:
             sub.undeclare()
@@ -288,7 +295,7 @@ class AgentHost:
             RegistrationRefused: The world did not list the robot within ``timeout_s``.
         """
         if robot_id not in self._subscribed:
-            self._subscribed[robot_id] = self.io.bus.subscribe(keys.sensors(self.sim, robot_id), self.readings)
+            self._subscribed[robot_id] = self._subscribe_sensors(robot_id)
         deadline = time.monotonic() + timeout_s
         spec: RobotSpec | None = None
         while spec is None:
@@ -324,7 +331,7 @@ class AgentHost:
             for t in sorted(self._heard)[:-HEARD_KEPT]:
                 del self._heard[t]
         for d in self.readings.drain():
-            rid = keys.robot_id_of(d[0])
+            rid = self._robot_of_key.get(d[0]) or keys.robot_id_of(d[0])
             h = self.hosted.get(rid) if rid is not None else None
             if h is None:
                 continue
@@ -390,8 +397,9 @@ class AgentHost:
             self.outbox.command(h.robot_id, cmd, tick=r.tick, sim_time_ns=r.sim_time_ns)
             h.answered = r.tick
         self.outbox.flush()
-        for t in [t for t in self._heard if t <= n]:
-            del self._heard[t]
+        if self._heard:
+            for t in [t for t in self._heard if t <= n]:
+                del self._heard[t]
         for t in [t for t in self._fresh if t <= n]:
             del self._fresh[t]
         return True

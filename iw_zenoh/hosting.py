@@ -26,6 +26,7 @@ from iw_zenoh.messages import (
 __all__ = ["ASK_AGAIN_S", "Command", "Outbox", "WorldRegistration"]
 
 ASK_AGAIN_S = 0.2  # a registration no queryable answered is asked again at most this often
+KEYS_KEPT = 4096  # robots' actions keys an outbox keeps built (well above the robots of one process)
 
 
 @dataclass(frozen=True)
@@ -69,6 +70,7 @@ class Outbox:
         self.agent = agent
         self.batched = batched
         self._batch: dict[int, Actions] = {}  # robot -> newest actions not yet sent
+        self._keys: dict[int, str] = {}  # robot -> its actions key (built once, not every tick)
 
     def command(self, robot_id: int, cmd: Command, *, tick: int, sim_time_ns: int) -> Actions:
         """Sends a robot's radio message and pose report now; its actions now or with the batch.
@@ -104,7 +106,12 @@ class Outbox:
         if self.batched:
             self._batch[robot_id] = act
         else:
-            self.bus.publish(keys.actions(self.sim, robot_id), encode(act))
+            key = self._keys.get(robot_id)
+            if key is None:
+                if len(self._keys) >= KEYS_KEPT:  # robots come and go for hours: only the recent ones'
+                    self._keys.clear()
+                key = self._keys[robot_id] = keys.actions(self.sim, robot_id)
+            self.bus.publish(key, encode(act))
         return act
 
     def flush(self) -> None:
