@@ -22,7 +22,7 @@ from iw_zenoh.convert import spec_from_msg
 from iw_zenoh.core.lab import Grid, GridPosition, Lab, Scene
 from iw_zenoh.core.params import SimParameters
 from iw_zenoh.core.spec import RobotSpec
-from iw_zenoh.hosting import Command
+from iw_zenoh.hosting import KEYS_KEPT, Command, Outbox
 from iw_zenoh.messages import (
     Actions,
     Event,
@@ -210,6 +210,7 @@ def test_the_agent_host_stops_listening_for_robots_the_world_removed() -> None:
         assert len(host._subscribed) == len(host.hosted) == 0
     sensors = [k for k in bus.subscribed if k.endswith("/sensors")]
     assert len(sensors) == COMERS - 1
+    assert host._robot_of_key == {}  # nor is any robot's sensors key kept
     assert sorted(bus.undeclared) == sorted(sensors)  # each robot's subscription given up, once
 
 
@@ -236,6 +237,16 @@ def test_a_batched_agent_host_that_fell_behind_keeps_the_newest_sensor_batches()
         host.batches.put((keys.sensor_batch("t", (1, 1)), b"", n))
     assert len(host.batches) == BATCHES_KEPT
     assert host.batches.drain()[-1][2] == COMERS - 1
+
+
+def test_an_outbox_keeps_a_bounded_count_of_robots_actions_keys_and_each_goes_on_its_own() -> None:
+    bus = FakeBus()
+    out = Outbox(bus, "t", "host", batched=False)
+    for rid in range(1, COMERS):
+        out.command(rid, Command(0.1, 0.1), tick=rid, sim_time_ns=0)
+        out.command(rid, Command(0.1, 0.1), tick=rid + 1, sim_time_ns=0)  # its key kept, not built again
+        assert len(out._keys) <= KEYS_KEPT
+    assert [k for k, _ in bus.published] == [keys.actions("t", rid) for rid in range(1, COMERS) for _ in (0, 1)]
 
 
 def _reading(tick: int, rid: int = 1) -> SensorReading:

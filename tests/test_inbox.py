@@ -83,3 +83,19 @@ def test_a_producer_thread_and_a_draining_loop_lose_nothing() -> None:
     t.join(5)
     assert got == list(range(n))
     assert box.received == n
+
+
+def test_losses_are_counted_the_same_however_often_an_empty_inbox_is_drained() -> None:
+    box = Inbox(maxlen=2)
+    assert box.drain() == []
+    for i in range(5):
+        box.put(_d(i))
+    assert box.lost == 0  # counted when the inbox is read
+    assert [d[2] for d in box.drain()] == [3, 4]
+    assert box.lost == 3
+    assert box.drain() == []
+    box.put(_d(5))
+    box.put(_d(6))
+    box.put(_d(7))  # lost while nobody read: seen by the next read
+    assert [d[2] for d in box.drain()] == [6, 7]
+    assert box.lost == 4

@@ -20,3 +20,20 @@ def test_undeclared_subscriptions_leave_the_bus_and_the_rest_still_receive(net: 
     got = kept.get(timeout_s=10)
     assert got is not None
     assert got[1] == b"still here"
+
+
+def test_a_delivery_names_its_samples_key_for_a_plain_key_and_for_a_pattern(net: Net) -> None:
+    bus = net.client()
+    plain, pattern = Inbox(), Inbox()
+    bus.subscribe("iw/t/robot/7/sensors", plain)
+    bus.subscribe("iw/t/robot/*/sensors", pattern)
+    for rid in (7, 8):
+        bus.publish(f"iw/t/robot/{rid}/sensors", str(rid).encode())
+    got = plain.get(timeout_s=10)
+    assert got is not None
+    assert got[:2] == ("iw/t/robot/7/sensors", b"7")
+    seen = [pattern.get(timeout_s=10) for _ in range(2)]
+    assert sorted((d[0], d[1]) for d in seen if d is not None) == [
+        ("iw/t/robot/7/sensors", b"7"),
+        ("iw/t/robot/8/sensors", b"8"),
+    ]
