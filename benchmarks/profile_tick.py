@@ -7,12 +7,13 @@
     python benchmarks/profile_tick.py --roles --publish-times  # no profiler: how long each publish takes
 
 Starts the run ``benchmarks/scale.py`` measures as ``lockstep10`` (router, world, collision,
-sensors, one probe agent per process), the named processes as children of the py-spy sampling
-profiler (``pip install -e '.[dev]'`` installs it; every thread is sampled, Zenoh's callback
-threads included, and only while it runs Python: waiting is left out). For each profiled
-process it writes ``OUT/<name>.txt``, py-spy's collapsed stacks (``flamegraph.pl`` or
-speedscope draw them), and prints the functions that cost most, in CPU milliseconds per tick,
-self and with what they call. Stacks of start-up (imports, kernel compilation) are left out.
+sensors, one probe agent per process) and, when the first measured state arrives, attaches the
+py-spy sampling profiler to the named processes (``pip install -e '.[dev]'`` installs it; every
+thread is sampled, Zenoh's callback threads included, and only while it runs Python: waiting is
+left out). Start-up (imports, joining the bus, kernel compilation) is over by then and never
+sampled, so the figures are per measured tick. For each profiled process it writes
+``OUT/<name>.txt``, py-spy's collapsed stacks (``flamegraph.pl`` or speedscope draw them), and
+prints the functions that cost most, in CPU milliseconds per tick, self and with what they call.
 
 ``--publish-times`` also times every publish of every process (``benchmarks/pubtimes/``): per
 role and key, the calls, their mean wall time and the CPU they used. Where wall time is far
@@ -53,35 +54,44 @@ def _children(pid: int) -> list[int]:
 
 
 def profiled_run(out: Path, roles: set[str], rate: int) -> type[Run]:
-    """A :class:`~benchmarks.scale.Run` that starts the processes named in ``roles`` under
-    py-spy, each writing its collapsed stacks to ``out/<name>.txt``."""
+    """A :class:`~benchmarks.scale.Run` that attaches py-spy to the processes named in ``roles``
+    when the first measured state arrives, each writing its collapsed stacks to ``out/<name>.txt``.
+
+    Attached then, not started under py-spy: stacks of start-up (imports, joining the bus, kernel
+    compilation, registration) are never sampled, so what is divided by the ticks measured is
+    what those ticks cost, the same window as ``scale.py``'s ``cpu_ms_<role>``."""
 
     class Profiled(Run):
-        def command(self, name: str) -> list[str]:
-            if name not in roles:
-                return super().command(name)
-            spy = [str(Path(sys.executable).with_name("py-spy")), "record", "--nonblocking", "-r", str(rate)]
-            spy += ["-f", "raw"]
-            return [*spy, "-o", str(out / f"{name}.txt"), "--", *super().command(name)]
+        spies: list[subprocess.Popen[bytes]]
+
+        def cpu_s(self) -> dict[str, float]:
+            # measure_lockstep reads the CPU first when the first state arrives: attach then
+            if not hasattr(self, "spies"):
+                self.spies = []
+                spy = [str(Path(sys.executable).with_name("py-spy")), "record", "--nonblocking", "-r", str(rate)]
+                for name, p in zip(self.names, self.procs, strict=True):
+                    if name in roles and p.poll() is None:
+                        target = ["--pid", str(p.pid), "-f", "raw", "-o", str(out / f"{name}.txt")]
+                        log = (self.tmp / f"py-spy-{name}.log").open("wb")
+                        self.spies.append(subprocess.Popen([*spy, *target], stdout=log, stderr=subprocess.STDOUT))
+            return super().cpu_s()
 
         def stop(self) -> None:
-            # py-spy writes when its child ends: the child is asked to stop, not py-spy
-            for name, p in zip(self.names, self.procs, strict=True):
-                if name in roles and p.poll() is None:
-                    for child in _children(p.pid):
-                        with contextlib.suppress(OSError):
-                            os.kill(child, signal.SIGTERM)
-            for name, p in zip(self.names, self.procs, strict=True):
-                if name in roles:
-                    with contextlib.suppress(subprocess.TimeoutExpired):
-                        p.wait(30)
+            # py-spy writes its file when asked to stop (SIGINT) or when its target ends
+            for s in getattr(self, "spies", []):
+                if s.poll() is None:
+                    s.send_signal(signal.SIGINT)
+            for s in getattr(self, "spies", []):
+                with contextlib.suppress(subprocess.TimeoutExpired):
+                    s.wait(30)
             super().stop()
 
     return Profiled
 
 
 # frames of start-up, not per-tick work: imports, compiling the module run, kernels, joining the
-# bus, parsing arguments, registering (in a short run of a small process they outweigh its ticks)
+# bus, parsing arguments, registering. py-spy attaches once start-up is over; these leave out what
+# comes late all the same (a robot registered again, a module imported on first use)
 STARTUP = (
     "_find_and_load",
     "_get_module_details",
