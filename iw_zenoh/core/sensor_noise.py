@@ -11,6 +11,7 @@ leaves every other sensor's noise unchanged, and a robot's readings do not depen
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import NamedTuple
 
 import numpy as np
@@ -25,6 +26,12 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
 
+# a roster's layout is the same every tick: worked out once per roster (Bodies hash by identity)
+# and kept for the few rosters in use (states of an older revision may still be in flight)
+ROSTERS_KEPT = 8
+
+
+@lru_cache(maxsize=ROSTERS_KEPT)
 def noise_layout(bodies: Bodies, n_beacons: int) -> tuple[IntArray, IntArray]:
     """Per robot, how many standard normals a tick draws and where its slots start.
 
@@ -33,12 +40,15 @@ def noise_layout(bodies: Bodies, n_beacons: int) -> tuple[IntArray, IntArray]:
         n_beacons: Beacons in the lab.
 
     Returns:
-        ``(counts, starts)``, both (N,): robot i's draws are ``z[starts[i]:starts[i]+counts[i]]``.
+        ``(counts, starts)``, both (N,), read-only (shared by every tick of this roster): robot
+        i's draws are ``z[starts[i]:starts[i]+counts[i]]``.
     """
     m = np.bincount(bodies.ir_owner, minlength=bodies.n).astype(np.int64)
     beams = np.bincount(bodies.lasers.owner, weights=bodies.lasers.beams, minlength=bodies.n).astype(np.int64)
     counts = m + 1 + n_beacons + 3 + 2 + beams
     starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+    counts.setflags(write=False)
+    starts.setflags(write=False)
     return counts, starts
 
 
@@ -80,8 +90,34 @@ def tick_normals(bodies: Bodies, z: FloatArray, n_beacons: int) -> TickNormals:
     Returns:
         The normals of each sensor kind.
     """
+    s = _slots(bodies, n_beacons)
+    return TickNormals(
+        proximity=z[s.proximity],
+        compass=z[s.compass],
+        beacon=z[s.beacon] if n_beacons else np.zeros((bodies.n, 0)),
+        gps=z[s.gps],
+        encoder=z[s.encoder],
+        laser=z[s.laser],
+    )
+
+
+class _Slots(NamedTuple):
+    """Where each sensor kind's normals are in a tick's flat array (indices, shaped as
+    :class:`TickNormals`)."""
+
+    proximity: IntArray
+    compass: IntArray
+    beacon: IntArray
+    gps: IntArray
+    encoder: IntArray
+    laser: IntArray
+
+
+@lru_cache(maxsize=ROSTERS_KEPT)
+def _slots(bodies: Bodies, n_beacons: int) -> _Slots:
+    """The slots of :func:`tick_normals`, worked out once per roster."""
     n = bodies.n
-    counts, starts = noise_layout(bodies, n_beacons)
+    _, starts = noise_layout(bodies, n_beacons)
     own = bodies.ir_owner
     first = np.searchsorted(own, np.arange(n))
     m_slot = starts[own] + (np.arange(len(own)) - first[own])
@@ -90,11 +126,11 @@ def tick_normals(bodies: Bodies, z: FloatArray, n_beacons: int) -> TickNormals:
     b_own = lz.beam_owner
     b_first = np.searchsorted(b_own, np.arange(n))
     l_slot = (after + 6 + n_beacons)[b_own] + (np.arange(len(b_own)) - b_first[b_own])
-    return TickNormals(
-        proximity=z[m_slot],
-        compass=z[after],
-        beacon=z[after[:, None] + 1 + np.arange(n_beacons)[None, :]] if n_beacons else np.zeros((n, 0)),
-        gps=z[after[:, None] + 1 + n_beacons + np.arange(3)[None, :]],
-        encoder=z[after[:, None] + 4 + n_beacons + np.arange(2)[None, :]],
-        laser=z[l_slot],
+    return _Slots(
+        proximity=m_slot,
+        compass=after,
+        beacon=after[:, None] + 1 + np.arange(n_beacons)[None, :],
+        gps=after[:, None] + 1 + n_beacons + np.arange(3)[None, :],
+        encoder=after[:, None] + 4 + n_beacons + np.arange(2)[None, :],
+        laser=l_slot,
     )

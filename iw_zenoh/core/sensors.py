@@ -125,19 +125,22 @@ def _wedge_bounds(
     # edge directions from the inward normals: left edge (cos(phi+h), sin(phi+h)) = (-ly, lx)
     lxd, lyd = -normals[:, 1], normals[:, 0]
     rxd, ryd = normals[:, 3], -normals[:, 2]
-    x0 = np.minimum(ox, np.minimum(ox + r * lxd, ox + r * rxd))
-    x1 = np.maximum(ox, np.maximum(ox + r * lxd, ox + r * rxd))
-    y0 = np.minimum(oy, np.minimum(oy + r * lyd, oy + r * ryd))
-    y1 = np.maximum(oy, np.maximum(oy + r * lyd, oy + r * ryd))
-    for axis_angle, target, sign, base in (
-        (0.0, x1, 1.0, ox),
-        (np.pi, x0, -1.0, ox),
-        (0.5 * np.pi, y1, 1.0, oy),
-        (-0.5 * np.pi, y0, -1.0, oy),
-    ):
-        within = np.abs((axis_angle - phi + np.pi) % (2.0 * np.pi) - np.pi) <= half
-        np.copyto(target, base + sign * r, where=within)
-    return np.stack([x0, y0], axis=1), np.stack([x1, y1], axis=1)
+    lo, hi = np.empty((len(ox), 2)), np.empty((len(ox), 2))
+    xl, xr, yl, yr = ox + r * lxd, ox + r * rxd, oy + r * lyd, oy + r * ryd
+    np.minimum(ox, np.minimum(xl, xr), out=lo[:, 0])
+    np.maximum(ox, np.maximum(xl, xr), out=hi[:, 0])
+    np.minimum(oy, np.minimum(yl, yr), out=lo[:, 1])
+    np.maximum(oy, np.maximum(yl, yr), out=hi[:, 1])
+    # the arc's extremes along +x, -x, +y, -y: the four axes at once, (4, M)
+    within = np.abs((_AXES - phi + np.pi) % (2.0 * np.pi) - np.pi) <= half
+    np.copyto(hi[:, 0], ox + r, where=within[0])
+    np.copyto(lo[:, 0], ox - r, where=within[1])
+    np.copyto(hi[:, 1], oy + r, where=within[2])
+    np.copyto(lo[:, 1], oy - r, where=within[3])
+    return lo, hi
+
+
+_AXES = np.array([[0.0], [np.pi], [0.5 * np.pi], [-0.5 * np.pi]])  # angles of +x, -x, +y, -y
 
 
 def proximity_distances(scene: Scene, bodies: Bodies, pose: FloatArray, *, only: BoolArray | None = None) -> FloatArray:

@@ -10,6 +10,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from functools import lru_cache
+from operator import attrgetter
+from typing import NamedTuple
 
 import msgspec
 import numpy as np
@@ -21,7 +24,7 @@ from iw_zenoh.core.noise import NoiseStreams, Stream
 from iw_zenoh.core.sensors import Readings, SensorParams, noise_layout, read_sensors
 from iw_zenoh.messages import LaserScan, Outgoing, Proposed, SensorReading, WorldState, encode
 from iw_zenoh.sim.early import state_from_proposal
-from iw_zenoh.sim.view import WorldView
+from iw_zenoh.sim.view import ROSTERS_KEPT, WorldView
 
 __all__ = ["Computed", "SensorsNode", "state_from_proposal"]  # state_from_proposal: from sim.early
 
@@ -79,6 +82,7 @@ class SensorsNode:
         self.early: Computed | None = None  # readings that went out before their state
         self._undo: tuple[list[int], np.ndarray, tuple[int, list[int], np.ndarray] | None, int] | None = None
         self.corrections = 0  # ticks whose early readings the state proved wrong
+        self._layout: tuple[Bodies, np.ndarray, tuple[tuple[int, float], ...], list[int], list[int]] | None = None
 
     def warm(self, view: WorldView) -> None:
         """Computes the view's robots once, where they were placed, in a throwaway node (its own
@@ -208,14 +212,9 @@ class SensorsNode:
             return Computed(msg, ids, [], [], np.zeros((0, 2)))
         bodies = view.bodies_for(ids)
         pose = np.column_stack([msg.x, msg.y, msg.heading])
-        k, n = self.shard
-        mine = np.asarray(ids, dtype=np.int64) % n == k % n
+        mine, moving, counts, starts = self._roster(view, ids, bodies)
         only = mine if subset is None else mine & subset
-        # robots that carry a beacon (Ciber-Rato's RobotBeacon), in id order after the lab's
-        moving = tuple((i, h) for i, rid in enumerate(ids) if (h := view.specs[rid].beacon_height_m) is not None)
-        nb = len(view.scene.lab.beacons) + len(moving)
-        counts, starts = noise_layout(bodies, nb)
-        z = self._normals(msg.tick, ids, counts.tolist(), starts.tolist(), mine)
+        z = self._normals(msg.tick, ids, counts, starts, mine)
         enc = self._encoders(ids)
         r = read_sensors(
             view.scene,
@@ -235,6 +234,22 @@ class SensorsNode:
         encoded = [encode(m) for _, m in out]
         return Computed(msg, ids, out, encoded, np.where(only[:, None], r.encoder_acc, enc))
 
+    def _roster(
+        self, view: WorldView, ids: list[int], bodies: Bodies
+    ) -> tuple[np.ndarray, tuple[tuple[int, float], ...], list[int], list[int]]:
+        """This shard's robots (read-only), the beacons robots carry, and the noise layout of a
+        roster: the same every tick, worked out again only when its bodies change (a view builds
+        one per roster, so the same bodies are the same view and robots)."""
+        if self._layout is None or self._layout[0] is not bodies:
+            k, n = self.shard
+            mine = np.asarray(ids, dtype=np.int64) % n == k % n
+            mine.setflags(write=False)
+            # robots that carry a beacon (Ciber-Rato's RobotBeacon), in id order after the lab's
+            moving = tuple((i, h) for i, rid in enumerate(ids) if (h := view.specs[rid].beacon_height_m) is not None)
+            counts, starts = noise_layout(bodies, len(view.scene.lab.beacons) + len(moving))
+            self._layout = (bodies, mine, moving, counts.tolist(), starts.tolist())
+        return self._layout[1:]
+
     def _encoders(self, ids: list[int]) -> np.ndarray:
         """(N, 2) encoder counts before this tick, for roster ``ids``."""
         if ids == self._enc_ids:
@@ -249,14 +264,10 @@ class SensorsNode:
         """One message per robot of ``only``, with its key, from the arrays of ``r``."""
         out: list[tuple[str, SensorReading]] = []
         # whole arrays to Python lists once; each robot's sensors are a contiguous run
-        m_first = np.searchsorted(bodies.ir_owner, np.arange(len(ids))).tolist()
-        m_last = np.searchsorted(bodies.ir_owner, np.arange(len(ids)), side="right").tolist()
-        b_first = np.searchsorted(bodies.bumper_owner, np.arange(len(ids))).tolist()
-        b_last = np.searchsorted(bodies.bumper_owner, np.arange(len(ids)), side="right").tolist()
+        m_first, m_last, b_first, b_last, pids = _runs(bodies)
         prox = np.where(np.isfinite(r.proximity_m), r.proximity_m, np.nan).tolist()
         prox = [None if v != v else v for v in prox]  # NaN (nothing in range) -> null
         legacy = r.proximity_legacy.tolist()
-        pids = bodies.ir_id.tolist()
         beacons = [[None if v != v else v for v in row] for row in r.beacon_deg.tolist()]
         gps = r.gps.tolist()
         compass = r.compass_deg.tolist()
@@ -292,6 +303,29 @@ class SensorsNode:
         return out
 
 
+class _Runs(NamedTuple):
+    """Where each robot's sensors are in a roster's arrays (lists, shared: sliced, never changed)."""
+
+    m_first: list[int]  # robot i's proximity sensors are [m_first[i], m_last[i])
+    m_last: list[int]
+    b_first: list[int]  # its bumpers [b_first[i], b_last[i])
+    b_last: list[int]
+    pids: list[int]  # each proximity sensor's id
+
+
+@lru_cache(maxsize=ROSTERS_KEPT)
+def _runs(bodies: Bodies) -> _Runs:
+    """The runs of :class:`_Runs`, worked out once per roster (the same every tick)."""
+    robots = np.arange(bodies.n)
+    return _Runs(
+        np.searchsorted(bodies.ir_owner, robots).tolist(),
+        np.searchsorted(bodies.ir_owner, robots, side="right").tolist(),
+        np.searchsorted(bodies.bumper_owner, robots).tolist(),
+        np.searchsorted(bodies.bumper_owner, robots, side="right").tolist(),
+        bodies.ir_id.tolist(),
+    )
+
+
 def _scans(bodies: Bodies, r: Readings, n: int) -> list[list[LaserScan] | msgspec.UnsetType]:
     """Each robot's laser scans (unset for a robot without a scanner: its reading's JSON stays as
     it was before scanners existed)."""
@@ -320,9 +354,14 @@ def _same_frame(a: WorldState, b: WorldState) -> bool:
     )
 
 
+_MOVES = attrgetter("x", "y", "heading", "rolled_left", "rolled_right", "collided")  # what _touched compares
+
+
 def _touched(ahead: WorldState, msg: WorldState, view: WorldView) -> np.ndarray:
     """(N,) robots whose readings may differ between two states of one roster: those whose pose,
     collision flag or wheels differ, and every robot whose sensors or body reach one of them."""
+    if _MOVES(ahead) == _MOVES(msg):  # the usual case, without arrays (JSON has no NaN: equal lists, equal values)
+        return np.zeros(len(msg.ids), dtype=bool)
     a = np.column_stack([ahead.x, ahead.y, ahead.heading, ahead.rolled_left, ahead.rolled_right])
     b = np.column_stack([msg.x, msg.y, msg.heading, msg.rolled_left, msg.rolled_right])
     changed = np.asarray(np.any(a != b, axis=1) | (np.asarray(ahead.collided) != np.asarray(msg.collided)), dtype=bool)
