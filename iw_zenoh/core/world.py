@@ -6,6 +6,7 @@ collision process; :func:`step` chains the three for tests, benchmarks and lock-
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import lru_cache
 
 import numpy as np
 import numpy.typing as npt
@@ -114,13 +115,21 @@ def propose(
         nxt, out = step_drive(state.pose, state.motor_out, cmd, bodies.drive, dt_s, speed_noise=noise)
         rolled = wheel_speeds_mps(out, bodies.drive.max_speed_mps) * dt_s
     linear = 0.5 * (out[:, 0] + out[:, 1])
-    if reported_pose is not None:
-        real = np.asarray([t == RobotType.REAL for t in bodies.types], dtype=bool)
+    real = _real(bodies)
+    if reported_pose is not None and real.any():
         have = real & np.all(np.isfinite(reported_pose), axis=1)
         nxt = np.where(have[:, None], reported_pose, nxt)
         hold = real & ~have
         nxt = np.where(hold[:, None], state.pose, nxt)
     return Proposal(nxt, out, linear, rolled)
+
+
+@lru_cache(maxsize=8)
+def _real(bodies: Bodies) -> npt.NDArray[np.bool_]:
+    """(N,) which robots are Real (read-only; worked out once per roster, Bodies hash by identity)."""
+    real = np.asarray([t == RobotType.REAL for t in bodies.types], dtype=bool)
+    real.setflags(write=False)
+    return real
 
 
 def commit(
