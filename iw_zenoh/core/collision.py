@@ -113,8 +113,10 @@ def check_collisions(
     act = np.ones(n, dtype=bool) if active is None else np.asarray(active, dtype=bool)
     idx = np.flatnonzero(act)
     wall_free = np.zeros(len(idx), dtype=bool) if ignore_walls is None else np.asarray(ignore_walls, dtype=bool)[idx]
-    o = outline[idx]
-    now, nxt = pose_now[idx], pose_next[idx]
+    if len(idx) == n:  # every robot takes part (the usual tick): no copies of the arrays
+        o, now, nxt = outline, pose_now, pose_next
+    else:
+        o, now, nxt = outline[idx], pose_now[idx], pose_next[idx]
     mid = interpolate_pose(now, nxt, 0.5)
     c_now = to_world(o, now[:, 0], now[:, 1], now[:, 2])
     c_mid = to_world(o, mid[:, 0], mid[:, 1], mid[:, 2])
