@@ -13,7 +13,9 @@ thread is sampled, Zenoh's callback threads included, and only while it runs Pyt
 left out). Start-up (imports, joining the bus, kernel compilation) is over by then and never
 sampled, so the figures are per measured tick. For each profiled process it writes
 ``OUT/<name>.txt``, py-spy's collapsed stacks (``flamegraph.pl`` or speedscope draw them), and
-prints the functions that cost most, in CPU milliseconds per tick, self and with what they call.
+prints the functions that cost most, in CPU milliseconds per tick, self and with what they call,
+and each thread's CPU per tick from ``/proc`` (the Python main thread, Zenoh's ``rx``/``tx``/``app``
+threads, Python callback threads), which py-spy's Python stacks do not show.
 
 ``--publish-times`` also times every publish of every process (``benchmarks/pubtimes/``): per
 role and key, the calls, their mean wall time and the CPU they used. Where wall time is far
@@ -53,6 +55,30 @@ def _children(pid: int) -> list[int]:
         return []
 
 
+def _threads(pid: int) -> dict[tuple[str, str], int]:
+    """CPU clock ticks (user + system) of each thread of ``pid`` by (thread id, name), the
+    process's own thread named ``main`` (Zenoh's are ``rx-0``, ``tx-0``, ``app-0``...; Python's
+    others ``python``)."""
+    out: dict[tuple[str, str], int] = {}
+    for t in Path(f"/proc/{pid}/task").iterdir():
+        try:
+            name = "main" if t.name == str(pid) else (t / "comm").read_text().strip()
+            fields = (t / "stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue  # ended meanwhile
+        out[(t.name, name)] = int(fields[11]) + int(fields[12])
+    return out
+
+
+def thread_split(first: dict[tuple[str, str], int], last: dict[tuple[str, str], int], ticks: int) -> str:
+    """CPU ms per tick of each kind of thread between two :func:`_threads` readings."""
+    by: Counter[str] = Counter()
+    for key, n in last.items():
+        by[key[1]] += n - first.get(key, 0)
+    ms = 1000 / os.sysconf("SC_CLK_TCK") / max(1, ticks)
+    return ", ".join(f"{name} {n * ms:.3f}" for name, n in by.most_common() if n)
+
+
 def profiled_run(out: Path, roles: set[str], rate: int) -> type[Run]:
     """A :class:`~benchmarks.scale.Run` that attaches py-spy to the processes named in ``roles``
     when the first measured state arrives, each writing its collapsed stacks to ``out/<name>.txt``.
@@ -63,9 +89,14 @@ def profiled_run(out: Path, roles: set[str], rate: int) -> type[Run]:
 
     class Profiled(Run):
         spies: list[subprocess.Popen[bytes]]
+        readings: dict[str, list[dict[tuple[str, str], int]]]  # each profiled process's thread CPU
 
         def cpu_s(self) -> dict[str, float]:
-            # measure_lockstep reads the CPU first when the first state arrives: attach then
+            # measure_lockstep reads the CPU first when the first state arrives, then every 10
+            # ticks: attach then, and read each thread's CPU at each of them
+            for name, p in zip(self.names, self.procs, strict=True):
+                if name in roles and p.poll() is None:
+                    self.readings.setdefault(name, []).append(_threads(p.pid))
             if not hasattr(self, "spies"):
                 self.spies = []
                 spy = [str(Path(sys.executable).with_name("py-spy")), "record", "--nonblocking", "-r", str(rate)]
@@ -77,6 +108,8 @@ def profiled_run(out: Path, roles: set[str], rate: int) -> type[Run]:
             return super().cpu_s()
 
         def stop(self) -> None:
+            for name, got in self.readings.items():  # measured ticks: 10 a reading after the first, less one
+                (out / f"{name}.threads.txt").write_text(thread_split(got[0], got[-1], 10 * (len(got) - 1) - 1))
             # py-spy writes its file when asked to stop (SIGINT) or when its target ends
             for s in getattr(self, "spies", []):
                 if s.poll() is None:
@@ -86,6 +119,7 @@ def profiled_run(out: Path, roles: set[str], rate: int) -> type[Run]:
                     s.wait(30)
             super().stop()
 
+    Profiled.readings = {}
     return Profiled
 
 
@@ -182,6 +216,9 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{name}: no profile (see {out}/lockstep{args.chairs}/{name}.log)")
             continue
         print(f"{name} ({stacks}):")
+        split = out / f"{name}.threads.txt"
+        if split.exists():  # where py-spy cannot look: Zenoh's own threads
+            print(f"  CPU ms per tick by thread: {split.read_text()}")
         print("\n".join("  " + r for r in summarise(stacks, args.rate, ticks, args.top)))
     if args.publish_times:
         print("\n".join(publish_times(out / "publish")))
