@@ -76,7 +76,8 @@ def thread_split(first: dict[tuple[str, str], int], last: dict[tuple[str, str], 
     for key, n in last.items():
         by[key[1]] += n - first.get(key, 0)
     ms = 1000 / os.sysconf("SC_CLK_TCK") / max(1, ticks)
-    return ", ".join(f"{name} {n * ms:.3f}" for name, n in by.most_common() if n)
+    used = ", ".join(f"{name} {n * ms:.3f}" for name, n in by.most_common() if n)
+    return used or f"none measurable (/proc counts in {ms:.3f} ms a tick here: a longer --duration)"
 
 
 def profiled_run(out: Path, roles: set[str], rate: int) -> type[Run]:
