@@ -39,7 +39,7 @@ from iw_zenoh.convert import spec_from_msg, spec_to_msg
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import DecodeError, IwError, ProtocolError
-from iw_zenoh.hosting import Command, Outbox, WorldRegistration
+from iw_zenoh.hosting import Command, InlineAnswers, Outbox, WorldRegistration
 from iw_zenoh.messages import (
     ChairReading,
     Event,
@@ -110,10 +110,14 @@ class AgentHost:
         self.name = name
         self.hosted: dict[int, _Hosted] = {}
         self.batched = batched
-        self.readings = Inbox(wake=self.io.wake)  # fed one key per hosted robot
+        # a tick's inputs, answered on the thread that delivers the last of them while run() runs
+        self.inline = InlineAnswers(self._answer, self.io.wake)
+        self.readings = Inbox(wake=self.inline)  # fed one key per hosted robot
         # batched: every shard's batch, subscribed before any registration (no first tick lost)
-        self.batches = self.io.inbox(keys.all_sensor_batches(sim), maxlen=BATCHES_KEPT) if batched else None
-        self.radio = self.io.inbox(keys.radio(sim))
+        self.batches = (
+            self.io.inbox(keys.all_sensor_batches(sim), maxlen=BATCHES_KEPT, wake=self.inline) if batched else None
+        )
+        self.radio = self.io.inbox(keys.radio(sim), wake=self.inline)
         self.radio_alive: set[str] = set()
         self._heard: dict[int, dict[int, list[Heard]]] = {}
         self._fresh: dict[int, int] = {}  # tick -> how many hosted robots have that tick's readings
@@ -379,15 +383,20 @@ class AgentHost:
 
     def step(self, timeout_s: float = 0.2) -> bool:
         """Answers the newest tick if ready; waits up to ``timeout_s`` for input otherwise."""
+        with self.inline.lock:
+            self._check_removed(time.monotonic())
+            if self._answer():
+                return True
+        self.io.wait(timeout_s)
+        with self.inline.lock:
+            return self._answer()
+
+    def _answer(self) -> bool:
+        """Answers the newest tick if ready (under ``inline.lock``); False when not ready."""
         self._collect()
-        self._check_removed(time.monotonic())
         n = self._ready()
         if n is None:
-            self.io.wait(timeout_s)
-            self._collect()
-            n = self._ready()
-            if n is None:
-                return False
+            return False
         heard_now = self._heard.get(n, {})
         for h in self.hosted.values():
             r = h.reading
@@ -405,6 +414,14 @@ class AgentHost:
         return True
 
     def run(self) -> None:
-        """Answers ticks until stopped."""
-        while not self.io.stop.is_set():
-            self.step()
+        """Answers ticks until stopped: on the thread that delivers a tick's last input
+        (:class:`~iw_zenoh.hosting.InlineAnswers`), or on this one when that thread found it busy;
+        an agent's error on a delivering thread is raised here."""
+        self.inline.active = True
+        try:
+            while not self.io.stop.is_set():
+                self.step()
+                if self.inline.failure is not None:
+                    raise self.inline.failure
+        finally:
+            self.inline.active = False

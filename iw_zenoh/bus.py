@@ -33,6 +33,7 @@ __all__ = [
     "PendingQuery",
     "QueryInbox",
     "Queue",
+    "Wake",
     "ZenohBus",
 ]
 
@@ -44,6 +45,17 @@ Delivery = tuple[str, bytes, int]  # key, payload, receive time (ns, wall clock)
 INBOX_KEPT = 100_000  # deliveries one holds at most: minutes of a busy key; beyond, the oldest are lost and logged
 NEWEST_KEPT = 16  # ... of a key whose next message supersedes the last (a state, a tick): the newest few
 LOST_LOG_S = 1.0  # losses are logged at most this often per inbox
+
+
+class Wake(Protocol):
+    """What an inbox sets on a delivery: a :class:`threading.Event` (a node's loop waits on it), or
+    an object that acts on the delivering thread (:class:`iw_zenoh.hosting.InlineAnswers`)."""
+
+    def is_set(self) -> bool:
+        """Whether it is set already (then a delivery does not set it again)."""
+
+    def set(self) -> None:
+        """Called on a delivery, on the bus's thread."""
 
 
 class Handle(Protocol):
@@ -68,14 +80,13 @@ class Inbox:
 
     Args:
         maxlen: Keep only the newest ``maxlen`` deliveries.
-        wake: An event set on every delivery (one node loop waits on one event for all inboxes).
+        wake: Set on every delivery: an event one node loop waits on for all its inboxes, or a
+            :class:`Wake` that acts on the delivering thread.
         newest_only: Only the newest deliveries matter to the reader (older ones are superseded):
             losing older ones is not worth a warning.
     """
 
-    def __init__(
-        self, maxlen: int = INBOX_KEPT, wake: threading.Event | None = None, *, newest_only: bool = False
-    ) -> None:
+    def __init__(self, maxlen: int = INBOX_KEPT, wake: Wake | None = None, *, newest_only: bool = False) -> None:
         self._q: collections.deque[Delivery] = collections.deque(maxlen=maxlen)
         self._cv = threading.Condition()
         self._waiters = 0  # threads in get() or wait(), counted under _cv

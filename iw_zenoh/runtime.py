@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from typing import Any, TypeVar, overload
 
 from iw_zenoh import keys
-from iw_zenoh.bus import INBOX_KEPT, NEWEST_KEPT, Bus, Delivery, Inbox, ZenohBus
+from iw_zenoh.bus import INBOX_KEPT, NEWEST_KEPT, Bus, Delivery, Inbox, Wake, ZenohBus
 from iw_zenoh.cliargs import add_common_arguments, net_from_args
 from iw_zenoh.errors import DecodeError, IwError
 from iw_zenoh.messages import EventData, EventKind, Message, Outgoing, decode, encode, make_event
@@ -60,7 +60,9 @@ class NodeIO:
         self.stop = threading.Event()
         self.bad_messages = 0
 
-    def inbox(self, key_expr: str, maxlen: int | None = None, *, ordered: bool = False) -> Inbox:
+    def inbox(
+        self, key_expr: str, maxlen: int | None = None, *, ordered: bool = False, wake: Wake | None = None
+    ) -> Inbox:
         """Subscribes ``key_expr`` into a new inbox that wakes this node.
 
         Args:
@@ -70,10 +72,11 @@ class NodeIO:
                 else :data:`~iw_zenoh.bus.INBOX_KEPT`, beyond which losses are logged).
             ordered: Delivered in the network's order with the node's other ordered inboxes
                 (see :meth:`iw_zenoh.bus.Bus.subscribe`).
+            wake: What a delivery sets (default: this node's :attr:`wake`).
         """
         newest = keys.superseded(key_expr)
         kept = maxlen if maxlen is not None else NEWEST_KEPT if newest else INBOX_KEPT
-        box = Inbox(maxlen=kept, wake=self.wake, newest_only=newest)
+        box = Inbox(maxlen=kept, wake=wake or self.wake, newest_only=newest)
         self.bus.subscribe(key_expr, box, ordered=ordered)
         return box
 
