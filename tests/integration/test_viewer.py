@@ -148,7 +148,12 @@ def test_an_obstacle_drawn_on_the_page_is_in_the_world_and_in_a_chairs_readings(
     page = _open(browser, url, len(CHAIRS))
     sensors = subscribe(bus, keys.all_sensor_batches(net.sim))
     infos = subscribe(bus, keys.info(net.sim))
-    stopped = _pause(page, bus, net.sim)
+    paused = _pause(page, bus, net.sim)
+    # the readings of the tick the world paused at may have gone out before this test's
+    # subscription reached the router (CI: no batch within 20 s): one step makes a tick of its own
+    page.click("#btn-step")
+    stopped = paused + 1
+    page.wait_for_function(f"window.iwz.world.tick === {stopped}", timeout=WAIT_MS)
     chair = next(
         r for r in _robots(page).values() if page.evaluate(f"window.iwz.world.robots.get({r['id']}).name") == "south"
     )
