@@ -406,8 +406,8 @@ class AgentHost:
             self.outbox.command(h.robot_id, cmd, tick=r.tick, sim_time_ns=r.sim_time_ns)
             h.answered = r.tick
         self.outbox.flush()
-        if self._heard:
-            for t in [t for t in self._heard if t <= n]:
+        if self._heard:  # tick n's stays: a robot whose reading of n comes later is answered with it
+            for t in [t for t in self._heard if t < n]:
                 del self._heard[t]
         for t in [t for t in self._fresh if t <= n]:
             del self._fresh[t]

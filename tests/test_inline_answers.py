@@ -14,16 +14,15 @@ from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.hosting import Command
 from iw_zenoh.messages import (
     Actions,
+    Hear,
     Heard,
-    LabMsg,
-    RegisterReply,
-    RobotSpecMsg,
+    RadioBatch,
     SensorReading,
-    WorldInfo,
     decode,
     encode,
 )
 from tests.bridges.fakes import FakeBus
+from tests.conftest import agent_host
 
 KEY = keys.sensors("t", 1)
 
@@ -33,6 +32,7 @@ class _Recording:
 
     def __init__(self, fail: bool = False) -> None:
         self.threads: list[int] = []
+        self.heard: list[list[Heard]] = []
         self.fail = fail
 
     def spec(self) -> RobotSpec:
@@ -40,25 +40,26 @@ class _Recording:
 
     def on_sensors(self, reading: SensorReading, heard: list[Heard]) -> Command:
         self.threads.append(threading.get_ident())
+        self.heard.append(heard)
         if self.fail:
             raise RuntimeError("the controller broke")
         return Command(0.1, 0.1)
 
 
 def _host(agent: _Recording) -> tuple[AgentHost, FakeBus]:
-    bus = FakeBus()
-    reply = RegisterReply(tick=50, ok=True, robot_id=1, spec=RobotSpecMsg(name="fwd", id=1, x=1.0, y=1.0))
-    bus.answer = lambda key, payload: [encode(reply)]
-    bus.info = [encode(WorldInfo(tick=50, revision=1, lab=LabMsg(name="l", width=5, height=5), period_ns=1))]
-    host = AgentHost(bus, "t", "host")
-    assert host.add(agent, timeout_s=1.0) == 1
-    return host, bus
+    return agent_host(agent)
 
 
-def _reading(tick: int) -> bytes:
+def _reading(tick: int, rid: int = 1) -> bytes:
     return encode(
         SensorReading(
-            tick=tick, robot_id=1, proximity_ids=[], proximity_m=[], proximity_legacy=[], compass_deg=0.0, gps=(0, 0, 0)
+            tick=tick,
+            robot_id=rid,
+            proximity_ids=[],
+            proximity_m=[],
+            proximity_legacy=[],
+            compass_deg=0.0,
+            gps=(0, 0, 0),
         )
     )
 
@@ -129,3 +130,18 @@ def test_an_agents_error_on_a_delivering_thread_ends_the_hosts_run_with_that_err
         host.run()
     assert not host.inline.active
     assert _answered(bus) == []
+
+
+def test_each_robot_answered_on_its_own_delivery_gets_what_it_heard_that_tick() -> None:
+    """Real time, two robots in one process: the first robot's reading answers it at once, and the
+    second's, delivered later, must still find the tick's radio batch."""
+    one, two = _Recording(), _Recording()
+    host, bus = agent_host(one, two)
+    host.inline.active = True
+    said = [Heard(sender=9, distance_m=2.5, text="door 4 opening")]
+    batch = RadioBatch(tick=51, hear=[Hear(robot_id=1, messages=said), Hear(robot_id=2, messages=said)])
+    host.radio.put((keys.radio("t"), encode(batch), 0))
+    host.readings.put((keys.sensors("t", 1), _reading(51, 1), 0))
+    host.readings.put((keys.sensors("t", 2), _reading(51, 2), 0))
+    assert one.heard == [said]
+    assert two.heard == [said]
