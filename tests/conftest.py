@@ -1,9 +1,10 @@
 """Shared fixtures and builders: a seeded generator, a small map and its scene, a world state and
-its proposal."""
+its proposal, an agent host on a fake bus."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
@@ -11,7 +12,11 @@ from hypothesis import HealthCheck, settings
 
 from iw_zenoh.core import cones, contact
 from iw_zenoh.core.lab import Lab, Scene, Wall
-from iw_zenoh.messages import Proposed, WorldState
+from iw_zenoh.messages import LabMsg, Proposed, RegisterReply, RobotSpecMsg, WorldInfo, WorldState, encode
+
+if TYPE_CHECKING:
+    from iw_zenoh.agent import Agent, AgentHost
+    from tests.bridges.fakes import FakeBus
 
 settings.register_profile("ci", deadline=None, suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile("ci")
@@ -128,3 +133,25 @@ def small_map() -> Lab:
 def small_scene(small_map: Lab) -> Scene:
     """The small map's geometry."""
     return Scene(small_map)
+
+
+def agent_host(*agents: Agent, world_tick: int = 50) -> tuple[AgentHost, FakeBus]:
+    """An agent host on a fake bus, with ``agents`` registered as robots 1, 2, ... of a world at
+    ``world_tick`` (in real time)."""
+    from iw_zenoh.agent import AgentHost
+    from tests.bridges.fakes import FakeBus
+
+    bus = FakeBus()
+    ids = iter(range(1, len(agents) + 1))
+
+    def answer(key: str, payload: bytes) -> list[bytes]:
+        rid = next(ids)
+        spec = RobotSpecMsg(name=f"r{rid}", id=rid, x=1.0, y=float(rid))
+        return [encode(RegisterReply(tick=world_tick, ok=True, robot_id=rid, spec=spec))]
+
+    bus.answer = answer
+    bus.info = [encode(WorldInfo(tick=world_tick, revision=1, lab=LabMsg(name="l", width=5, height=5), period_ns=1))]
+    host = AgentHost(bus, "t", "host")
+    for i, agent in enumerate(agents, start=1):
+        assert host.add(agent, timeout_s=1.0) == i
+    return host, bus

@@ -17,18 +17,16 @@ from iw_zenoh.messages import (
     Event,
     Hear,
     Heard,
-    LabMsg,
     RadioBatch,
     RegisterReply,
     RobotSpecMsg,
     SensorReading,
-    WorldInfo,
     decode,
     encode,
 )
 from iw_zenoh.ticks import MAX_TICKS_PER_S, WINDOW_TICKS, TickWindow, ViewWindow, too_far_ahead
 from tests.bridges.fakes import FakeBus
-from tests.conftest import world_state
+from tests.conftest import agent_host, world_state
 
 S = 1_000_000_000
 
@@ -120,13 +118,7 @@ def _reading(tick: int, rid: int = 1) -> SensorReading:
 
 
 def _host(world_tick: int) -> tuple[AgentHost, FakeBus]:
-    bus = FakeBus()
-    reply = RegisterReply(tick=world_tick, ok=True, robot_id=1, spec=RobotSpecMsg(name="fwd", id=1, x=1.0, y=1.0))
-    bus.answer = lambda key, payload: [encode(reply)]
-    bus.info = [encode(WorldInfo(tick=world_tick, revision=1, lab=LabMsg(name="l", width=5, height=5), period_ns=1))]
-    host = AgentHost(bus, "t", "host")
-    assert host.add(_Forward(), timeout_s=1.0) == 1
-    return host, bus
+    return agent_host(_Forward(), world_tick=world_tick)
 
 
 def _answered(bus: FakeBus) -> list[int]:

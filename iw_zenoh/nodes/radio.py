@@ -116,13 +116,16 @@ class _Loop:
         """Keeps the newest proposal and the verdicts; each one refused is reported as a bad
         message: malformed, a tick too far ahead, robots the world's revision does not have."""
         io, now = self.io, time.monotonic_ns()
+        newest: Proposed | None = None
         for d in props:
             p = io.decode(d, Proposed)
             why = self._refuse(p, now) if p is not None else ""
             if why:
                 io.bad_message(d[0], ProtocolError(why))
             elif p is not None:
-                self.proposal = state_from_proposal(p)
+                newest = p
+        if newest is not None:  # each is checked; only the newest is kept
+            self.proposal = state_from_proposal(newest)
         self.said.take((data for _, data, _ in verdicts), lambda tick: self.window.ahead(tick, now))
         self._report_verdicts()
 
