@@ -37,7 +37,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import zenoh  # noqa: E402
 
 from benchmarks import exit_on_sigterm, stop_all  # noqa: E402
-from iw_zenoh.net import NetConfig, free_port, port_in_use, zenoh_config  # noqa: E402
+from benchmarks.bus_floor import cpu_s, start_router  # noqa: E402
+from iw_zenoh.net import NetConfig, free_port, zenoh_config  # noqa: E402
 
 TICK_S = 0.1
 PROPOSAL = b"p" * 2000
@@ -78,15 +79,6 @@ def _stage(endpoint: str, role: str, n: int) -> None:
         pub.put(ACTIONS)
 
 
-def _cpu_s(pids: list[int]) -> float:
-    tick = os.sysconf("SC_CLK_TCK")
-    total = 0
-    for pid in pids:
-        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-        total += int(fields[11]) + int(fields[12])
-    return total / tick
-
-
 def _rounds(propose: zenoh.Publisher, answers: Answers, n: int, rounds: int) -> None:
     for _ in range(rounds):
         propose.put(PROPOSAL)
@@ -100,13 +92,7 @@ def measure(n: int, rounds: int) -> dict[str, float | int]:
     endpoint = f"tcp/127.0.0.1:{port}"
     procs: list[subprocess.Popen[bytes]] = []
     try:
-        cli = [sys.executable, "-m", "iw_zenoh.cli", "router", "--listen", endpoint]
-        procs.append(subprocess.Popen(cli, stdout=subprocess.DEVNULL))
-        deadline = time.monotonic() + 20
-        while not port_in_use(port):
-            if time.monotonic() > deadline:
-                raise RuntimeError("the router did not start")
-            time.sleep(0.05)  # polling the port: the router tells nothing when it listens
+        procs.append(start_router(port))
         roles = ["collision", "sensors", *(f"agent{i}" for i in range(n))]
         procs += [subprocess.Popen([sys.executable, __file__, "--stage", endpoint, r, str(n)]) for r in roles]
         session = _session(endpoint)
@@ -114,11 +100,11 @@ def measure(n: int, rounds: int) -> dict[str, float | int]:
         propose = session.declare_publisher("chain/proposed", congestion_control=BLOCK)
         _wait_for_all(propose, answers, n)
         _rounds(propose, answers, n, max(10, rounds // 10))  # warm-up, as bus_floor.py
-        cpu0 = _cpu_s([p.pid for p in procs])
+        cpu0 = cpu_s([p.pid for p in procs])
         t0 = time.perf_counter()
         _rounds(propose, answers, n, rounds)
         round_s = (time.perf_counter() - t0) / rounds
-        cpu = _cpu_s([p.pid for p in procs]) - cpu0
+        cpu = cpu_s([p.pid for p in procs]) - cpu0
         session.close()  # type: ignore[no-untyped-call]
         return {
             "agents": n,
