@@ -39,6 +39,7 @@ from iw_zenoh.sim.config import MS, WorldConfig
 from iw_zenoh.sim.resume import resume
 from iw_zenoh.sim.world import WorldCore
 from iw_zenoh.ticks import too_far_ahead
+from iw_zenoh.wake import CountedWake
 
 __all__ = ["WorldOptions", "add_arguments", "main", "parse_obstacle", "prepare", "run", "world_config"]
 
@@ -57,7 +58,9 @@ class _World:
         self.clock = clock
         sim = core.cfg.sim
         self.io = io or NodeIO(bus, sim, "world", name)
-        self.actions = self.io.inbox(keys.all_actions(sim))
+        # lock-step: a tick's actions wake the loop once enough are in to complete it (see _await_actions)
+        self.actions_wake = CountedWake(self.io.wake)
+        self.actions = self.io.inbox(keys.all_actions(sim), wake=self.actions_wake)
         # a host's batch holds every robot's command of a tick (a thousand chairs: ~15 kB); a
         # world that stalled keeps the newest 4,096 (each robot's newest command is what applies)
         self.batches = self.io.inbox(keys.all_agent_actions(sim), maxlen=BATCHES_KEPT)
@@ -206,16 +209,34 @@ class _World:
             self._answer_info()  # the collision process may need it to give this very verdict
             self.verdicts.wait(min(left, 0.01))
 
+    def _wait_actions(self, n: int, deadline_ns: int) -> None:
+        """Lock-step: pumps inputs until no robot's actions for tick ``n`` are awaited (or the world
+        stops, pauses, or the deadline passes), as :meth:`wait_until` does, but the actions inbox
+        wakes the loop only once as many messages came as robots are still expected: one wake-up
+        per tick rather than one per robot. Every other inbox, and the poll, wake it as before."""
+        core, counted = self.core, self.actions_wake
+        counted.hold()  # the loop holds it before the proposal goes out; holding again changes nothing
+        while not self.io.stop.is_set():
+            mark = counted.seen  # every delivery counted up to here is drained by this pump
+            self.pump()
+            if not core.waiting(n) or core.stopped or not core.due():
+                return
+            left = (deadline_ns - self.clock.now_ns()) / 1e9
+            if left <= 0:
+                return
+            counted.wake_after(mark, core.waiting_for(n))
+            self.io.wait(min(left, 0.05))
+
     def _await_actions(self, times: tuple[int, int, int] | None) -> None:
         """Lock-step: waits for every live agent's actions for the tick just committed, or the
         timeout (a laggard event names the late robots). ``times``: when the tick began, its verdict
         came and its state was published, to log (None: not logging)."""
         core, cfg = self.core, self.core.cfg
         n = core.tick
-        self.wait_until(
-            self.clock.now_ns() + int(cfg.lockstep_timeout_ms * MS),
-            lambda: not core.waiting(n) or core.stopped or not core.due(),
-        )
+        try:
+            self._wait_actions(n, self.clock.now_ns() + int(cfg.lockstep_timeout_ms * MS))
+        finally:
+            self.actions_wake.release()
         late = core.expected(n)
         if times is not None:
             start, t_verdict, t_state = times
@@ -252,6 +273,8 @@ class _World:
                 next_ns = self.clock.now_ns()
                 continue
             start = self.clock.now_ns()
+            if lockstep:  # the tick's actions wake the loop once they may complete it (_await_actions)
+                self.actions_wake.hold()
             io.send_all(core.begin_tick(start, self.clock.wall_ns()))
             verdict = self.take_verdict(start + cfg.verdict_wait_ns)
             t_verdict = self.clock.now_ns()

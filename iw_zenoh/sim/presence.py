@@ -124,9 +124,14 @@ class Presence:
 
     def waiting(self, tick: int) -> bool:
         """Whether lock-step still waits for some robot's actions for sensors tick ``tick``."""
+        return self.waiting_for(tick) > 0
+
+    def waiting_for(self, tick: int) -> int:
+        """How many robots' actions for sensors tick ``tick`` lock-step still waits for (those of
+        :meth:`expected`, without listing them every time)."""
         if self._awaiting is None or self._awaiting[0] != tick:
             self._awaiting = (tick, set(self.expected(tick)))
-        return bool(self._awaiting[1])
+        return len(self._awaiting[1])
 
     def answered(self, robot_id: int, tick: int) -> None:
         """A robot answered sensors tick ``tick``."""

@@ -259,6 +259,10 @@ class WorldCore:
         """Whether lock-step still waits for some robot's actions for sensors tick ``tick``."""
         return self.presence.waiting(tick)
 
+    def waiting_for(self, tick: int) -> int:
+        """How many robots' actions for sensors tick ``tick`` lock-step still waits for."""
+        return self.presence.waiting_for(tick)
+
     def begin_tick(self, now_ns: int, wall_ns: int = 0) -> list[Outgoing]:
         """Applies commands and watchdogs, proposes next poses; returns the proposal to publish."""
         out: list[Outgoing] = []
