@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import logging
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus
@@ -183,15 +183,24 @@ class _World:
                         key=d[0],
                     )
 
-    def wait_until(self, deadline_ns: int, done: object = None) -> None:
-        """Pumps inputs until the deadline, or until ``done()`` is true."""
+    def wait_until(self, deadline_ns: int, done: object = None, needed: Callable[[], int] | None = None) -> None:
+        """Pumps inputs until the deadline, or until ``done()`` is true.
+
+        ``needed`` (lock-step, the actions inbox held): how many actions messages could still
+        complete the wait; the actions inbox then wakes the loop once that many came since the
+        last pump (:class:`~iw_zenoh.wake.CountedWake`): one wake-up per tick, not one per robot.
+        Every other inbox, and the poll, wake it as before."""
+        counted = self.actions_wake
         while not self.io.stop.is_set():
+            mark = counted.seen  # every delivery counted up to here is drained by this pump
             self.pump()
             if callable(done) and done():
                 return
             left = (deadline_ns - self.clock.now_ns()) / 1e9
             if left <= 0:
                 return
+            if needed is not None:
+                counted.wake_after(mark, needed())
             self.io.wait(min(left, 0.05))
 
     def take_verdict(self, deadline_ns: int) -> Verdict | None:
@@ -209,32 +218,19 @@ class _World:
             self._answer_info()  # the collision process may need it to give this very verdict
             self.verdicts.wait(min(left, 0.01))
 
-    def _wait_actions(self, n: int, deadline_ns: int) -> None:
-        """Lock-step: pumps inputs until no robot's actions for tick ``n`` are awaited (or the world
-        stops, pauses, or the deadline passes), as :meth:`wait_until` does, but the actions inbox
-        wakes the loop only once as many messages came as robots are still expected: one wake-up
-        per tick rather than one per robot. Every other inbox, and the poll, wake it as before."""
-        core, counted = self.core, self.actions_wake
-        counted.hold()  # the loop holds it before the proposal goes out; holding again changes nothing
-        while not self.io.stop.is_set():
-            mark = counted.seen  # every delivery counted up to here is drained by this pump
-            self.pump()
-            if not core.waiting(n) or core.stopped or not core.due():
-                return
-            left = (deadline_ns - self.clock.now_ns()) / 1e9
-            if left <= 0:
-                return
-            counted.wake_after(mark, core.waiting_for(n))
-            self.io.wait(min(left, 0.05))
-
     def _await_actions(self, times: tuple[int, int, int] | None) -> None:
         """Lock-step: waits for every live agent's actions for the tick just committed, or the
         timeout (a laggard event names the late robots). ``times``: when the tick began, its verdict
         came and its state was published, to log (None: not logging)."""
         core, cfg = self.core, self.core.cfg
         n = core.tick
+        self.actions_wake.hold()  # the loop held it before the proposal went out: holding again changes nothing
         try:
-            self._wait_actions(n, self.clock.now_ns() + int(cfg.lockstep_timeout_ms * MS))
+            self.wait_until(
+                self.clock.now_ns() + int(cfg.lockstep_timeout_ms * MS),
+                lambda: not core.waiting(n) or core.stopped or not core.due(),
+                needed=lambda: core.waiting_for(n),
+            )
         finally:
             self.actions_wake.release()
         late = core.expected(n)
