@@ -3,7 +3,8 @@
 Every role's ``main()`` hands :func:`start_role` only what is its own (its description and
 examples, its flags, a warm-up, what it prepares before joining, what it runs); the rest is
 here, once: ``--sim``, ``-v``, ``--name`` and the network flags, the logging set-up, opening the
-bus (a failure prints ``iwz ROLE: reason`` and exits 2), SIGINT and SIGTERM, closing the bus.
+bus (a failure prints ``iwz ROLE: reason`` and exits 2), SIGINT and SIGTERM, closing the bus,
+and, in a process ``iwz run`` started, stopping as SIGTERM would once that ``iwz run`` is gone.
 A role's typed options (a ``msgspec.Struct`` its flags fill) are :mod:`iw_zenoh.options`'.
 """
 
@@ -11,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import signal
 import threading
 import time
@@ -26,6 +28,7 @@ from iw_zenoh.messages import EventData, EventKind, Message, Outgoing, decode, e
 from iw_zenoh.options import options_from_args  # re-exported: nodes/world.py and nodes/sensors.py import it from here
 
 __all__ = [
+    "SUPERVISOR_ENV",
     "NodeIO",
     "Outgoing",
     "Process",
@@ -33,9 +36,13 @@ __all__ = [
     "options_from_args",
     "setup_logging",
     "start_role",
+    "watch_supervisor",
 ]
 
 logger = logging.getLogger(__name__)
+
+SUPERVISOR_ENV = "IWZ_SUPERVISOR"  # the pid of the ``iwz run`` that started this process
+SUPERVISOR_POLL_S = 0.5  # how often a started process looks whether its ``iwz run`` is still there
 
 M = TypeVar("M", bound=Message)
 T = TypeVar("T")
@@ -155,6 +162,48 @@ def install_stop_signals(stop: threading.Event, extra: Callable[[], None] | None
     signal.signal(signal.SIGTERM, handler)
 
 
+def watch_supervisor(poll_s: float = SUPERVISOR_POLL_S) -> threading.Thread | None:
+    """In a process ``iwz run`` started (:data:`SUPERVISOR_ENV` names its pid), sends this
+    process SIGTERM once that ``iwz run`` is gone, so it stops as it would have been stopped: a
+    launcher killed (SIGKILL, out of memory, a crash) leaves no router holding its port, no world
+    or agents driving chairs, and a recording finished, not cut off. Every role then stops at
+    once (the ordered stop, agents first, was the launcher's). The variable is taken out of this
+    process's environment, so processes it starts do not watch a pid not their parent.
+
+    Returns:
+        The watching thread (a daemon), or None when nothing is watched: no such variable, or a
+        pid that is alive but not this process's parent (started by hand, or through a wrapper).
+    """
+    raw = os.environ.pop(SUPERVISOR_ENV, "")
+    if not raw.isdigit():
+        return None
+    pid = int(raw)
+    if os.getppid() != pid and _alive(pid):
+        logger.info("%s=%d is not this process's parent: not watching it", SUPERVISOR_ENV, pid)
+        return None
+
+    def watch() -> None:
+        while os.getppid() == pid:  # once gone, this process was handed to another parent
+            time.sleep(poll_s)
+        logger.warning("the iwz run that started this process (pid %d) is gone: stopping", pid)
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    thread = threading.Thread(target=watch, name="supervisor-watch", daemon=True)
+    thread.start()
+    return thread
+
+
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` exists."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True  # someone else's
+    return True
+
+
 def setup_logging(verbosity: int, role: str) -> None:
     """Configures logging for a process (``-v`` info, ``-vv`` debug)."""
     level = logging.WARNING if verbosity <= 0 else logging.INFO if verbosity == 1 else logging.DEBUG
@@ -270,6 +319,7 @@ def start_role(
     prog = prog or f"iwz {role}"
     args = _parse(argv, prog, description, epilog, arguments, default_mode, name_help or role)
     setup_logging(args.verbose, prog.removeprefix("iwz "))
+    watch_supervisor()  # before the warm-up: a launcher gone by then is seen at once
     if warm_up is not None:
         t0 = time.monotonic()
         warm_up()

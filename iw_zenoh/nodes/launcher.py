@@ -37,7 +37,7 @@ from iw_zenoh.nodes.secure_run import LAUNCHER
 from iw_zenoh.nodes.tally import Tally
 from iw_zenoh.nodes.world_options import world_options
 from iw_zenoh.options import options_json
-from iw_zenoh.runtime import setup_logging
+from iw_zenoh.runtime import SUPERVISOR_ENV, setup_logging
 
 __all__ = ["Child", "Launcher", "main", "world_options"]
 
@@ -94,7 +94,8 @@ class Launcher:
         self.bus: ZenohBus | None = None  # the launcher's own session, from the router's start
         self._inboxes: tuple[Inbox, Inbox, Inbox] | None = None
         self.stop_event = threading.Event()
-        self.env = dict(os.environ, PYTHONUNBUFFERED="1")
+        # each child stops by itself if this launcher is ever gone without stopping it (a kill)
+        self.env = dict(os.environ, PYTHONUNBUFFERED="1", **{SUPERVISOR_ENV: str(os.getpid())})
         self.world_options = world_options(scenario)
         self.tally.running = not self.world_options[0].start_paused
 
@@ -373,6 +374,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         launcher.stop_event.set()
 
     signal.signal(signal.SIGTERM, on_term)
+    signal.signal(signal.SIGHUP, on_term)  # its terminal closed: the same ordered stop, not a launcher killed
     code = 0
     try:
         launcher.start()

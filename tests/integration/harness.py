@@ -153,8 +153,9 @@ def start_world(net: Net, *roles: str, lab: str = OPEN_LAB) -> None:
 
 
 def stop_run(p: subprocess.Popen[str]) -> tuple[str, str]:
-    """Stops an ``iwz run`` launcher as Ctrl-C does (it stops every process it started; a kill
-    would leave them running), killing it only if it is still up 30 s later; its output."""
+    """Stops an ``iwz run`` launcher as Ctrl-C does (it stops every process it started, in order;
+    killed, its processes stop by themselves, all at once), killing it only if it is still up 30 s
+    later; its output."""
     if p.poll() is None:
         p.send_signal(signal.SIGINT)
     try:

@@ -1,0 +1,144 @@
+"""A run whose ``iwz run`` is gone stops, every process of it: killed (SIGKILL, out of memory),
+each process it started sees its parent go and stops as SIGTERM would (the recording finished,
+the router's port free again); its terminal closed (SIGHUP), the launcher stops the run in order
+and prints its summary. Before, both left the router, the world and the agents running."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+from iw_zenoh import keys
+from iw_zenoh.bus import ZenohBus
+from iw_zenoh.messages import WorldState
+from iw_zenoh.net import NetConfig, port_in_use
+from iw_zenoh.record.reader import RecordingReader
+from tests.integration.harness import iwz_run_argv, stop_run, subscribe, wait_msg
+
+pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
+
+LAB = '<Lab Name="open" Width="20" Height="10"/>'
+GRID = '<Grid><Position X="3" Y="5" Dir="0"/></Grid>'
+SCENARIO = """
+name = "gone"
+[world]
+map = "lab.xml"
+grid = "grid.xml"
+mode = "realtime"
+duration_s = 120
+[[agents]]
+program = "waypoint"
+args = ["--id", "1", "--waypoints", "17,5;3,5;17,5"]
+"""
+
+
+def _children(pid: int) -> list[int]:
+    """The processes whose parent is ``pid``."""
+    out = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue
+            if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
+                out.append(int(entry.name))
+    return out
+
+
+def _running(pid: int) -> bool:
+    """Whether ``pid`` is a process that has not exited (a zombie nobody reaped has)."""
+    try:
+        return (Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]) != "Z"
+    except OSError:
+        return False
+
+
+def _wait_gone(pids: list[int], timeout_s: float) -> list[int]:
+    """Waits until none of ``pids`` runs; those still running after ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while (left := [p for p in pids if _running(p)]) and time.monotonic() < deadline:
+        time.sleep(0.2)  # polling /proc: an exit of a process not ours gives no event
+    return left
+
+
+def _start(tmp: Path) -> tuple[subprocess.Popen[str], int, list[int], Path]:
+    """``iwz run`` of a long real-time run, once its world steps: the launcher, its router's
+    port, the processes it started, the recording."""
+    (tmp / "lab.xml").write_text(LAB)
+    (tmp / "grid.xml").write_text(GRID)
+    (tmp / "gone.toml").write_text(SCENARIO)
+    record = tmp / "run.mcap"
+    argv = iwz_run_argv(tmp / "gone.toml", tmp / "logs", "gone", record=record)
+    port = int(argv[argv.index("--port") + 1])
+    p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        bus = ZenohBus(NetConfig(connect=(f"tcp/127.0.0.1:{port}",)))
+        try:
+            states = subscribe(bus, keys.state("gone"))
+            wait_msg(states, WorldState, lambda m: m.tick >= 10, timeout_s=90)
+        finally:
+            bus.close()
+        children = _children(p.pid)
+    except BaseException:
+        stop_run(p)
+        raise
+    return p, port, children, record
+
+
+def _recorded_ticks(record: Path) -> list[int]:
+    """The ticks of the states in a recording that was finished (its summary written, nothing
+    cut off)."""
+    with record.open("rb") as f:
+        reader = RecordingReader(f)
+        assert reader.summary() is not None
+        ticks = [r.message.tick for r in reader.records(["state"]) if isinstance(r.message, WorldState)]
+        assert not reader.notes
+        return ticks
+
+
+def _kill(pids: list[int]) -> None:
+    for pid in pids:
+        if _running(pid):
+            os.kill(pid, signal.SIGKILL)
+
+
+def test_a_killed_launcher_leaves_nothing_running_and_its_recording_finished(tmp_path: Path) -> None:
+    p, port, children, record = _start(tmp_path)
+    try:
+        # router, recorder, world, collision, sensors, the agent
+        assert len(children) >= 6, children
+        p.kill()
+        p.wait(10)
+        left = _wait_gone(children, timeout_s=60)
+        assert not left, f"still running 60 s after their iwz run was killed: {left}"
+    finally:
+        _kill(children)
+        if p.stdout:
+            p.stdout.close()
+    assert not port_in_use(port)
+    assert len(_recorded_ticks(record)) >= 10
+    logs = "\n".join(f.read_text(errors="replace") for f in (tmp_path / "logs").glob("*.log"))
+    assert f"the iwz run that started this process (pid {p.pid}) is gone: stopping" in logs
+
+
+def test_a_launcher_whose_terminal_closed_stops_the_run_in_order(tmp_path: Path) -> None:
+    p, port, children, record = _start(tmp_path)
+    try:
+        p.send_signal(signal.SIGHUP)
+        out, _ = p.communicate(timeout=90)
+        left = _wait_gone(children, timeout_s=10)
+    finally:
+        _kill(children)
+        if p.poll() is None:
+            stop_run(p)
+    assert not left, f"still running after their iwz run stopped: {left}\n{out}"
+    assert p.returncode == 0, out
+    assert f"iwz run: recorded to {record}" in out, out
+    assert not port_in_use(port)
+    assert len(_recorded_ticks(record)) >= 10
