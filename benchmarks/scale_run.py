@@ -20,6 +20,7 @@ from iw_zenoh.core.geometry import wrap_deg
 from iw_zenoh.core.lab import Grid, GridPosition
 from iw_zenoh.maps import grid_to_xml, lab_to_xml
 from iw_zenoh.net import NetConfig, free_port, port_in_use
+from iw_zenoh.runtime import SUPERVISOR_ENV
 from iw_zenoh.secure.certs import init_ca, issue
 from iw_zenoh.secure.cli import add_identity
 
@@ -90,7 +91,8 @@ class Run:
             [*self.command(name), *args, "--sim", "bench", *net],
             stdout=log,
             stderr=subprocess.STDOUT,
-            env=dict(os.environ, PYTHONUNBUFFERED="1"),
+            # a benchmark killed leaves no role running (and holding the cores the next one measures)
+            env=dict(os.environ, PYTHONUNBUFFERED="1", **{SUPERVISOR_ENV: str(os.getpid())}),
         )
         self.procs.append(p)
         self.names.append(name)
