@@ -34,7 +34,12 @@ def build_parser() -> argparse.ArgumentParser:
             "  iwz run maps/demo.toml --secure     (every process its certificate; the router enforces the roles)\n"
             "  iwz run maps/demo.toml --secure --no-audit   (enforced all the same, refusals not logged)\n"
             "  iwz run lab.toml --listen tls/10.0.0.1:7447 --ids ids          (host with the router)\n"
-            "  iwz run lab.toml --host laptop2 --connect tls/10.0.0.1:7447 --ids ids   (another host)"
+            "  iwz run lab.toml --host laptop2 --connect tls/10.0.0.1:7447 --ids ids   (another host)\n"
+            "\n"
+            "Exit codes: 0 every criterion holds, 1 one fails, 2 scenario or arguments refused,\n"
+            "3 a role could not start, 130 Ctrl-C. SIGTERM and SIGHUP (its terminal closed) stop the\n"
+            "run as Ctrl-C does, with the verdict so far (0 or 1). Killed, it leaves nothing running:\n"
+            "each process it started stops by itself within a second (docs/runtime.md, Faults)."
         ),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
