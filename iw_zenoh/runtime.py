@@ -3,7 +3,7 @@
 Every role's ``main()`` hands :func:`start_role` only what is its own (its description and
 examples, its flags, a warm-up, what it prepares before joining, what it runs); the rest is
 here, once: ``--sim``, ``-v``, ``--name`` and the network flags, the logging set-up, opening the
-bus (a failure prints ``iwz ROLE: reason`` and exits 2), SIGINT and SIGTERM, closing the bus,
+bus (a failure prints ``iwz ROLE: reason`` and exits 2), SIGINT, SIGTERM and SIGHUP, closing the bus,
 and, in a process ``iwz run`` started, stopping as SIGTERM would once that ``iwz run`` is gone.
 A role's typed options (a ``msgspec.Struct`` its flags fill) are :mod:`iw_zenoh.options`'.
 """
@@ -150,7 +150,9 @@ class NodeIO:
 
 
 def install_stop_signals(stop: threading.Event, extra: Callable[[], None] | None = None) -> None:
-    """SIGINT and SIGTERM set ``stop`` (the loop then closes the session and exits 0)."""
+    """SIGINT, SIGTERM and SIGHUP set ``stop`` (the loop then closes the session and exits 0): a
+    role started by hand in a terminal that is then closed stops as Ctrl-C would have stopped it
+    (a recorder finishes its file) instead of dying where it stands."""
 
     def handler(signum: int, _frame: object) -> None:
         logger.info("signal %d: stopping", signum)
@@ -160,6 +162,7 @@ def install_stop_signals(stop: threading.Event, extra: Callable[[], None] | None
 
     signal.signal(signal.SIGINT, handler)
     signal.signal(signal.SIGTERM, handler)
+    signal.signal(signal.SIGHUP, handler)
 
 
 def watch_supervisor(poll_s: float = SUPERVISOR_POLL_S) -> threading.Thread | None:

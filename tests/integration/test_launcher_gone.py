@@ -1,7 +1,9 @@
 """A run whose ``iwz run`` is gone stops, every process of it: killed (SIGKILL, out of memory),
 each process it started sees its parent go and stops as SIGTERM would (the recording finished,
 the router's port free again); its terminal closed (SIGHUP), the launcher stops the run in order
-and prints its summary. Before, both left the router, the world and the agents running."""
+and prints its summary. Before, both left the router, the world and the agents running. A role
+started by hand whose terminal is closed stops as Ctrl-C would (before, SIGHUP cut a recording
+off where it stood)."""
 
 from __future__ import annotations
 
@@ -18,7 +20,8 @@ from iw_zenoh.bus import ZenohBus
 from iw_zenoh.messages import WorldState
 from iw_zenoh.net import NetConfig, port_in_use
 from iw_zenoh.record.reader import RecordingReader
-from tests.integration.harness import iwz_run_argv, stop_run, subscribe, wait_msg
+from iw_zenoh.record.tools import check
+from tests.integration.harness import Net, iwz_run_argv, stop_run, subscribe, wait_alive, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
 
@@ -142,3 +145,22 @@ def test_a_launcher_whose_terminal_closed_stops_the_run_in_order(tmp_path: Path)
     assert f"iwz run: recorded to {record}" in out, out
     assert not port_in_use(port)
     assert len(_recorded_ticks(record)) >= 10
+
+
+def test_a_recorder_started_by_hand_whose_terminal_closed_finishes_its_file(net: Net) -> None:
+    out = net.tmp / "hand.mcap"
+    rec = net.spawn("record", "-o", str(out), "--quiet")
+    bus = net.client()
+    wait_alive(bus, keys.alive(net.sim, "recorder", "recorder"))
+    for tick in range(1, 51):
+        bus.publish(keys.actions(net.sim, 1), b'{"tick":%d,"robot_id":1}' % tick)
+    marker = subscribe(bus, keys.event(net.sim, "mark"))
+    bus.publish(keys.event(net.sim, "mark"), b'{"kind":"mark"}')
+    assert marker.get(timeout_s=10) is not None  # our own last message made the round trip
+    rec.popen.send_signal(signal.SIGHUP)
+    assert rec.popen.wait(60) == 0, rec.output()
+    h = check(out)
+    assert h.whole, h.reason
+    with out.open("rb") as f:
+        reader = RecordingReader(f)
+        assert sum(1 for _ in reader.raw(topics=lambda t: t == keys.actions(net.sim, 1))) == 50
