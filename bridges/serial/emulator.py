@@ -29,7 +29,7 @@ from iw_zenoh.core.lab import Lab
 from iw_zenoh.errors import IwError
 from iw_zenoh.maps import load_lab
 from iw_zenoh.places import parse_boxes
-from iw_zenoh.runtime import install_stop_signals, setup_logging
+from iw_zenoh.runtime import install_stop_signals, setup_logging, watch_supervisor
 
 from .board import WATCHDOG_S, Board, chair_spec
 from .line import Line, LinkLost, PtyLine, SerialLine
@@ -215,6 +215,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     log = open(a.wheels_log, "a") if a.wheels_log else None  # noqa: SIM115 (kept for the whole run)
     emu = Emulator(board, opener, faults=faults, period_s=a.period_ms / 1000, wheels_log=log)
     install_stop_signals(emu.stop)
+    watch_supervisor()  # started by iwz run (a [chair] without a port): stops, its pty link gone, if it is killed
     signal.signal(signal.SIGUSR1, lambda *_: setattr(faults, "toggled", not faults.toggled))
     try:
         emu.run()

@@ -38,6 +38,18 @@ duration_s = 120
 program = "waypoint"
 args = ["--id", "1", "--waypoints", "17,5;3,5;17,5"]
 """
+# a [chair] without a port: iwz run starts the chair emulator on a pty (not a role: its own main)
+# and the serial bridge that registers robot 1
+CHAIR_SCENARIO = """
+name = "gone"
+[world]
+map = "lab.xml"
+mode = "realtime"
+duration_s = 120
+[chair]
+robot = 1
+start = "3,5,0"
+"""
 
 
 def _children(pid: int) -> list[int]:
@@ -70,28 +82,31 @@ def _wait_gone(pids: list[int], timeout_s: float) -> list[int]:
     return left
 
 
-def _start(tmp: Path) -> tuple[subprocess.Popen[str], int, list[int], Path]:
-    """``iwz run`` of a long real-time run, once its world steps: the launcher, its router's
+def _start(
+    tmp: Path, scenario: str = SCENARIO, record: bool = True
+) -> tuple[subprocess.Popen[str], int, list[int], Path]:
+    """``iwz run`` of a long real-time run, once its world steps with robot 1 registered (every
+    process started: the agents, or the serial bridge, start last): the launcher, its router's
     port, the processes it started, the recording."""
     (tmp / "lab.xml").write_text(LAB)
     (tmp / "grid.xml").write_text(GRID)
-    (tmp / "gone.toml").write_text(SCENARIO)
-    record = tmp / "run.mcap"
-    argv = iwz_run_argv(tmp / "gone.toml", tmp / "logs", "gone", record=record)
+    (tmp / "gone.toml").write_text(scenario)
+    out = tmp / "run.mcap"
+    argv = iwz_run_argv(tmp / "gone.toml", tmp / "logs", "gone", record=out if record else None)
     port = int(argv[argv.index("--port") + 1])
     p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         bus = ZenohBus(NetConfig(connect=(f"tcp/127.0.0.1:{port}",)))
         try:
             states = subscribe(bus, keys.state("gone"))
-            wait_msg(states, WorldState, lambda m: m.tick >= 10, timeout_s=90)
+            wait_msg(states, WorldState, lambda m: m.tick >= 10 and 1 in m.ids, timeout_s=90)
         finally:
             bus.close()
         children = _children(p.pid)
     except BaseException:
         stop_run(p)
         raise
-    return p, port, children, record
+    return p, port, children, out
 
 
 def _recorded_ticks(record: Path) -> list[int]:
@@ -164,3 +179,22 @@ def test_a_recorder_started_by_hand_whose_terminal_closed_finishes_its_file(net:
     with out.open("rb") as f:
         reader = RecordingReader(f)
         assert sum(1 for _ in reader.raw(topics=lambda t: t == keys.actions(net.sim, 1))) == 50
+
+
+def test_a_killed_launcher_leaves_no_chair_emulator_running(tmp_path: Path) -> None:
+    p, port, children, _ = _start(tmp_path, CHAIR_SCENARIO, record=False)
+    link = tmp_path / "logs" / "chair-pty"
+    try:
+        emulators = [c for c in children if b"emulate" in Path(f"/proc/{c}/cmdline").read_bytes()]
+        assert len(emulators) == 1, children
+        assert link.is_symlink()
+        p.kill()
+        p.wait(10)
+        left = _wait_gone(children, timeout_s=60)
+        assert not left, f"still running 60 s after their iwz run was killed: {left}"
+    finally:
+        _kill(children)
+        if p.stdout:
+            p.stdout.close()
+    assert not port_in_use(port)
+    assert not link.is_symlink()  # the emulator stopped as on SIGTERM: its pty closed, its link taken away
