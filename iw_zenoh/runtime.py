@@ -18,6 +18,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, TypeVar, overload
 
 from iw_zenoh import keys
@@ -197,14 +198,21 @@ def watch_supervisor(poll_s: float = SUPERVISOR_POLL_S) -> threading.Thread | No
 
 
 def _alive(pid: int) -> bool:
-    """Whether process ``pid`` exists."""
+    """Whether process ``pid`` runs: not a zombie, which ``kill(pid, 0)`` still finds (an ``iwz
+    run`` killed before this process looked, its own parent not having reaped it yet, is gone)."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
     except PermissionError:
-        return True  # someone else's
-    return True
+        pass  # someone else's
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except FileNotFoundError:
+        return not Path("/proc/self").exists()  # gone meanwhile; or no /proc (not Linux): as kill said
+    except OSError:
+        return True
+    return stat.rsplit(")", 1)[1].split()[0] != "Z"
 
 
 def setup_logging(verbosity: int, role: str) -> None:

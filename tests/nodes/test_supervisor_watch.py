@@ -39,3 +39,47 @@ def test_a_process_whose_supervisor_is_already_gone_stops_as_sigterm_would() -> 
         timeout=40,
     )
     assert p.returncode == -signal.SIGTERM, p.stderr
+
+
+# a process iwz run started that looks only once its iwz run is dead, not yet reaped (a zombie):
+# its import of a role takes a second or more, the launcher may be killed meanwhile
+LATE = (
+    "import sys, threading; sys.stdin.readline(); from iw_zenoh.runtime import watch_supervisor;"
+    " print('watching' if watch_supervisor(0.05) else 'not watching', flush=True); threading.Event().wait(60)"
+)
+LAUNCHER = (
+    "import os, subprocess, sys, threading;"
+    f" c = subprocess.Popen([sys.executable, '-c', {LATE!r}], env=dict(os.environ, {SUPERVISOR_ENV}=str(os.getpid())));"
+    " print(c.pid, flush=True); threading.Event().wait(60)"
+)
+
+
+def test_a_process_whose_supervisor_died_before_it_looked_stops_though_not_yet_reaped() -> None:
+    launcher = subprocess.Popen(
+        [sys.executable, "-c", LAUNCHER], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
+    )
+    assert launcher.stdout is not None
+    assert launcher.stdin is not None
+    child = 0
+    try:
+        child = int(launcher.stdout.readline())
+        launcher.send_signal(signal.SIGKILL)
+        os.waitid(os.P_PID, launcher.pid, os.WEXITED | os.WNOWAIT)  # dead, and left a zombie
+        launcher.stdin.write("go\n")  # the child, which inherited the launcher's stdin, looks now
+        launcher.stdin.flush()
+        # the pipe ends when the child, which holds its write end too, has exited
+        out, _ = launcher.communicate(timeout=30)
+    finally:
+        if child and _running(child):
+            os.kill(child, signal.SIGKILL)
+        launcher.kill()
+        launcher.wait(10)
+    assert out.split() == ["watching"]
+
+
+def _running(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return True
