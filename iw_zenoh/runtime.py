@@ -44,6 +44,9 @@ logger = logging.getLogger(__name__)
 
 SUPERVISOR_ENV = "IWZ_SUPERVISOR"  # the pid of the ``iwz run`` that started this process
 SUPERVISOR_POLL_S = 0.5  # how often a started process looks whether its ``iwz run`` is still there
+# then stopped, how long it has before it kills itself, as iwz run would have killed it: longer
+# than iwz run gives a recorder to finish its file (nodes.child.RECORDER_STOP_S, 45 s)
+SUPERVISOR_GRACE_S = 60.0
 
 M = TypeVar("M", bound=Message)
 T = TypeVar("T")
@@ -166,13 +169,19 @@ def install_stop_signals(stop: threading.Event, extra: Callable[[], None] | None
     signal.signal(signal.SIGHUP, handler)
 
 
-def watch_supervisor(poll_s: float = SUPERVISOR_POLL_S) -> threading.Thread | None:
+def watch_supervisor(poll_s: float = SUPERVISOR_POLL_S, grace_s: float = SUPERVISOR_GRACE_S) -> threading.Thread | None:
     """In a process ``iwz run`` started (:data:`SUPERVISOR_ENV` names its pid), sends this
     process SIGTERM once that ``iwz run`` is gone, so it stops as it would have been stopped: a
     launcher killed (SIGKILL, out of memory, a crash) leaves no router holding its port, no world
     or agents driving chairs, and a recording finished, not cut off. Every role then stops at
-    once (the ordered stop, agents first, was the launcher's). The variable is taken out of this
-    process's environment, so processes it starts do not watch a pid not their parent.
+    once (the ordered stop, agents first, was the launcher's). One still running ``grace_s``
+    later (its main thread blocked where the signal's handler never runs, a stop that hangs) is
+    killed, as ``iwz run`` kills what does not stop. The variable is taken out of this process's
+    environment, so processes it starts do not watch a pid not their parent.
+
+    Args:
+        poll_s: How often it looks whether that ``iwz run`` is still this process's parent.
+        grace_s: How long after the SIGTERM it sends itself SIGKILL.
 
     Returns:
         The watching thread (a daemon), or None when nothing is watched: no such variable, or a
@@ -191,6 +200,9 @@ def watch_supervisor(poll_s: float = SUPERVISOR_POLL_S) -> threading.Thread | No
             time.sleep(poll_s)
         logger.warning("the iwz run that started this process (pid %d) is gone: stopping", pid)
         os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(grace_s)  # a process that stopped is gone with this thread
+        logger.warning("still running %g s after: killing this process", grace_s)
+        os.kill(os.getpid(), signal.SIGKILL)
 
     thread = threading.Thread(target=watch, name="supervisor-watch", daemon=True)
     thread.start()
@@ -332,10 +344,7 @@ def start_role(
     setup_logging(args.verbose, prog.removeprefix("iwz "))
     watch_supervisor()  # before the warm-up: a launcher gone by then is seen at once
     if warm_up is not None:
-        t0 = time.monotonic()
-        warm_up()
-        if time.monotonic() - t0 > 1.0:
-            logger.info("warmed up in %.1f s (kernels compiled; cached for later runs)", time.monotonic() - t0)
+        _warm(warm_up)
     try:
         sim = keys.chunk(args.sim)
         prepared = prepare(args) if prepare is not None else None
@@ -351,6 +360,14 @@ def start_role(
     finally:
         bus.close()
     return code or 0
+
+
+def _warm(warm_up: Callable[[], None]) -> None:
+    """Runs a role's warm-up, saying how long it took when that was long."""
+    t0 = time.monotonic()
+    warm_up()
+    if time.monotonic() - t0 > 1.0:
+        logger.info("warmed up in %.1f s (kernels compiled; cached for later runs)", time.monotonic() - t0)
 
 
 class _Formatter(argparse.HelpFormatter):

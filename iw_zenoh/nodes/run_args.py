@@ -39,7 +39,8 @@ def build_parser() -> argparse.ArgumentParser:
             "Exit codes: 0 every criterion holds, 1 one fails, 2 scenario or arguments refused,\n"
             "3 a role could not start, 130 Ctrl-C. SIGTERM and SIGHUP (its terminal closed) stop the\n"
             "run as Ctrl-C does, with the verdict so far (0 or 1). Killed, it leaves nothing running:\n"
-            "each process it started stops by itself within a second (docs/runtime.md, Faults)."
+            "each process it started begins to stop by itself within half a second, and is killed if it\n"
+            "still runs a minute later (docs/runtime.md, Faults)."
         ),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

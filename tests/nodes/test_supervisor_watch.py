@@ -44,8 +44,9 @@ def test_a_process_whose_supervisor_is_already_gone_stops_as_sigterm_would() -> 
 # a process iwz run started that looks only once its iwz run is dead, not yet reaped (a zombie):
 # its import of a role takes a second or more, the launcher may be killed meanwhile
 LATE = (
-    "import sys, threading; sys.stdin.readline(); from iw_zenoh.runtime import watch_supervisor;"
-    " print('watching' if watch_supervisor(0.05) else 'not watching', flush=True); threading.Event().wait(60)"
+    "import signal, sys, threading; stop = threading.Event(); signal.signal(signal.SIGTERM, lambda *_: stop.set());"
+    " sys.stdin.readline(); from iw_zenoh.runtime import watch_supervisor;"
+    " print('watching' if watch_supervisor(0.05) else 'not watching', flush=True); stop.wait(60)"
 )
 LAUNCHER = (
     "import os, subprocess, sys, threading;"
@@ -83,3 +84,24 @@ def _running(pid: int) -> bool:
     except ProcessLookupError:
         return False
     return True
+
+
+# a process whose stop never comes (its handler does nothing, as one whose main thread is blocked)
+DEAF = (
+    "import signal, threading; from iw_zenoh.runtime import watch_supervisor;"
+    " signal.signal(signal.SIGTERM, lambda *_: None); watch_supervisor(0.05, grace_s=0.5); threading.Event().wait(30)"
+)
+
+
+def test_a_process_that_does_not_stop_once_its_supervisor_is_gone_is_killed() -> None:
+    gone = subprocess.Popen(["true"])
+    gone.wait(10)
+    p = subprocess.run(
+        [sys.executable, "-c", DEAF],
+        env=dict(os.environ, **{SUPERVISOR_ENV: str(gone.pid)}),
+        capture_output=True,
+        text=True,
+        timeout=40,
+    )
+    assert p.returncode == -signal.SIGKILL, p.stderr
+    assert "still running 0.5 s after: killing this process" in p.stderr
