@@ -140,9 +140,11 @@ class Launcher:
         self._inboxes = self.observe(self.bus)
         if rest and rest[0].role == "record":
             rest[0].start(self.env)  # first, and heard from, so it misses nothing of the run
-            if not self._wait_roles({"recorder": 1}, timeout_s=30.0):
+            if not self._wait_roles({"recorder": 1}, timeout_s=30.0) and not self.stop_event.is_set():
                 raise IwError(f"the recorder did not start:\n{rest[0].tail()}")
             rest = rest[1:]
+        if self.stop_event.is_set():
+            return  # stopped meanwhile (SIGTERM, SIGHUP): nothing more to start, and nothing failed
         agents = [c for c in rest if c.role == "agent"]
         for c in rest:
             if c.role != "agent":
@@ -153,9 +155,9 @@ class Launcher:
             # watchdog) or be held still (a sensors process compiles its kernel on a first run)
             roles = {"collision": 1, "sensors": self.sc.roles.sensors_shards}
             up = self._wait_roles(roles, timeout_s=60.0)
-            if self.failed is not None:
+            if self.failed is not None or self.stop_event.is_set():
                 return  # supervise() ends the run at once
-            if not up and not self.stop_event.is_set():
+            if not up:
                 print(
                     f"iwz run: collision and sensors not all up after 60 s; starting the agents anyway ({self.log_dir})"
                 )

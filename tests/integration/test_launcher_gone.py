@@ -17,8 +17,10 @@ import pytest
 
 from iw_zenoh import keys
 from iw_zenoh.bus import ZenohBus
+from iw_zenoh.config import load_scenario
 from iw_zenoh.messages import WorldState
-from iw_zenoh.net import NetConfig, port_in_use
+from iw_zenoh.net import NetConfig, free_port, port_in_use
+from iw_zenoh.nodes.launcher import Launcher
 from iw_zenoh.record.reader import RecordingReader
 from iw_zenoh.record.tools import check
 from tests.integration.harness import Net, iwz_run_argv, stop_run, subscribe, wait_alive, wait_msg
@@ -107,6 +109,19 @@ def _start(
         stop_run(p)
         raise
     return p, port, children, out
+
+
+def _of_sim(sim: str) -> list[int]:
+    """The processes whose command line names simulation ``sim`` (every process of a run does)."""
+    out = []
+    for entry in Path("/proc").iterdir():
+        try:
+            argv = (entry / "cmdline").read_bytes().split(b"\0") if entry.name.isdigit() else []
+        except OSError:
+            continue
+        if any(a == b"--sim" and b == sim.encode() for a, b in zip(argv, argv[1:], strict=False)):
+            out.append(int(entry.name))
+    return out
 
 
 def _recorded_ticks(record: Path) -> list[int]:
@@ -198,3 +213,54 @@ def test_a_killed_launcher_leaves_no_chair_emulator_running(tmp_path: Path) -> N
             p.stdout.close()
     assert not port_in_use(port)
     assert not link.is_symlink()  # the emulator stopped as on SIGTERM: its pty closed, its link taken away
+
+
+def test_a_launcher_hung_up_while_it_starts_the_run_stops_it_with_no_error(tmp_path: Path) -> None:
+    (tmp_path / "lab.xml").write_text(LAB)
+    (tmp_path / "grid.xml").write_text(GRID)
+    (tmp_path / "gone.toml").write_text(SCENARIO)
+    sim = f"hup{os.getpid()}"  # its processes, told from any other run's
+    argv = iwz_run_argv(tmp_path / "gone.toml", tmp_path / "logs", sim, record=tmp_path / "run.mcap")
+    port = int(argv[argv.index("--port") + 1])
+    p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    left: list[int] = []
+    try:
+        deadline = time.monotonic() + 60
+        while not port_in_use(port):
+            assert p.poll() is None, p.communicate()[0]
+            assert time.monotonic() < deadline, "the router did not listen in 60 s"
+            time.sleep(0.02)  # polling a port: there is no event to wait on
+        p.send_signal(signal.SIGHUP)  # the launcher now starts the recorder, and waits for it (a second or more)
+        out, _ = p.communicate(timeout=90)
+    finally:
+        if p.poll() is None:
+            stop_run(p)
+        left = [pid for pid in _of_sim(sim) if _running(pid)]
+        _kill(left)
+    assert p.returncode == 0, out
+    assert "did not start" not in out, out
+    assert not left, f"still running after their iwz run stopped: {left}"
+
+
+def test_a_stop_that_comes_while_the_recorder_starts_is_a_stop_not_a_failure(tmp_path: Path) -> None:
+    (tmp_path / "lab.xml").write_text(LAB)
+    (tmp_path / "grid.xml").write_text(GRID)
+    (tmp_path / "gone.toml").write_text(SCENARIO)
+    sc = load_scenario(tmp_path / "gone.toml")
+    launcher = Launcher(
+        sc,
+        port=free_port(),
+        sim=f"stop{os.getpid()}",
+        log_dir=tmp_path / "logs",
+        status=False,
+        record=tmp_path / "run.mcap",
+    )
+    launcher.stop_event.set()  # a SIGTERM or SIGHUP before the recorder is heard from
+    try:
+        launcher.start()  # before: IwError "the recorder did not start", iwz run's exit 3
+        started = sorted(c.role for c in launcher.children if c.proc is not None)
+    finally:
+        if launcher.bus is not None:
+            launcher.bus.close()
+        launcher.shutdown()
+    assert started == ["record", "router"]  # and nothing more once stopped
