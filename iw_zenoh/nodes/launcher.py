@@ -344,6 +344,15 @@ class Launcher:
         return self.tally.verdict(self.sc.criteria)
 
 
+def _to_devnull(fds: list[int]) -> None:
+    """Points ``fds`` at /dev/null: on a terminal that was closed every write fails (EIO), and the
+    status line or the summary would end an ordered stop with a traceback and exit 1."""
+    null = os.open(os.devnull, os.O_WRONLY)
+    for fd in fds:
+        os.dup2(null, fd)
+    os.close(null)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Runs ``iwz run``."""
     args = build_parser().parse_args(argv)
@@ -372,11 +381,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         flush=True,
     )
 
+    ttys = [fd for fd in (1, 2) if os.isatty(fd)]  # asked now: a terminal hung up is no longer one
+
     def on_term(signum: int, _frame: object) -> None:
+        if signum == signal.SIGHUP:  # its terminal closed, perhaps: what it writes there goes nowhere
+            _to_devnull(ttys)
         launcher.stop_event.set()
 
     signal.signal(signal.SIGTERM, on_term)
-    signal.signal(signal.SIGHUP, on_term)  # its terminal closed: the same ordered stop, not a launcher killed
+    signal.signal(signal.SIGHUP, on_term)  # the same ordered stop, not a launcher killed
     code = 0
     try:
         launcher.start()

@@ -7,7 +7,9 @@ off where it stood)."""
 
 from __future__ import annotations
 
+import contextlib
 import os
+import pty
 import signal
 import subprocess
 import time
@@ -175,6 +177,55 @@ def test_a_launcher_whose_terminal_closed_stops_the_run_in_order(tmp_path: Path)
     assert f"iwz run: recorded to {record}" in out, out
     assert not port_in_use(port)
     assert len(_recorded_ticks(record)) >= 10
+
+
+def test_a_launcher_in_a_terminal_that_is_closed_ends_with_its_verdict_not_an_error(tmp_path: Path) -> None:
+    # a real terminal: iwz run on a pseudo-terminal that is its controlling terminal; closing
+    # the master end hangs it up (the kernel sends SIGHUP), and every write to it fails from then
+    (tmp_path / "lab.xml").write_text(LAB)
+    (tmp_path / "grid.xml").write_text(GRID)
+    (tmp_path / "gone.toml").write_text(SCENARIO)
+    record = tmp_path / "run.mcap"
+    argv = iwz_run_argv(tmp_path / "gone.toml", tmp_path / "logs", "gone", record=record)
+    argv.remove("--no-status")  # the status line too, every second on a terminal
+    port = int(argv[argv.index("--port") + 1])
+    pid, master = pty.fork()
+    if pid == 0:  # the child: exec at once
+        os.execv(argv[0], argv)
+    children: list[int] = []
+    try:
+        bus = ZenohBus(NetConfig(connect=(f"tcp/127.0.0.1:{port}",)))
+        try:
+            states = subscribe(bus, keys.state("gone"))
+            wait_msg(states, WorldState, lambda m: m.tick >= 20 and 1 in m.ids, timeout_s=90)
+        finally:
+            bus.close()
+        children = _children(pid)
+        os.close(master)  # the terminal closed
+        master = -1
+        status = _wait_exit(pid, timeout_s=90)
+        left = _wait_gone(children, timeout_s=10)
+    finally:
+        if master >= 0:
+            os.close(master)
+        _kill([*children, pid])
+        with contextlib.suppress(ChildProcessError):
+            os.waitpid(pid, 0)
+    assert not left, f"still running after their iwz run stopped: {left}"
+    assert status == 0, f"iwz run ended with status {status} (a traceback writing to its closed terminal?)"
+    assert not port_in_use(port)
+    assert len(_recorded_ticks(record)) >= 20
+
+
+def _wait_exit(pid: int, timeout_s: float) -> int | None:
+    """The exit status of child ``pid`` once it ends (-N for a signal N), None if still up after ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            return os.waitstatus_to_exitcode(status)
+        time.sleep(0.1)  # polling waitpid: a child's exit gives no other event here
+    return None
 
 
 def test_a_recorder_started_by_hand_whose_terminal_closed_finishes_its_file(net: Net) -> None:
