@@ -28,6 +28,7 @@ from iw_zenoh.errors import IwError
 from iw_zenoh.messages import Control, Event, WorldInfo, WorldState, decode, encode
 from iw_zenoh.net import DEFAULT_PORT, NetConfig, free_port, port_in_use
 from iw_zenoh.nodes.child import Child, stop_in_order
+from iw_zenoh.nodes.recorder import CANNOT_WRITE
 from iw_zenoh.nodes.restarts import MAX_RESTARTS, Restarts
 from iw_zenoh.nodes.run_args import build_parser, default_recording, scenario_from_args
 from iw_zenoh.nodes.run_plan import RunPlan
@@ -91,6 +92,7 @@ class Launcher:
         self.tally = Tally()
         self.restarts = Restarts()
         self.failed: Child | None = None  # the child that could not start, which ended the run
+        self.record_cut: float | None = None  # when (sim s) the recorder could no longer write its file
         self.bus: ZenohBus | None = None  # the launcher's own session, from the router's start
         self._inboxes: tuple[Inbox, Inbox, Inbox] | None = None
         self.stop_event = threading.Event()
@@ -295,6 +297,8 @@ class Launcher:
                     self._restart(c)
                 continue
             c.expected_exit = True
+            if c.role == "record" and code == CANNOT_WRITE:
+                self.record_cut = self.tally.sim_s  # the run goes on, unrecorded: the summary fails it
             if code or c.role not in ("agent",):
                 self._say(f"{c.name} exited with {code}:\n{c.tail()}")
             if c.role in ("router", "world"):
@@ -344,6 +348,19 @@ class Launcher:
         return self.tally.verdict(self.sc.criteria)
 
 
+def _stop_on_signals(stop: threading.Event) -> None:
+    """SIGTERM and SIGHUP set ``stop``: the same ordered stop as Ctrl-C, not a launcher killed."""
+    ttys = [fd for fd in (1, 2) if os.isatty(fd)]  # asked now: a terminal hung up is no longer one
+
+    def on_term(signum: int, _frame: object) -> None:
+        if signum == signal.SIGHUP:  # its terminal closed, perhaps: what it writes there goes nowhere
+            _to_devnull(ttys)
+        stop.set()
+
+    signal.signal(signal.SIGTERM, on_term)
+    signal.signal(signal.SIGHUP, on_term)
+
+
 def _to_devnull(fds: list[int]) -> None:
     """Points ``fds`` at /dev/null: on a terminal that was closed every write fails (EIO), and the
     status line or the summary would end an ordered stop with a traceback and exit 1."""
@@ -381,15 +398,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         flush=True,
     )
 
-    ttys = [fd for fd in (1, 2) if os.isatty(fd)]  # asked now: a terminal hung up is no longer one
-
-    def on_term(signum: int, _frame: object) -> None:
-        if signum == signal.SIGHUP:  # its terminal closed, perhaps: what it writes there goes nowhere
-            _to_devnull(ttys)
-        launcher.stop_event.set()
-
-    signal.signal(signal.SIGTERM, on_term)
-    signal.signal(signal.SIGHUP, on_term)  # the same ordered stop, not a launcher killed
+    _stop_on_signals(launcher.stop_event)
     code = 0
     try:
         launcher.start()
@@ -407,7 +416,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if launcher.failed is not None:
         return 3  # no verdict: the run never ran
     ok = print_summary(
-        launcher.tally, launcher.sc.criteria, recovered=launcher.restarts.recovered, record=launcher.record
+        launcher.tally,
+        launcher.sc.criteria,
+        recovered=launcher.restarts.recovered,
+        record=launcher.record,
+        record_cut=launcher.record_cut,
     )
     if code:
         return code

@@ -5,7 +5,10 @@ closes a chunk at least four times a second; on Ctrl-C or SIGTERM writes what is
 indexes and the counts, and exits 0. With ``--continue`` (the launcher passes it, with its run's
 id), a recorder restarted after a crash writes the next part of the same recording
 (``run.part2.mcap``...: :mod:`iw_zenoh.record.parts`) instead of overwriting it; it listens
-before it opens its file, so what arrives while it starts is kept.
+before it opens its file, so what arrives while it starts is kept. A file it cannot write (the
+disk full, the device gone) ends it with one line that says why and what of the file is kept,
+and exit :data:`CANNOT_WRITE` (4), which ``iwz run`` does not restart: a new part on the same
+full disk would be empty.
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ from iw_zenoh.runtime import NodeIO, Process, start_role
 if TYPE_CHECKING:
     from iw_zenoh.record.recording import Recorder
 
-__all__ = ["default_path", "main", "record"]
+__all__ = ["CANNOT_WRITE", "CannotWrite", "default_path", "main", "record"]
 
 logger = logging.getLogger(__name__)
 
@@ -36,6 +39,11 @@ FLUSH_S = 0.25  # a kill -9 loses at most this much (with a restart, the budget 
 POLL_S = 0.005  # an empty queue is looked at again this soon
 QUIET_S = 0.5  # on stop, keep writing until the bus has been quiet this long...
 DRAIN_MAX_S = 30.0  # ...but no longer than this
+CANNOT_WRITE = 4  # the exit code of a recorder that cannot write its file
+
+
+class CannotWrite(Exception):
+    """The recording's file cannot be written (its message says which, why and what is kept)."""
 
 
 def default_path(sim: str) -> Path:
@@ -89,12 +97,28 @@ def record(
         meta["iw.user"] = user  # a continuation carries the recording's scenario, seed and map
     which = f" (part {part['part']}, after {part['previous']})" if part["previous"] else ""
     print(f"iwz record: recording iw/{sim}/** to {path}{which}", flush=True)
-    with path.open("wb") as f:
-        rec = Recorder(f, meta)
-        io.alive()
-        _write(rec, inbox, f, io, status)
-        rec.finish({"iw.received": {k: str(v) for k, v in sorted(rec.counts.items())}})
+    rec: Recorder | None = None
+    try:
+        with path.open("wb") as f:
+            rec = Recorder(f, meta)
+            io.alive()
+            _write(rec, inbox, f, io, status)
+            rec.finish({"iw.received": {k: str(v) for k, v in sorted(rec.counts.items())}})
+    except OSError as e:
+        raise CannotWrite(_cannot_write(path, e, rec)) from None
     return path, rec
+
+
+def _cannot_write(path: Path, e: OSError, rec: Recorder | None) -> str:
+    """What to say when ``path`` cannot be written: why, and what of it is kept."""
+    why = e.strerror or str(e)
+    if rec is None or not rec.counts:
+        return f"cannot write {path}: {why}; nothing was recorded. Free space there, or record elsewhere (-o)"
+    return (
+        f"cannot write {path}: {why}, after {sum(rec.counts.values())} messages "
+        f"({rec.bytes / 1e6:.1f} MB); the recording stops there. The file is cut off: `iwz recover {path}` "
+        "makes what was written readable, once there is space for its copy"
+    )
 
 
 def _write(rec: Recorder, inbox: Queue, f: IO[bytes], io: NodeIO, status: bool) -> None:
@@ -151,14 +175,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
 
 
-def _run(proc: Process, opts: RecorderOptions) -> None:
-    path, rec = record(
-        proc.bus,
-        proc.sim,
-        Path(opts.output) if opts.output else default_path(proc.sim),
-        io=proc.io,
-        metadata={"iw.user": dict(opts.meta), "iw.versions.recorder": {"iw-zenoh": __version__}},
-        status=not opts.quiet,
-        continue_run=opts.continue_run,
-    )
+def _run(proc: Process, opts: RecorderOptions) -> int:
+    try:
+        path, rec = record(
+            proc.bus,
+            proc.sim,
+            Path(opts.output) if opts.output else default_path(proc.sim),
+            io=proc.io,
+            metadata={"iw.user": dict(opts.meta), "iw.versions.recorder": {"iw-zenoh": __version__}},
+            status=not opts.quiet,
+            continue_run=opts.continue_run,
+        )
+    except CannotWrite as e:
+        print(f"iwz record: {e}", flush=True)
+        return CANNOT_WRITE
     print(f"iwz record: {sum(rec.counts.values())} messages on {len(rec.counts)} keys written to {path}", flush=True)
+    return 0

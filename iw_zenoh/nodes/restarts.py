@@ -7,6 +7,7 @@ import threading
 from dataclasses import dataclass, field
 
 from iw_zenoh.nodes.child import Child
+from iw_zenoh.nodes.recorder import CANNOT_WRITE
 
 __all__ = ["BACKOFF_S", "MAX_RESTARTS", "Restarts"]
 
@@ -34,8 +35,10 @@ class Restarts:
         """Whether a child that exited with ``code`` is started again: every role, unless it ended
         by itself (exit 0) where that is how it finishes (the world at its duration, an agent
         done); a router, a collision process or a recorder never finishes by itself (a restarted
-        recorder writes the next part of the same recording: ``iwz record --continue``)."""
-        return not (code == 0 and c.role in ("world", "agent"))
+        recorder writes the next part of the same recording: ``iwz record --continue``), but a
+        recorder that could not write its file (the disk full) is not: its next part would be
+        as empty."""
+        return not (code == 0 and c.role in ("world", "agent") or code == CANNOT_WRITE and c.role == "record")
 
     @staticmethod
     def could_not_start(c: Child, code: int) -> bool:

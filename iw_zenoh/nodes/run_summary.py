@@ -12,7 +12,14 @@ from iw_zenoh.record.parts import recording_parts
 __all__ = ["print_summary"]
 
 
-def print_summary(tally: Tally, criteria: Criteria, *, recovered: dict[str, list[float]], record: Path | None) -> bool:
+def print_summary(
+    tally: Tally,
+    criteria: Criteria,
+    *,
+    recovered: dict[str, list[float]],
+    record: Path | None,
+    record_cut: float | None = None,
+) -> bool:
     """Prints how the run ended and each criterion.
 
     Args:
@@ -20,9 +27,11 @@ def print_summary(tally: Tally, criteria: Criteria, *, recovered: dict[str, list
         criteria: The scenario's criteria.
         recovered: Each restarted role's times to be back, seconds (``Restarts.recovered``).
         record: The run's recording (None: not recorded).
+        record_cut: When (simulated s) the recorder could no longer write it (None: it could):
+            a run asked to be recorded and recorded only in part fails.
 
     Returns:
-        Whether every criterion is met.
+        Whether every criterion is met, and the recording whole.
     """
     ok, lines = tally.verdict(criteria)
     t = tally
@@ -32,10 +41,16 @@ def print_summary(tally: Tally, criteria: Criteria, *, recovered: dict[str, list
     )
     for line in lines:
         print(f"  {line}")
+    if record is not None and record_cut is not None:
+        ok = False
+        print(f"  FAIL recording cut off at t={record_cut:.1f} s: the recorder could not write it (why: above)")
     for name, took in recovered.items():
         print(f"iwz run: {name} restarted {len(took)} time(s), back after " + ", ".join(f"{s:.2f} s" for s in took))
     if record is not None and record.exists():
         parts = recording_parts(record)
         more = f" in {len(parts)} parts ({', '.join(p.name for p in parts)})" if len(parts) > 1 else ""
-        print(f"iwz run: recorded to {record}{more} (see iwz replay, iwz incidents, iwz doctor)")
+        if record_cut is None:
+            print(f"iwz run: recorded to {record}{more} (see iwz replay, iwz incidents, iwz doctor)")
+        else:
+            print(f"iwz run: recorded to {record}{more} until t={record_cut:.1f} s, cut off (iwz recover mends it)")
     return ok
