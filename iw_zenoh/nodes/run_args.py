@@ -36,11 +36,12 @@ def build_parser() -> argparse.ArgumentParser:
             "  iwz run lab.toml --listen tls/10.0.0.1:7447 --ids ids          (host with the router)\n"
             "  iwz run lab.toml --host laptop2 --connect tls/10.0.0.1:7447 --ids ids   (another host)\n"
             "\n"
-            "Exit codes: 0 every criterion holds, 1 one fails, 2 scenario or arguments refused,\n"
-            "3 a role could not start, 130 Ctrl-C. SIGTERM and SIGHUP (its terminal closed) stop the\n"
-            "run as Ctrl-C does, with the verdict so far (0 or 1). Killed, it leaves nothing running:\n"
-            "each process it started begins to stop by itself within half a second, and is killed if it\n"
-            "still runs a minute later (docs/runtime.md, Faults)."
+            "Exit codes: 0 every criterion holds, 1 one fails (or the recording was cut off: its\n"
+            "disk full), 2 scenario or arguments refused, 3 a role could not start, 130 Ctrl-C.\n"
+            "SIGTERM and SIGHUP (its terminal closed) stop the run as Ctrl-C does, with the verdict\n"
+            "so far (0 or 1). Killed, it leaves nothing running: each process it started begins to\n"
+            "stop by itself within half a second, and is killed if it still runs a minute later\n"
+            "(docs/runtime.md, Faults)."
         ),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
