@@ -13,6 +13,7 @@ Whatever makes the file unreadable (not MCAP, cut off, a corrupt chunk) raises
 
 from __future__ import annotations
 
+import errno
 import logging
 import sys
 from collections.abc import Callable, Collection, Iterator, Sequence
@@ -153,17 +154,24 @@ def _key_expr(text: str, *, pattern: bool = False) -> zenoh.KeyExpr:
         raise IwError(f"{text!r} is not a Zenoh {what}: {str(e).split(' at ')[0]}") from e
 
 
-def file_error(source: str | Path, e: Exception) -> str:
+WRITE_ERRNOS = frozenset((errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS))  # only a write fails so
+
+
+def file_error(source: str | Path, e: Exception, output: str | Path | None = None) -> str:
     """An error about a file as ``FILE: reason`` (whatever raised it, named once, never an errno).
 
     Args:
         source: The file the command was working on.
         e: What went wrong (an ``OSError`` names its own file when it has one).
+        output: The file the command writes, if any: named for an error only a write can have
+            (the disk full), which Python raises without a file name.
     """
     if isinstance(e, RecordingError):
         return str(e)
     if isinstance(e, OSError) and e.filename is not None:
         return f"{e.filename}: {reason(e)}"
+    if isinstance(e, OSError) and output is not None and e.errno in WRITE_ERRNOS:
+        return f"{output}: {reason(e)}"
     return f"{source}: {reason(e) if isinstance(e, OSError) else e}"
 
 

@@ -2,7 +2,9 @@
 to mend it, and exits 4 (no traceback); ``iwz recover`` gets back what was written; ``iwz run``
 does not restart it onto the same full disk (before: three empty parts, and a run that passed
 with a summary naming four parts), goes on, and fails its verdict with the time the recording
-stopped. The disk is a real one: a tmpfs of a few hundred kilobytes, mounted for the test."""
+stopped. ``iwz recover``, ``render`` and ``report`` writing to a full disk name the file they
+write (before, the recording they read) and leave no piece of it. The disk is a real one: a
+tmpfs of a few hundred kilobytes, mounted for the test."""
 
 from __future__ import annotations
 
@@ -17,9 +19,11 @@ import pytest
 
 from iw_zenoh import keys
 from iw_zenoh.record.reader import RecordingReader
-from tests.integration.harness import Net, iwz_run_argv, stop_run, wait_alive
+from tests.integration.harness import ROOT, Net, iwz_run_argv, stop_run, wait_alive
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
+
+SAMPLE = ROOT / "recordings" / "demo-sample.mcap"
 
 SCENARIO = """
 name = "full"
@@ -100,3 +104,28 @@ def test_a_run_whose_recording_fills_its_disk_goes_on_unrecorded_and_fails_its_v
     assert "  FAIL recording cut off at t=" in out
     assert "iwz run: ended at t=60.0 s" in out  # the run itself went on to its end
     assert f"iwz run: recorded to {record} until t=" in out
+
+
+@pytest.mark.parametrize(
+    ("command", "output", "said"),
+    [
+        (["recover", str(SAMPLE), "-o", "{out}"], "copy.mcap", "iwz recover: {out}: No space left on device"),
+        (
+            ["render", str(SAMPLE), "--at", "10", "-o", "{out}"],
+            "at10.png",
+            "iwz render: {out}: No space left on device",
+        ),
+        (["report", str(SAMPLE), "--html", "{out}"], "page.html", "iwz report: --html {out}: cannot write it"),
+    ],
+)
+def test_a_tool_writing_to_a_full_disk_names_its_output_and_leaves_no_piece_of_it(
+    small_disk: Path, command: list[str], output: str, said: str
+) -> None:
+    (small_disk / "filler").write_bytes(os.urandom(296 * 1024))  # 4 KB left: less than any of them writes
+    out = small_disk / output
+    argv = [a.format(out=out) for a in command]
+    done = subprocess.run([sys.executable, "-m", "iw_zenoh.cli", *argv], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2, done.stdout + done.stderr
+    assert said.format(out=out) in done.stdout + done.stderr  # the file it writes, not the one it reads
+    assert "Traceback" not in done.stdout + done.stderr
+    assert not out.exists()  # a file cut off is of no use, and holds the space it took
