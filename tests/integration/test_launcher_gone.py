@@ -20,7 +20,7 @@ import pytest
 from iw_zenoh import keys
 from iw_zenoh.bus import ZenohBus
 from iw_zenoh.config import load_scenario
-from iw_zenoh.messages import WorldState
+from iw_zenoh.messages import ChairReading, WorldState
 from iw_zenoh.net import NetConfig, free_port, port_in_use
 from iw_zenoh.nodes.launcher import Launcher
 from iw_zenoh.record.reader import RecordingReader
@@ -90,8 +90,10 @@ def _start(
     tmp: Path, scenario: str = SCENARIO, record: bool = True
 ) -> tuple[subprocess.Popen[str], int, list[int], Path]:
     """``iwz run`` of a long real-time run, once its world steps with robot 1 registered (every
-    process started: the agents, or the serial bridge, start last): the launcher, its router's
-    port, the processes it started, the recording."""
+    process started: the agents, or the serial bridge, start last) and, a run with a ``[chair]``,
+    once the bridge hears the chair (the emulator's pty made and linked: the bridge registers
+    robot 1 before, its device looked for until it is there): the launcher, its router's port,
+    the processes it started, the recording."""
     (tmp / "lab.xml").write_text(LAB)
     (tmp / "grid.xml").write_text(GRID)
     (tmp / "gone.toml").write_text(scenario)
@@ -103,7 +105,10 @@ def _start(
         bus = ZenohBus(NetConfig(connect=(f"tcp/127.0.0.1:{port}",)))
         try:
             states = subscribe(bus, keys.state("gone"))
+            chair = subscribe(bus, keys.chair("gone", 1))
             wait_msg(states, WorldState, lambda m: m.tick >= 10 and 1 in m.ids, timeout_s=90)
+            if "[chair]" in scenario:
+                wait_msg(chair, ChairReading, lambda m: m.link == "up", timeout_s=60)
         finally:
             bus.close()
         children = _children(p.pid)
@@ -137,6 +142,22 @@ def _recorded_ticks(record: Path) -> list[int]:
         return ticks
 
 
+def _report(pids: list[int], logs: Path) -> str:
+    """What a failure needs to explain itself: each of ``pids`` still there (its state and
+    command line) and the tail of each log of the run."""
+    lines = []
+    for pid in pids:
+        try:
+            state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+            argv = Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+        except OSError:
+            state, argv = "gone", ""
+        lines.append(f"pid {pid} ({state}): {argv[:300]}")
+    for log in sorted(logs.glob("*.log")):
+        lines += [f"== {log.name}", *log.read_text(errors="replace").splitlines()[-15:]]
+    return "\n".join(lines)
+
+
 def _kill(pids: list[int]) -> None:
     for pid in pids:
         if _running(pid):
@@ -151,7 +172,7 @@ def test_a_killed_launcher_leaves_nothing_running_and_its_recording_finished(tmp
         p.kill()
         p.wait(10)
         left = _wait_gone(children, timeout_s=60)
-        assert not left, f"still running 60 s after their iwz run was killed: {left}"
+        assert not left, f"still running 60 s after their iwz run was killed:\n{_report(left, tmp_path / 'logs')}"
     finally:
         _kill(children)
         if p.stdout:
@@ -249,21 +270,23 @@ def test_a_recorder_started_by_hand_whose_terminal_closed_finishes_its_file(net:
 
 def test_a_killed_launcher_leaves_no_chair_emulator_running(tmp_path: Path) -> None:
     p, port, children, _ = _start(tmp_path, CHAIR_SCENARIO, record=False)
-    link = tmp_path / "logs" / "chair-pty"
+    logs = tmp_path / "logs"
+    link = logs / "chair-pty"
     try:
         emulators = [c for c in children if b"emulate" in Path(f"/proc/{c}/cmdline").read_bytes()]
-        assert len(emulators) == 1, children
-        assert link.is_symlink()
+        assert len(emulators) == 1, _report(children, logs)
+        assert link.is_symlink(), _report(emulators, logs)  # the bridge heard the chair through it
         p.kill()
         p.wait(10)
         left = _wait_gone(children, timeout_s=60)
-        assert not left, f"still running 60 s after their iwz run was killed: {left}"
+        assert not left, f"still running 60 s after their iwz run was killed:\n{_report(left, logs)}"
     finally:
         _kill(children)
         if p.stdout:
             p.stdout.close()
-    assert not port_in_use(port)
-    assert not link.is_symlink()  # the emulator stopped as on SIGTERM: its pty closed, its link taken away
+    assert not port_in_use(port), f"port {port} still taken:\n{_report(children, logs)}"
+    # the emulator stopped as on SIGTERM: its pty closed, its link taken away
+    assert not link.is_symlink(), _report(emulators, logs)
 
 
 def test_a_launcher_hung_up_while_it_starts_the_run_stops_it_with_no_error(tmp_path: Path) -> None:
