@@ -183,7 +183,7 @@ def test_a_killed_launcher_leaves_nothing_running_and_its_recording_finished(tmp
     assert f"the iwz run that started this process (pid {p.pid}) is gone: stopping" in logs
 
 
-def test_a_launcher_whose_terminal_closed_stops_the_run_in_order(tmp_path: Path) -> None:
+def test_a_launcher_hung_up_stops_the_run_and_prints_its_summary(tmp_path: Path) -> None:
     p, port, children, record = _start(tmp_path)
     try:
         p.send_signal(signal.SIGHUP)
