@@ -1,21 +1,24 @@
 """``iwz record [-o FILE]``: every key of a simulation, every message, to MCAP.
 
 Receives into an unbounded queue (Zenoh's callback only appends) and writes from its own loop;
-closes a chunk at least four times a second; on Ctrl-C or SIGTERM writes what is queued, the
-indexes and the counts, and exits 0. With ``--continue`` (the launcher passes it, with its run's
-id), a recorder restarted after a crash writes the next part of the same recording
-(``run.part2.mcap``...: :mod:`iw_zenoh.record.parts`) instead of overwriting it; it listens
-before it opens its file, so what arrives while it starts is kept. A file it cannot write (the
-disk full, the device gone) ends it with one line that says why and what of the file is kept,
-and exit :data:`CANNOT_WRITE` (4), which ``iwz run`` does not restart: a new part on the same
-full disk would be empty.
+closes a chunk at least four times a second; on Ctrl-C or SIGTERM writes what is queued and what
+is still in flight (until the bus is quiet, at most 30 s), the indexes and the counts, and exits 0;
+a second Ctrl-C (SIGINT, SIGTERM or SIGHUP) finishes the file at once, with what has arrived.
+With ``--continue`` (the launcher passes it, with its run's id), a recorder restarted after a
+crash writes the next part of the same recording (``run.part2.mcap``...:
+:mod:`iw_zenoh.record.parts`) instead of overwriting it; it listens before it opens its file, so
+what arrives while it starts is kept. A file it cannot write (the disk full, the device gone) ends
+it with one line that says why and what of the file is kept, and exit :data:`CANNOT_WRITE` (4),
+which ``iwz run`` does not restart: a new part on the same full disk would be empty.
 """
 
 from __future__ import annotations
 
 import logging
 import platform
+import signal
 import sys
+import threading
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -127,9 +130,11 @@ def _write(rec: Recorder, inbox: Queue, f: IO[bytes], io: NodeIO, status: bool) 
     last_status = last_flush
     stop_at: float | None = None
     last_msg = time.monotonic()
+    at_once = threading.Event()
     while True:
         if io.stop.is_set() and stop_at is None:
             stop_at = time.monotonic()
+            _finish_at_next_signal(at_once)
         got = inbox.drain()
         for key, data, t in got:
             rec.add(key, data, t)
@@ -147,10 +152,29 @@ def _write(rec: Recorder, inbox: Queue, f: IO[bytes], io: NodeIO, status: bool) 
                 flush=True,
             )
         # after a stop, what is still in flight towards us is part of the run: write it too
-        if stop_at is not None and (now - last_msg >= QUIET_S or now - stop_at >= DRAIN_MAX_S):
+        if stop_at is not None and (now - last_msg >= QUIET_S or now - stop_at >= DRAIN_MAX_S or at_once.is_set()):
             break
         if not got:
             io.stop.wait(POLL_S)
+
+
+def _finish_at_next_signal(at_once: threading.Event) -> None:
+    """Once stopping: a second SIGINT, SIGTERM or SIGHUP sets ``at_once`` (the file is finished
+    with what has arrived). Beside a simulation that goes on, the bus is never quiet, so the
+    drain after a stop lasts its whole :data:`DRAIN_MAX_S`: says so, and how to cut it short."""
+    if threading.current_thread() is not threading.main_thread():
+        return  # only the main thread may set handlers (record() called from a test's thread)
+
+    def handler(_signum: int, _frame: object) -> None:
+        at_once.set()
+
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, handler)
+    print(
+        f"iwz record: stopping: writing what is still in flight (until the bus is quiet "
+        f"{QUIET_S:g} s, at most {DRAIN_MAX_S:g} s); Ctrl-C again to finish the file now",
+        flush=True,
+    )
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -164,7 +188,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             "JSON Schemas, zstd chunks."
         ),
         epilog=(
-            "Examples (Ctrl-C finishes the file):\n"
+            "Ctrl-C finishes the file; beside a run that goes on, it first writes what is in flight, "
+            "up to 30 s: Ctrl-C again to finish it at once.\n\n"
+            "Examples:\n"
             "  iwz record -o recordings/today.mcap --meta scenario=demo\n"
             '  iwz record --options \'{"output": "run.mcap", "meta": {"scenario": "demo"}, "continue_run": "RUN"}\''
             "    (as iwz run starts it)"

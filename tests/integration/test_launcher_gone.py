@@ -12,7 +12,9 @@ import os
 import pty
 import signal
 import subprocess
+import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -338,3 +340,45 @@ def test_a_stop_that_comes_while_the_recorder_starts_is_a_stop_not_a_failure(tmp
             launcher.bus.close()
         launcher.shutdown()
     assert started == ["record", "router"]  # and nothing more once stopped
+
+
+def _wait_said(proc_output: Callable[[], str], words: str, timeout_s: float) -> None:
+    """Waits until a process's output holds ``words``."""
+    deadline = time.monotonic() + timeout_s
+    while words not in proc_output():
+        assert time.monotonic() < deadline, f"never said {words!r}:\n{proc_output()}"
+        time.sleep(0.05)  # polling its log file: a write gives no event
+
+
+def test_a_recorder_stopped_beside_a_live_run_finishes_at_a_second_ctrl_c(net: Net) -> None:
+    """Beside a simulation that goes on, the bus is never quiet, so a stopped recorder drains
+    for its whole 30 s: it says so, and a second Ctrl-C finishes the file at once (before, it
+    went on recording for 30 s whatever one pressed, and a user's kill -9 cut the file off)."""
+    out = net.tmp / "live.mcap"
+    rec = net.spawn("record", "-o", str(out), "--quiet")
+    bus = net.client()
+    wait_alive(bus, keys.alive(net.sim, "recorder", "recorder"))
+    done = threading.Event()
+
+    def live() -> None:  # a run that goes on: a message every 10 ms
+        tick = 0
+        while not done.wait(0.01):
+            tick += 1
+            bus.publish(keys.actions(net.sim, 1), b'{"tick":%d,"robot_id":1}' % tick)
+
+    publisher = threading.Thread(target=live, daemon=True)
+    publisher.start()
+    try:
+        rec.popen.send_signal(signal.SIGINT)
+        _wait_said(rec.output, "Ctrl-C again to finish the file now", 20)
+        t0 = time.monotonic()
+        rec.popen.send_signal(signal.SIGINT)
+        assert rec.popen.wait(15) == 0, rec.output()
+        assert time.monotonic() - t0 < 10, rec.output()
+    finally:
+        done.set()
+        publisher.join(5)
+    h = check(out)
+    assert h.whole, h.reason
+    with out.open("rb") as f:
+        assert sum(1 for _ in RecordingReader(f).raw(topics=lambda t: t == keys.actions(net.sim, 1))) > 0
