@@ -73,6 +73,8 @@ class Health:
                 out.append(
                     f"  messages per key {'match' if self.counts_match else 'DO NOT match'} the recorder's own counts"
                 )
+        elif not Path(self.path).is_file():  # nothing there: iwz recover would only refuse it too
+            out.append("  check the path: there is no file there to recover")
         elif "not an MCAP file" not in self.reason:
             out.append(f"  try: iwz recover {self.path}")
         return out

@@ -182,6 +182,19 @@ def test_replay_and_doctor_refuse_broken_files_clearly(tmp_path: Path, content: 
         n.close()
 
 
+def test_doctor_of_a_missing_file_does_not_send_one_to_iwz_recover(tmp_path: Path) -> None:
+    """``iwz doctor run.part2.mcap`` of a part that is not there said ``try: iwz recover``, which
+    then refused the missing file in turn: it says to check the path instead."""
+    gone = tmp_path / "run.part2.mcap"
+    r = subprocess.run(
+        [sys.executable, "-m", "iw_zenoh.cli", "doctor", str(gone)], capture_output=True, text=True, timeout=60
+    )
+    assert r.returncode == 1
+    assert f"{gone}: NOT whole: unreadable: No such file" in r.stdout
+    assert "iwz recover" not in r.stdout, r.stdout
+    assert "check the path" in r.stdout
+
+
 def test_replay_window_key_filter_flat_out_and_loop(net: Net) -> None:
     path = net.tmp / "syn.mcap"
     _synthetic(path, 50)
