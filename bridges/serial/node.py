@@ -97,6 +97,7 @@ class SerialBridge:
         self.decoder = FrameDecoder()
         self.seq = 0
         self._was_up = False
+        self._told_no_device = False  # said once that the device cannot be opened (until it is)
         self._down_sent = -1e9
         self._last_sent: Message | None = None
         self.actions: Inbox | None = None  # once registered
@@ -131,9 +132,16 @@ class SerialBridge:
         try:
             self.line = SerialLine(self.port, self.baud)
         except LinkLost as e:
-            logger.debug("no device: %s", e)
+            if not self._told_no_device:  # a wrong --port or a chair not plugged in: say so, once
+                self._told_no_device = True
+                logger.warning(
+                    "%s; trying again every %g s: is the chair plugged in, and is --port its device?", e, RETRY_S
+                )
+            else:
+                logger.debug("no device: %s", e)
             self.host.io.stop.wait(RETRY_S)
             return
+        self._told_no_device = False
         self.decoder = FrameDecoder()
         with self.lock:
             self.core.on_line(True)

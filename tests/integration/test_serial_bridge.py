@@ -160,3 +160,20 @@ def test_an_operator_estop_latches_until_cleared(net: Net) -> None:
     wait_msg(chair, ChairReading, lambda r: not r.estop, 5)
     drive(bus, net.sim, 0.1, 0.5)
     assert (1000, 1000) in [(lw, rw) for _, lw, rw in wheel_changes(wheels)]
+
+
+def test_a_bridge_whose_device_is_not_there_says_so(net: Net) -> None:
+    """A wrong --port (or a chair not plugged in) was said only at debug level: the bridge
+    registered its robot and printed nothing else, holding it still for ever. It says once,
+    with the device's error, that it keeps trying and what to check."""
+    net.spawn("world", str(MAPS / "liacc.xml"), "--grid", str(MAPS / "liacc-grid.xml"))
+    gone = str(net.tmp / "no-such-tty")
+    bridge = net.spawn("bridge", "serial", "--port", gone, "--robot", "chair", "--id", "1", "--start", "10,6.1,0")
+    deadline = time.monotonic() + 30
+    while "is --port its device?" not in bridge.output() or "is robot 1" not in bridge.output():
+        assert bridge.popen.poll() is None, bridge.output()
+        assert time.monotonic() < deadline, f"nothing said of the missing device:\n{bridge.output()}"
+        time.sleep(0.05)  # polling a log file: there is no event to wait on
+    said = bridge.output()
+    assert gone in said
+    assert said.count("is --port its device?") == 1  # once, not at every retry while it registered
