@@ -194,7 +194,8 @@ def recover(
                 out.per_topic[t] = out.per_topic.get(t, 0) + 1
             elif isinstance(rec, Metadata):
                 w.add_metadata(rec.name, rec.metadata)
-            elif isinstance(rec, DataEnd | Footer):
+            elif isinstance(rec, DataEnd | Footer):  # the data section read to its end: nothing lost
+                out.good_bytes = total_bytes or out.good_bytes  # (its summary is written anew)
                 break
             out.good_bytes = src.tell() if src.seekable() else out.good_bytes
             if progress is not None and total_bytes and out.messages % 1000 == 0:

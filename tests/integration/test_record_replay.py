@@ -195,6 +195,20 @@ def test_doctor_of_a_missing_file_does_not_send_one_to_iwz_recover(tmp_path: Pat
     assert "check the path" in r.stdout
 
 
+def test_recover_of_a_whole_file_says_nothing_was_lost(tmp_path: Path) -> None:
+    """``iwz recover`` of a whole recording said the bytes of its summary section (rebuilt in
+    the copy) "after the last complete record were lost", beside "the file was complete"."""
+    whole = tmp_path / "whole.mcap"
+    whole.write_bytes((ROOT / "recordings" / "demo-sample.mcap").read_bytes())
+    r = subprocess.run(
+        [sys.executable, "-m", "iw_zenoh.cli", "recover", str(whole)], capture_output=True, text=True, timeout=120
+    )
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "; 0 bytes after the last complete record were lost" in r.stdout, r.stdout
+    assert "reading stopped: the file was complete" in r.stdout
+    assert check(tmp_path / "whole.recovered.mcap").whole
+
+
 def test_replay_window_key_filter_flat_out_and_loop(net: Net) -> None:
     path = net.tmp / "syn.mcap"
     _synthetic(path, 50)
