@@ -160,7 +160,7 @@ def open_parts(path: Path, files: ExitStack, *, validate_crcs: bool = False) -> 
     Raises:
         RecordingError: When a file cannot be opened or is not MCAP (or, alone, is cut off).
     """
-    paths = recording_parts(path)
+    paths = recording_parts(path) if path.exists() else [path]  # a part not there is no other part's name
     parts = []
     notes = []
     for p in paths:

@@ -209,6 +209,19 @@ def test_recover_of_a_whole_file_says_nothing_was_lost(tmp_path: Path) -> None:
     assert check(tmp_path / "whole.recovered.mcap").whole
 
 
+@pytest.mark.parametrize("tool", ["incidents", "report"])
+def test_a_part_that_is_not_there_is_refused_not_read_as_the_first(tmp_path: Path, tool: str) -> None:
+    """``iwz incidents run.part2.mcap`` with no second part read ``run.mcap`` instead, as if it
+    had been named (``iwz doctor`` said the part is missing): it is refused as any missing file."""
+    (tmp_path / "run.mcap").write_bytes((ROOT / "recordings" / "demo-sample.mcap").read_bytes())
+    gone = tmp_path / "run.part2.mcap"
+    r = subprocess.run(
+        [sys.executable, "-m", "iw_zenoh.cli", tool, str(gone)], capture_output=True, text=True, timeout=120
+    )
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert f"{gone}: No such file or directory" in r.stdout + r.stderr
+
+
 def test_replay_window_key_filter_flat_out_and_loop(net: Net) -> None:
     path = net.tmp / "syn.mcap"
     _synthetic(path, 50)
