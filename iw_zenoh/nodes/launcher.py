@@ -45,6 +45,9 @@ __all__ = ["Child", "Launcher", "main", "world_options"]
 logger = logging.getLogger(__name__)
 
 
+STATES_KEPT = 1024  # states waiting for the launcher's look, 0.1 s apart (a lock-step run at 100x makes 100)
+
+
 class Launcher:
     """Starts, watches and stops a scenario's processes.
 
@@ -173,7 +176,10 @@ class Launcher:
     def observe(self, bus: ZenohBus) -> tuple[Inbox, Inbox, Inbox]:
         """Subscribes to state, events and the world's description, and watches liveliness
         (agents alive; restarted roles back)."""
-        states = Inbox(maxlen=1, newest_only=True)
+        # every state, not the newest: a goal is reached, a door closes, at a tick, and a lock-step
+        # run makes many ticks between two looks (the verdict was that of whichever state was
+        # newest when it looked, so two runs of the same seed reported different times)
+        states = Inbox(maxlen=STATES_KEPT)
         events = Inbox()  # every event counts (a removal, a hold): INBOX_KEPT, losses logged
         infos = Inbox(maxlen=1, newest_only=True)
         bus.subscribe(keys.state(self.sim), states)
