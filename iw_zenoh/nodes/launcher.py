@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import logging
 import os
-import signal
 import subprocess
 import sys
 import tempfile
@@ -32,6 +31,7 @@ from iw_zenoh.nodes.recorder import CANNOT_WRITE
 from iw_zenoh.nodes.restarts import MAX_RESTARTS, Restarts
 from iw_zenoh.nodes.run_args import build_parser, default_recording, scenario_from_args
 from iw_zenoh.nodes.run_plan import RunPlan
+from iw_zenoh.nodes.run_signals import stop_on_signals
 from iw_zenoh.nodes.run_summary import print_summary
 from iw_zenoh.nodes.run_waits import wait_listening, wait_roles
 from iw_zenoh.nodes.secure_run import LAUNCHER
@@ -354,28 +354,6 @@ class Launcher:
         return self.tally.verdict(self.sc.criteria)
 
 
-def _stop_on_signals(stop: threading.Event) -> None:
-    """SIGTERM and SIGHUP set ``stop``: the same ordered stop as Ctrl-C, not a launcher killed."""
-    ttys = [fd for fd in (1, 2) if os.isatty(fd)]  # asked now: a terminal hung up is no longer one
-
-    def on_term(signum: int, _frame: object) -> None:
-        if signum == signal.SIGHUP:  # its terminal closed, perhaps: what it writes there goes nowhere
-            _to_devnull(ttys)
-        stop.set()
-
-    signal.signal(signal.SIGTERM, on_term)
-    signal.signal(signal.SIGHUP, on_term)
-
-
-def _to_devnull(fds: list[int]) -> None:
-    """Points ``fds`` at /dev/null: on a terminal that was closed every write fails (EIO), and the
-    status line or the summary would end an ordered stop with a traceback and exit 1."""
-    null = os.open(os.devnull, os.O_WRONLY)
-    for fd in fds:
-        os.dup2(null, fd)
-    os.close(null)
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Runs ``iwz run``."""
     args = build_parser().parse_args(argv)
@@ -404,7 +382,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         flush=True,
     )
 
-    _stop_on_signals(launcher.stop_event)
+    stop_on_signals(launcher.stop_event)
     code = 0
     try:
         launcher.start()
