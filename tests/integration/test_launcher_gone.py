@@ -358,17 +358,25 @@ def test_a_recorder_stopped_beside_a_live_run_finishes_at_a_second_ctrl_c(net: N
     rec = net.spawn("record", "-o", str(out), "--quiet")
     bus = net.client()
     wait_alive(bus, keys.alive(net.sim, "recorder", "recorder"))
-    done = threading.Event()
+    done, going = threading.Event(), threading.Event()
 
     def live() -> None:  # a run that goes on: a message every 10 ms
         tick = 0
         while not done.wait(0.01):
             tick += 1
             bus.publish(keys.actions(net.sim, 1), b'{"tick":%d,"robot_id":1}' % tick)
+            if tick == 20:
+                going.set()
 
     publisher = threading.Thread(target=live, daemon=True)
     publisher.start()
     try:
+        # the first 20 messages are in the recorder's queue before it is stopped: they went out
+        # before a mark whose round trip through the router comes back to us
+        assert going.wait(20)
+        marker = subscribe(bus, keys.event(net.sim, "mark"))
+        bus.publish(keys.event(net.sim, "mark"), b'{"kind":"mark"}')
+        assert marker.get(timeout_s=10) is not None
         rec.popen.send_signal(signal.SIGINT)
         _wait_said(rec.output, "Ctrl-C again to finish the file now", 20)
         t0 = time.monotonic()
@@ -381,4 +389,4 @@ def test_a_recorder_stopped_beside_a_live_run_finishes_at_a_second_ctrl_c(net: N
     h = check(out)
     assert h.whole, h.reason
     with out.open("rb") as f:
-        assert sum(1 for _ in RecordingReader(f).raw(topics=lambda t: t == keys.actions(net.sim, 1))) > 0
+        assert sum(1 for _ in RecordingReader(f).raw(topics=lambda t: t == keys.actions(net.sim, 1))) >= 20
