@@ -47,6 +47,7 @@ SUPERVISOR_POLL_S = 0.5  # how often a started process looks whether its ``iwz r
 # then stopped, how long it has before it kills itself, as iwz run would have killed it: longer
 # than iwz run gives a recorder to finish its file (nodes.child.RECORDER_STOP_S, 45 s)
 SUPERVISOR_GRACE_S = 60.0
+PID_MAX = 4_194_304  # the largest pid Linux gives (its pid_max at most)
 
 M = TypeVar("M", bound=Message)
 T = TypeVar("T")
@@ -188,9 +189,12 @@ def watch_supervisor(poll_s: float = SUPERVISOR_POLL_S, grace_s: float = SUPERVI
         pid that is alive but not this process's parent (started by hand, or through a wrapper).
     """
     raw = os.environ.pop(SUPERVISOR_ENV, "")
-    if not raw.isdigit():
+    if not raw:
         return None
-    pid = int(raw)
+    pid = int(raw) if raw.isascii() and raw.isdigit() and len(raw) <= len(str(PID_MAX)) else 0
+    if not 0 < pid <= PID_MAX:  # os.kill would overflow on a huge one
+        logger.warning("%s=%r is not a process id: not watching it", SUPERVISOR_ENV, raw[:40])
+        return None
     if os.getppid() != pid and _alive(pid):
         logger.info("%s=%d is not this process's parent: not watching it", SUPERVISOR_ENV, pid)
         return None

@@ -21,23 +21,30 @@ def test_nothing_is_watched_without_the_variable_or_for_a_live_process_not_the_p
 ) -> None:
     monkeypatch.delenv(SUPERVISOR_ENV, raising=False)
     assert watch_supervisor() is None
-    monkeypatch.setenv(SUPERVISOR_ENV, "not a pid")
-    assert watch_supervisor() is None
+    # not process ids: refused with a warning, never an exception (os.kill overflows on a huge one)
+    for hostile in ("not a pid", "99999999999999999999", "0", "-1", "\u0661\u0662", "12 ", "1e3", "x" * 10_000):
+        monkeypatch.setenv(SUPERVISOR_ENV, hostile)
+        assert watch_supervisor() is None, hostile
     monkeypatch.setenv(SUPERVISOR_ENV, str(os.getpid()))  # alive, and not this process's parent
     assert watch_supervisor() is None
     assert SUPERVISOR_ENV not in os.environ  # taken out: what this process starts does not inherit it
 
 
-def test_a_process_whose_supervisor_is_already_gone_stops_as_sigterm_would() -> None:
+def _with_its_supervisor_gone(code: str) -> subprocess.CompletedProcess[str]:
+    """Python ``code`` run in a process whose ``iwz run`` (a process that has exited) is gone."""
     gone = subprocess.Popen(["true"])
     gone.wait(10)
-    p = subprocess.run(
-        [sys.executable, "-c", WATCHING],
+    return subprocess.run(
+        [sys.executable, "-c", code],
         env=dict(os.environ, **{SUPERVISOR_ENV: str(gone.pid)}),
         capture_output=True,
         text=True,
         timeout=40,
     )
+
+
+def test_a_process_whose_supervisor_is_already_gone_stops_as_sigterm_would() -> None:
+    p = _with_its_supervisor_gone(WATCHING)
     assert p.returncode == -signal.SIGTERM, p.stderr
 
 
@@ -94,14 +101,6 @@ DEAF = (
 
 
 def test_a_process_that_does_not_stop_once_its_supervisor_is_gone_is_killed() -> None:
-    gone = subprocess.Popen(["true"])
-    gone.wait(10)
-    p = subprocess.run(
-        [sys.executable, "-c", DEAF],
-        env=dict(os.environ, **{SUPERVISOR_ENV: str(gone.pid)}),
-        capture_output=True,
-        text=True,
-        timeout=40,
-    )
+    p = _with_its_supervisor_gone(DEAF)
     assert p.returncode == -signal.SIGKILL, p.stderr
     assert "still running 0.5 s after: killing this process" in p.stderr
