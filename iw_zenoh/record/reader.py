@@ -157,6 +157,13 @@ def _key_expr(text: str, *, pattern: bool = False) -> zenoh.KeyExpr:
 WRITE_ERRNOS = frozenset((errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS))  # only a write fails so
 
 
+def discard_cut_off(output: str | Path, e: BaseException) -> None:
+    """Removes ``output`` when ``e`` is an error only a write has (the disk full): a copy, picture
+    or page cut off there is of no use, and holds the space it took."""
+    if isinstance(e, OSError) and e.errno in WRITE_ERRNOS:
+        Path(output).unlink(missing_ok=True)
+
+
 def file_error(source: str | Path, e: Exception, output: str | Path | None = None) -> str:
     """An error about a file as ``FILE: reason`` (whatever raised it, named once, never an errno).
 

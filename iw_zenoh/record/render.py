@@ -37,7 +37,7 @@ from iw_zenoh.messages import (
     WorldState,
     event_payload,
 )
-from iw_zenoh.record.reader import WRITE_ERRNOS, RecordingReader, file_error, open_recording, print_notes
+from iw_zenoh.record.reader import RecordingReader, discard_cut_off, file_error, open_recording, print_notes
 
 __all__ = ["main", "render"]
 
@@ -246,8 +246,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             tick = render(rec, Path(args.output), at_s=args.at, window_s=args.window, robot=args.robot)
             print_notes("iwz render", rec)
     except (OSError, IwError) as e:
-        if isinstance(e, OSError) and e.errno in WRITE_ERRNOS:  # a picture cut off is of no use
-            Path(args.output).unlink(missing_ok=True)
+        discard_cut_off(args.output, e)
         print(f"iwz render: {file_error(args.file, e, output=args.output)}")
         return 2
     print(f"iwz render: tick {tick} drawn to {args.output}")

@@ -19,7 +19,7 @@ from iw_zenoh.errors import IwError, RecordingError
 from iw_zenoh.messages import Event, WorldInfo, WorldState
 from iw_zenoh.record.incidents import clearance_arg
 from iw_zenoh.record.metrics import Goal, RunMeter, RunReport, parse_goals
-from iw_zenoh.record.reader import WRITE_ERRNOS, file_error, open_recording, print_notes
+from iw_zenoh.record.reader import discard_cut_off, file_error, open_recording, print_notes
 
 __all__ = ["GOALS_META", "ROWS", "main", "report_of", "table"]
 
@@ -163,8 +163,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             write_page(Path(args.html), reports)
         except OSError as e:
-            if e.errno in WRITE_ERRNOS:  # a page cut off is of no use, and holds the space it took
-                Path(args.html).unlink(missing_ok=True)
+            discard_cut_off(args.html, e)
             print(
                 f"iwz report: --html {args.html}: cannot write it ({e.strerror or e}); give a writable path",
                 file=sys.stderr,

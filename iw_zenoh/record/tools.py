@@ -23,7 +23,7 @@ from iw_zenoh.errors import RecordingError
 from iw_zenoh.record.integrity import scan, statistics_disagree, undecodable
 from iw_zenoh.record.parts import first_part, part_number, recording_parts, recovered_copy
 from iw_zenoh.record.progress import Progress
-from iw_zenoh.record.reader import WRITE_ERRNOS, RecordingReader, file_error
+from iw_zenoh.record.reader import RecordingReader, discard_cut_off, file_error
 from iw_zenoh.record.recording import PROFILE
 
 __all__ = ["Health", "check", "check_recording", "doctor_main", "recover", "recover_main"]
@@ -293,8 +293,7 @@ def recover_main(argv: Sequence[str] | None = None) -> int:
                 r = recover(fi, fo, size, progress=lambda f: said.update(f, f"{f * size / 1e6:.0f} MB"))
             said.done()
     except OSError as e:
-        if e.errno in WRITE_ERRNOS:  # a copy cut off is of no use, and holds the space it took
-            dst.unlink(missing_ok=True)
+        discard_cut_off(dst, e)
         print(f"iwz recover: {file_error(src, e, output=dst)}")
         return 2
     if r.messages == 0 and r.stopped_by:
