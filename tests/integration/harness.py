@@ -152,6 +152,16 @@ def start_world(net: Net, *roles: str, lab: str = OPEN_LAB) -> None:
         net.spawn(role, name=role)
 
 
+def scenario_in(tmp: Path, name: str, toml: str) -> Path:
+    """Writes scenario ``NAME.toml`` in ``tmp`` beside the lab it names, ``lab.xml`` (open, 20 x
+    10 m), and ``grid.xml`` (one start place, (3, 5) facing east); its path."""
+    (tmp / "lab.xml").write_text('<Lab Name="open" Width="20" Height="10"/>')
+    (tmp / "grid.xml").write_text('<Grid><Position X="3" Y="5" Dir="0"/></Grid>')
+    path = tmp / f"{name}.toml"
+    path.write_text(toml)
+    return path
+
+
 def stop_run(p: subprocess.Popen[str]) -> tuple[str, str]:
     """Stops an ``iwz run`` launcher as Ctrl-C does (it stops every process it started, in order;
     killed, its processes stop by themselves, all at once), killing it only if it is still up 30 s

@@ -27,12 +27,10 @@ from iw_zenoh.net import NetConfig, free_port, port_in_use
 from iw_zenoh.nodes.launcher import Launcher
 from iw_zenoh.record.reader import RecordingReader
 from iw_zenoh.record.tools import check
-from tests.integration.harness import Net, iwz_run_argv, stop_run, subscribe, wait_alive, wait_msg
+from tests.integration.harness import Net, iwz_run_argv, scenario_in, stop_run, subscribe, wait_alive, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
 
-LAB = '<Lab Name="open" Width="20" Height="10"/>'
-GRID = '<Grid><Position X="3" Y="5" Dir="0"/></Grid>'
 SCENARIO = """
 name = "gone"
 [world]
@@ -96,9 +94,7 @@ def _start(
     once the bridge hears the chair (the emulator's pty made and linked: the bridge registers
     robot 1 before, its device looked for until it is there): the launcher, its router's port,
     the processes it started, the recording."""
-    (tmp / "lab.xml").write_text(LAB)
-    (tmp / "grid.xml").write_text(GRID)
-    (tmp / "gone.toml").write_text(scenario)
+    scenario_in(tmp, "gone", scenario)
     out = tmp / "run.mcap"
     argv = iwz_run_argv(tmp / "gone.toml", tmp / "logs", "gone", record=out if record else None)
     port = int(argv[argv.index("--port") + 1])
@@ -205,9 +201,7 @@ def test_a_launcher_hung_up_stops_the_run_and_prints_its_summary(tmp_path: Path)
 def test_a_launcher_in_a_terminal_that_is_closed_ends_with_its_verdict_not_an_error(tmp_path: Path) -> None:
     # a real terminal: iwz run on a pseudo-terminal that is its controlling terminal; closing
     # the master end hangs it up (the kernel sends SIGHUP), and every write to it fails from then
-    (tmp_path / "lab.xml").write_text(LAB)
-    (tmp_path / "grid.xml").write_text(GRID)
-    (tmp_path / "gone.toml").write_text(SCENARIO)
+    scenario_in(tmp_path, "gone", SCENARIO)
     record = tmp_path / "run.mcap"
     argv = iwz_run_argv(tmp_path / "gone.toml", tmp_path / "logs", "gone", record=record)
     argv.remove("--no-status")  # the status line too, every second on a terminal
@@ -292,9 +286,7 @@ def test_a_killed_launcher_leaves_no_chair_emulator_running(tmp_path: Path) -> N
 
 
 def test_a_launcher_hung_up_while_it_starts_the_run_stops_it_with_no_error(tmp_path: Path) -> None:
-    (tmp_path / "lab.xml").write_text(LAB)
-    (tmp_path / "grid.xml").write_text(GRID)
-    (tmp_path / "gone.toml").write_text(SCENARIO)
+    scenario_in(tmp_path, "gone", SCENARIO)
     sim = f"hup{os.getpid()}"  # its processes, told from any other run's
     argv = iwz_run_argv(tmp_path / "gone.toml", tmp_path / "logs", sim, record=tmp_path / "run.mcap")
     port = int(argv[argv.index("--port") + 1])
@@ -319,9 +311,7 @@ def test_a_launcher_hung_up_while_it_starts_the_run_stops_it_with_no_error(tmp_p
 
 
 def test_a_stop_that_comes_while_the_recorder_starts_is_a_stop_not_a_failure(tmp_path: Path) -> None:
-    (tmp_path / "lab.xml").write_text(LAB)
-    (tmp_path / "grid.xml").write_text(GRID)
-    (tmp_path / "gone.toml").write_text(SCENARIO)
+    scenario_in(tmp_path, "gone", SCENARIO)
     sc = load_scenario(tmp_path / "gone.toml")
     launcher = Launcher(
         sc,

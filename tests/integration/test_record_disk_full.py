@@ -19,7 +19,7 @@ import pytest
 
 from iw_zenoh import keys
 from iw_zenoh.record.reader import RecordingReader
-from tests.integration.harness import ROOT, Net, iwz_run_argv, stop_run, wait_alive
+from tests.integration.harness import ROOT, Net, iwz_run_argv, scenario_in, stop_run, wait_alive
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
 
@@ -85,9 +85,7 @@ def test_a_recorder_whose_disk_is_full_says_why_exits_4_and_what_it_wrote_is_rec
 def test_a_run_whose_recording_fills_its_disk_goes_on_unrecorded_and_fails_its_verdict(
     tmp_path: Path, small_disk: Path
 ) -> None:
-    (tmp_path / "lab.xml").write_text('<Lab Name="open" Width="20" Height="10"/>')
-    (tmp_path / "grid.xml").write_text('<Grid><Position X="3" Y="5" Dir="0"/></Grid>')
-    (tmp_path / "full.toml").write_text(SCENARIO)
+    scenario_in(tmp_path, "full", SCENARIO)
     record = small_disk / "run.mcap"
     argv = iwz_run_argv(tmp_path / "full.toml", tmp_path / "logs", "full", record=record)
     p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)

@@ -15,7 +15,7 @@ import pytest
 
 from iw_zenoh.messages import WorldState
 from iw_zenoh.record.reader import RecordingReader
-from tests.integration.harness import iwz_run_argv, stop_run
+from tests.integration.harness import iwz_run_argv, scenario_in, stop_run
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
 
@@ -40,9 +40,7 @@ within = {GOAL[2]}
 
 
 def test_a_goal_is_reported_reached_at_the_first_committed_state_within_it(tmp_path: Path) -> None:
-    (tmp_path / "lab.xml").write_text('<Lab Name="open" Width="20" Height="10"/>')
-    (tmp_path / "grid.xml").write_text('<Grid><Position X="3" Y="5" Dir="0"/></Grid>')
-    (tmp_path / "judged.toml").write_text(SCENARIO)
+    scenario_in(tmp_path, "judged", SCENARIO)
     record = tmp_path / "run.mcap"
     p = subprocess.Popen(
         iwz_run_argv(tmp_path / "judged.toml", tmp_path / "logs", "judged", record=record),
