@@ -1,6 +1,6 @@
 """The ``iwz`` command: one subcommand per process role and per tool.
 
-iwz run maps/demo.toml        the whole simulation, every role its own process
+iwz run demo                  the whole simulation (a shipped scenario), every role its own process
 iwz router | world MAP | collision | sensors | radio | agent NAME
 """
 
@@ -20,6 +20,7 @@ COMMANDS: dict[str, tuple[str, str] | tuple[str, str, str]] = {
         "iw_zenoh.nodes.launcher",
         "start a scenario: router, world, collision, sensors, radio and agents, supervised",
     ),
+    "scenarios": ("iw_zenoh.shipped", "the scenarios that ship: list them, copy one to start your own"),
     "router": ("iw_zenoh.nodes.router", "the Zenoh router the other processes connect to"),
     "world": ("iw_zenoh.nodes.world", "the world: clock, motors, kinematics, registration"),
     "collision": ("iw_zenoh.nodes.collision", "collision verdicts on every tick's proposed poses"),
@@ -61,7 +62,7 @@ def usage() -> str:
         "commands:",
     ]
     lines += [f"  {c:<{width}}  {e[1]}" for c, e in COMMANDS.items()]
-    lines += ["", "Each command has --help. Start here: iwz run maps/demo.toml"]
+    lines += ["", "Each command has --help. Start here: iwz scenarios, then iwz run demo"]
     return "\n".join(lines)
 
 

@@ -11,6 +11,7 @@ field (``agents[0].robots``) and the reason. Paths are relative to the scenario 
 from __future__ import annotations
 
 import contextlib
+import os
 import re
 import tomllib
 from pathlib import Path
@@ -250,13 +251,13 @@ def parse_scenario(text: str, base: Path, name: str = "scenario") -> Scenario:
     except msgspec.ValidationError as e:
         raise _refusal(e, doc, name) from None
     world = msgspec.structs.replace(
-        sc.world, map=base / sc.world.map, grid=base / sc.world.grid if sc.world.grid else None
+        sc.world, map=_beside(base, sc.world.map), grid=_beside(base, sc.world.grid) if sc.world.grid else None
     )
     _exists(world.map, "world.map")
     _exists(world.grid, "world.grid")
     bridge = sc.bridge
     if bridge is not None and bridge.params is not None:
-        bridge = msgspec.structs.replace(bridge, params=base / bridge.params)
+        bridge = msgspec.structs.replace(bridge, params=_beside(base, bridge.params))
         _exists(bridge.params, "bridge.params")
     for i, d in enumerate(sc.criteria.doors):
         if d.one_chair_within is not None and (d.x is None or d.y is None):
@@ -265,13 +266,19 @@ def parse_scenario(text: str, base: Path, name: str = "scenario") -> Scenario:
     if chair is not None and world.mode != Mode.REALTIME:
         raise ConfigError("chair.hardware", "a chair on a serial link moves in real time: world.mode must be realtime")
     if chair is not None and chair.spec is not None:
-        spec_file = base / chair.spec
+        spec_file = _beside(base, chair.spec)
         _exists(spec_file, "chair.spec")
         check_spec(load_spec_file(spec_file), where=f"chair.spec: {spec_file}: {SPEC_TABLE}")
         chair = msgspec.structs.replace(chair, spec=spec_file)
     agents = tuple(_with_spec(a, i, base) for i, a in enumerate(sc.agents))
     fields = {**msgspec.structs.asdict(sc), "world": world, "bridge": bridge, "chair": chair, "agents": agents}
     return Scenario(**{**fields, "name": sc.name or name}, base=base)
+
+
+def _beside(base: Path, path: Path | str) -> Path:
+    """``path`` as the scenario in ``base`` names it, ``..`` folded (``maps/scenarios/../liacc.xml``
+    is ``maps/liacc.xml`` in every message and error)."""
+    return Path(os.path.normpath(base / path))
 
 
 def _with_spec(agent: AgentEntry, i: int, base: Path) -> AgentEntry:
@@ -281,7 +288,7 @@ def _with_spec(agent: AgentEntry, i: int, base: Path) -> AgentEntry:
     where = f"agents[{i}].spec"
     table = agent.spec
     if isinstance(table, str):
-        path = base / table
+        path = _beside(base, table)
         _exists(path, where)
         table = load_spec_file(path)
         where = f"{where}: {path}: {SPEC_TABLE}"

@@ -11,7 +11,7 @@ MAPS = Path(__file__).resolve().parents[1] / "maps"
 
 
 def test_the_demo_scenario_loads() -> None:
-    sc = load_scenario(MAPS / "demo.toml")
+    sc = load_scenario(MAPS / "scenarios" / "demo.toml")
     assert sc.robots == 3
     assert sc.criteria.max_collisions == 0
     assert [o.name for o in sc.obstacles] == ["A", "B"]
@@ -55,14 +55,14 @@ def test_a_refusal_names_the_field_path_and_the_value() -> None:
 
 
 def test_scenario_paths_are_relative_to_the_file() -> None:
-    sc = load_scenario(MAPS / "ciberrato-c1.toml")
+    sc = load_scenario(MAPS / "scenarios" / "ciberrato-c1.toml")
     assert sc.world.map == MAPS / "ciberrato" / "C1-lab.xml"
     assert sc.bridge is not None
     assert sc.bridge.params is None or sc.bridge.params.is_file()
 
 
 def test_a_serial_chair_scenario_names_its_bridge_and_emulator() -> None:
-    sc = load_scenario(MAPS / "find-the-box-serial.toml")
+    sc = load_scenario(MAPS / "scenarios" / "find-the-box-serial.toml")
     assert sc.chair is not None
     assert (sc.chair.hardware, sc.chair.port, sc.chair.robot) == ("serial", "", 1)
     assert sc.chair.room == "8.2,3.4,8.8,5.0"

@@ -294,7 +294,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         epilog=(
             "Examples:\n"
             "  iwz bridge serial --port /dev/ttyUSB0 --robot chair --id 1 --start 10,6.1,0\n"
-            "  maps/slalom-serial.toml   the [chair] table, at work in a scenario\n"
+            "  maps/scenarios/slalom-serial.toml   the [chair] table, at work in a scenario\n"
             "  docs/serial.md            the protocol, the safety rules, the emulator"
         ),
         arguments=_arguments,

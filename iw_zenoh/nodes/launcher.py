@@ -39,6 +39,7 @@ from iw_zenoh.nodes.tally import Tally
 from iw_zenoh.nodes.world_options import world_options
 from iw_zenoh.options import options_json
 from iw_zenoh.runtime import SUPERVISOR_ENV, setup_logging
+from iw_zenoh.shipped import resolve_scenario
 
 __all__ = ["Child", "Launcher", "main", "world_options"]
 
@@ -359,7 +360,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     setup_logging(args.verbose, "run")
     try:
-        sc = scenario_from_args(load_scenario(args.scenario), args)
+        sc = scenario_from_args(load_scenario(resolve_scenario(args.scenario)), args)
         launcher = Launcher(
             sc,
             port=args.port,

@@ -30,9 +30,9 @@ def build_parser() -> argparse.ArgumentParser:
         ),
         epilog=(
             "Examples:\n"
-            "  iwz run maps/demo.toml              (Ctrl-C stops everything cleanly)\n"
-            "  iwz run maps/demo.toml --secure     (every process its certificate; the router enforces the roles)\n"
-            "  iwz run maps/demo.toml --secure --no-audit   (enforced all the same, refusals not logged)\n"
+            "  iwz run demo                        (Ctrl-C stops everything cleanly)\n"
+            "  iwz run demo --secure     (every process its certificate; the router enforces the roles)\n"
+            "  iwz run demo --secure --no-audit   (enforced all the same, refusals not logged)\n"
             "  iwz run lab.toml --listen tls/10.0.0.1:7447 --ids ids          (host with the router)\n"
             "  iwz run lab.toml --host laptop2 --connect tls/10.0.0.1:7447 --ids ids   (another host)\n"
             "\n"
@@ -45,7 +45,10 @@ def build_parser() -> argparse.ArgumentParser:
         ),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("scenario", help="scenario TOML file (see docs/scenarios.md)")
+    p.add_argument(
+        "scenario",
+        help="a scenario TOML file, or a shipped scenario by name (iwz scenarios lists them; docs/scenarios.md)",
+    )
     p.add_argument(
         "--port", type=int, default=0, help="router port on 127.0.0.1 (default 7447, or a free port if taken)"
     )

@@ -26,7 +26,7 @@ __all__ = ["main"]
 logger = logging.getLogger(__name__)
 
 EPILOG = """Examples:
-  iwz run maps/demo.toml &  iwz view            then open http://127.0.0.1:8080/
+  iwz run demo &  iwz view            then open http://127.0.0.1:8080/
   iwz view --port 9000 --sim hospital          a simulation named hospital, on port 9000
   iwz view --host 0.0.0.0 -e tcp/10.0.0.5:7447  a run on another laptop; the page open to the LAN
   iwz view recordings/demo-sample.mcap         replay a recording with a timeline (no router needed)

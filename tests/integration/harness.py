@@ -21,6 +21,7 @@ from iw_zenoh.net import NetConfig, free_port, port_in_use
 M = TypeVar("M", bound=Message)
 ROOT = Path(__file__).resolve().parents[2]
 MAPS = ROOT / "maps"
+SCENARIOS = MAPS / "scenarios"
 
 
 @dataclass

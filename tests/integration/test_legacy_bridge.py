@@ -172,12 +172,12 @@ def test_bad_datagrams_are_refused_and_never_stall_a_good_client(net: Net, clien
 def test_iwz_run_a_ciberrato_scenario_serves_legacy_clients(tmp_path: Path, clients: list[LegacyClient]) -> None:
     port = udp_port()
     text = (
-        (MAPS / "ciberrato-c1.toml")
+        (MAPS / "scenarios" / "ciberrato-c1.toml")
         .read_text()
         .replace("port = 6000", f"port = {port}")
         .replace("duration_s = 250", "duration_s = 6")
     )
-    text = text.replace('"ciberrato/', f'"{MAPS}/ciberrato/')
+    text = text.replace('"../ciberrato/', f'"{MAPS}/ciberrato/')
     sc = tmp_path / "c1.toml"
     sc.write_text(text)
     argv = iwz_run_argv(sc, tmp_path, "c1")

@@ -92,9 +92,9 @@ def _drive(robot: LegacyClient, times: list[int], cycles: int, during: subproces
 
 def test_a_flood_from_many_ports_costs_the_run_a_bounded_amount(tmp_path: Path) -> None:
     port = udp_port()
-    text = (MAPS / "ciberrato-c1.toml").read_text().replace("port = 6000", f"port = {port}")
+    text = (MAPS / "scenarios" / "ciberrato-c1.toml").read_text().replace("port = 6000", f"port = {port}")
     sc = tmp_path / "c1.toml"
-    sc.write_text(text.replace('"ciberrato/', f'"{MAPS}/ciberrato/'))
+    sc.write_text(text.replace('"../ciberrato/', f'"{MAPS}/ciberrato/'))
     argv = iwz_run_argv(sc, tmp_path, "flood")
     endpoint = f"tcp/127.0.0.1:{argv[argv.index('--port') + 1]}"
     run = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)

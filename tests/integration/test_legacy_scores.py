@@ -70,9 +70,9 @@ def test_the_shipped_c1_scenario_scores_a_robot_registered_while_its_world_runs(
     tmp_path: Path, clients: list[LegacyClient]
 ) -> None:
     port = udp_port()
-    text = (MAPS / "ciberrato-c1.toml").read_text().replace("port = 6000", f"port = {port}")
+    text = (MAPS / "scenarios" / "ciberrato-c1.toml").read_text().replace("port = 6000", f"port = {port}")
     sc = tmp_path / "c1.toml"
-    sc.write_text(text.replace('"ciberrato/', f'"{MAPS}/ciberrato/'))
+    sc.write_text(text.replace('"../ciberrato/', f'"{MAPS}/ciberrato/'))
     argv = iwz_run_argv(sc, tmp_path, "c1score")
     endpoint = f"tcp/127.0.0.1:{argv[argv.index('--port') + 1]}"
     run = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)

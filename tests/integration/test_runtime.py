@@ -217,7 +217,9 @@ def test_real_time_with_a_collision_process_answering_never_holds_a_robot(net: N
 
 def test_demo_scenario_runs_meets_its_criteria_and_is_recorded(tmp_path: Path) -> None:
     # lock-step, so the verdict does not depend on how loaded the machine is
-    argv = iwz_run_argv(MAPS / "demo.toml", tmp_path, "demo", record=tmp_path / "demo.mcap", extra=("--lockstep",))
+    argv = iwz_run_argv(
+        MAPS / "scenarios" / "demo.toml", tmp_path, "demo", record=tmp_path / "demo.mcap", extra=("--lockstep",)
+    )
     p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         out, err = p.communicate(timeout=110)

@@ -11,14 +11,14 @@ from mcap.reader import make_reader
 
 from iw_zenoh import keys
 from iw_zenoh.messages import WorldState, decode
-from tests.integration.harness import MAPS, iwz_run_argv, stop_run
+from tests.integration.harness import MAPS, SCENARIOS, iwz_run_argv, stop_run
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(960)]
 
 
 def _run(scenario: str, tmp: Path, timeout_s: float = 400) -> tuple[subprocess.CompletedProcess[str], Path]:
     rec = tmp / "run.mcap"
-    argv = iwz_run_argv(MAPS / scenario, tmp, "sc", record=rec)
+    argv = iwz_run_argv(SCENARIOS / scenario, tmp, "sc", record=rec)
     p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         out, err = p.communicate(timeout=timeout_s)

@@ -39,8 +39,8 @@ def buses() -> Iterator[list[ZenohBus]]:
 
 
 def _scenario(tmp: Path, port: int, audit: bool) -> Path:
-    text = (MAPS / "ciberrato-c1.toml").read_text().replace("port = 6000", f"port = {port}")
-    text = text.replace("duration_s = 250", "duration_s = 600").replace('"ciberrato/', f'"{MAPS}/ciberrato/')
+    text = (MAPS / "scenarios" / "ciberrato-c1.toml").read_text().replace("port = 6000", f"port = {port}")
+    text = text.replace("duration_s = 250", "duration_s = 600").replace('"../ciberrato/', f'"{MAPS}/ciberrato/')
     sc = tmp / "c1.toml"
     sc.write_text(text + ("" if audit else "\n[security]\naudit = false\n"))
     return sc

@@ -61,7 +61,7 @@ def test_a_restarted_world_is_handed_the_last_committed_state_in_its_options(tmp
     from iw_zenoh.nodes.world_options import WorldOptions
 
     maps = Path(__file__).resolve().parents[2] / "maps"
-    launcher = Launcher(load_scenario(maps / "demo.toml"), port=7999, log_dir=tmp_path, status=False)
+    launcher = Launcher(load_scenario(maps / "scenarios" / "demo.toml"), port=7999, log_dir=tmp_path, status=False)
     launcher.plan()
     world = next(c for c in launcher.children if c.role == "world")
     started: list[bool] = []

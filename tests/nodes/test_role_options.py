@@ -133,7 +133,7 @@ def _options_of(argv: list[str], kind: type[msgspec.Struct]) -> msgspec.Struct:
 
 
 def test_the_launchers_plan_hands_each_role_its_options_as_a_struct(tmp_path: Path) -> None:
-    sc = load_scenario(MAPS / "ciberrato-c1.toml")
+    sc = load_scenario(MAPS / "scenarios" / "ciberrato-c1.toml")
     sc = msgspec.structs.replace(sc, roles=msgspec.structs.replace(sc.roles, sensors_shards=2))
     launcher = Launcher(sc, port=7447, log_dir=tmp_path, status=False, record=tmp_path / "run.mcap")
     launcher.plan()

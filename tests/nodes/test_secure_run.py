@@ -15,6 +15,7 @@ from iw_zenoh.nodes.world_options import WorldOptions
 from iw_zenoh.secure.policy import load_policy, owners
 
 MAPS = Path(__file__).resolve().parents[2] / "maps"
+SCENARIOS = MAPS / "scenarios"
 AGENTS = """
 [world]
 map = "liacc.xml"
@@ -55,7 +56,7 @@ def test_an_unknown_host_or_process_is_refused_naming_it(hosts: dict[str, list[s
 
 
 def _secured(tmp_path: Path, scenario: str, extra: str = "") -> Launcher:
-    sc = parse_scenario((MAPS / scenario).read_text() + extra, MAPS, Path(scenario).stem)
+    sc = parse_scenario((SCENARIOS / scenario).read_text() + extra, SCENARIOS, Path(scenario).stem)
     launcher = Launcher(sc, port=7447, log_dir=tmp_path, status=False, secure=True)
     launcher.plan()
     return launcher
@@ -102,9 +103,9 @@ def test_iwz_run_no_audit_starts_a_secured_runs_router_with_no_audit(
     tmp_path: Path, argv: list[str], quiet: bool
 ) -> None:
     """The scenario's [security] secures the run (but for the last two: --secure does)."""
-    text = (MAPS / "ciberrato-c1.toml").read_text() + ("" if "--secure" in argv else "\n[security]\n")
+    text = (MAPS / "scenarios" / "ciberrato-c1.toml").read_text() + ("" if "--secure" in argv else "\n[security]\n")
     args = build_parser().parse_args(["c1.toml", *argv])
-    sc = scenario_from_args(parse_scenario(text, MAPS, "c1"), args)
+    sc = scenario_from_args(parse_scenario(text, SCENARIOS, "c1"), args)
     launcher = Launcher(sc, port=7447, log_dir=tmp_path, status=False, secure=args.secure or sc.security is not None)
     launcher.plan()
     router = next(c for c in launcher.children if c.role == "router")
@@ -115,14 +116,14 @@ def test_iwz_run_no_audit_starts_a_secured_runs_router_with_no_audit(
 def test_iwz_run_no_audit_in_a_run_not_secured_is_refused_saying_what_to_add(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    assert run_main([str(MAPS / "demo.toml"), "--no-audit", "--no-status", "--no-record"]) == 2
+    assert run_main([str(MAPS / "scenarios" / "demo.toml"), "--no-audit", "--no-status", "--no-record"]) == 2
     out = capsys.readouterr().out
     assert "iwz run: --no-audit: only a secured run's router logs refusals: add --secure" in out
 
 
 def test_an_audit_that_is_not_a_bool_is_refused_naming_it() -> None:
-    text = (MAPS / "ciberrato-c1.toml").read_text() + '\n[security]\naudit = "no"\n'
+    text = (MAPS / "scenarios" / "ciberrato-c1.toml").read_text() + '\n[security]\naudit = "no"\n'
     with pytest.raises(ConfigError) as e:
-        parse_scenario(text, MAPS, "c1")
+        parse_scenario(text, SCENARIOS, "c1")
     assert e.value.field == "security.audit"
     assert "Expected `bool`, got `str`" in e.value.reason

@@ -61,7 +61,7 @@ def test_duration_becomes_ticks() -> None:
 
 
 def test_the_launcher_hands_the_world_the_scenario_as_options() -> None:
-    sc = load_scenario(MAPS / "demo.toml")
+    sc = load_scenario(MAPS / "scenarios" / "demo.toml")
     opts, rest = world_options(sc)
     assert rest == []
     assert opts.map == str(sc.world.map)
@@ -71,7 +71,7 @@ def test_the_launcher_hands_the_world_the_scenario_as_options() -> None:
 
 
 def test_world_args_are_read_into_the_options() -> None:
-    sc = load_scenario(MAPS / "ciberrato-c1.toml")
+    sc = load_scenario(MAPS / "scenarios" / "ciberrato-c1.toml")
     opts, rest = world_options(sc)
     assert opts.motors_noise_pct == 1.5
     assert opts.profile == "ciberrato"
@@ -86,7 +86,7 @@ def test_a_bad_world_arg_refuses_the_scenario(tmp_path: Path) -> None:
 
 
 def test_the_world_child_gets_one_options_argument(tmp_path: Path) -> None:
-    launcher = Launcher(load_scenario(MAPS / "demo.toml"), port=7999, log_dir=tmp_path, status=False)
+    launcher = Launcher(load_scenario(MAPS / "scenarios" / "demo.toml"), port=7999, log_dir=tmp_path, status=False)
     launcher.plan()
     world = next(c for c in launcher.children if c.role == "world")
     at = world.argv.index("--options")

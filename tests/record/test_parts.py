@@ -213,7 +213,11 @@ def test_a_player_plays_every_part_and_says_how_far_it_is(tmp_path: Path) -> Non
 
 def test_the_launcher_starts_its_recorder_to_continue_this_run_when_restarted(tmp_path: Path) -> None:
     launcher = Launcher(
-        load_scenario(MAPS / "demo.toml"), port=7999, log_dir=tmp_path, status=False, record=tmp_path / "r.mcap"
+        load_scenario(MAPS / "scenarios" / "demo.toml"),
+        port=7999,
+        log_dir=tmp_path,
+        status=False,
+        record=tmp_path / "r.mcap",
     )
     launcher.plan()
     argv = next(c for c in launcher.children if c.role == "record").argv
