@@ -145,7 +145,8 @@ class _Session:
 
 def _report(args: argparse.Namespace, result: dict[str, object], text: str) -> int:
     event = result.get("event")
-    code = 0 if result.get("ok") else EXIT_REFUSED if event == "bad-control" else EXIT_DENIED if event == "denied" else EXIT_NO_ANSWER
+    codes = {"bad-control": EXIT_REFUSED, "denied": EXIT_DENIED}
+    code = 0 if result.get("ok") else codes.get(str(event), EXIT_NO_ANSWER)
     if args.json:
         print(json.dumps(result), flush=True)
     else:
@@ -205,7 +206,8 @@ def _silent(args: argparse.Namespace, s: _Session, req: Request, tick: int, what
     why = (
         f"{req.what}: {what} within {s.timeout_s:g} s (last tick seen {last}); is every role running "
         "(without a collision process the world holds; in lock-step it waits for its agents)? "
-        "A longer --timeout may help on a busy machine" + _secured(args, "drops a control from an identity that is no operator")
+        "A longer --timeout may help on a busy machine"
+        + _secured(args, "drops a control from an identity that is no operator")
     )
     return _report(args, {"ok": False, "command": req.what, "event": "", "reason": why, "tick": last}, why)
 

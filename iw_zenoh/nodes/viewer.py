@@ -76,7 +76,9 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("recording", nargs="?", help="an MCAP recording to replay (default: the live simulation)")
     p.add_argument("--port", type=int, default=8080, help="HTTP port of the page (default 8080; 0: any free port)")
     p.add_argument(
-        "--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1: this machine only; 0.0.0.0: every network, with keys)"
+        "--host",
+        default="127.0.0.1",
+        help="address to serve on (default 127.0.0.1: this machine only; 0.0.0.0: the network, with keys)",
     )
     p.add_argument("--rate", type=float, default=1.0, help="replay: the speed to start at (default 1)")
     p.add_argument(
@@ -169,7 +171,7 @@ async def _serve(proc: Process, source: Source, feed: Feed, wake: threading.Even
             flush=True,
         )
         return 2
-    access.port = port = runner.addresses[0][1] if runner.addresses else proc.args.port
+    access.port = runner.addresses[0][1] if runner.addresses else proc.args.port
     what = f"replay of {proc.args.recording}" if not source.live else f"live simulation {proc.sim!r}"
     _announce(access, what)
     try:

@@ -48,7 +48,8 @@ def _own(cert_path: Path, ca_path: Path, now: datetime.datetime) -> str:
     if cert.not_valid_after_utc < now:
         return f"the certificate {cert_path} expired on {cert.not_valid_after_utc:%Y-%m-%d %H:%M} UTC; {again}"
     if cert.not_valid_before_utc > now:
-        return f"the certificate {cert_path} is not valid before {cert.not_valid_before_utc:%Y-%m-%d %H:%M} UTC (this clock's time?)"
+        since = f"{cert.not_valid_before_utc:%Y-%m-%d %H:%M}"
+        return f"the certificate {cert_path} is not valid before {since} UTC (is this machine's clock right?)"
     try:
         cert.verify_directly_issued_by(ca)
     except (ValueError, TypeError, Exception):  # InvalidSignature, or another issuer's name
@@ -93,14 +94,11 @@ def _probe(cert_path: Path, key_path: Path, ca_path: Path, endpoint: str) -> str
                 return ""  # accepted: it waits for Zenoh's first message
             return ""
     except ssl.SSLCertVerificationError as e:
-        return (
-            f"this process refuses the router's certificate at {host}:{port} ({e.verify_message}): "
-            + (
-                f"it does not name {host}; issue the router's with `--host {host}`"
-                if "mismatch" in (e.verify_message or "")
-                else f"it is not of the authority {ca_path}: the identity and the router come from different "
-                "`iwz secure init` folders"
-            )
+        return f"this process refuses the router's certificate at {host}:{port} ({e.verify_message}): " + (
+            f"it does not name {host}; issue the router's with `--host {host}`"
+            if "mismatch" in (e.verify_message or "")
+            else f"it is not of the authority {ca_path}: the identity and the router come from different "
+            "`iwz secure init` folders"
         )
     except ssl.SSLError as e:
         reason = str(e.reason or "")

@@ -95,7 +95,10 @@ class Access:
                 return "steer", ""
             if hmac.compare_digest(key.encode(), self.watch_key.encode()):
                 return "watch", ""
-            return "", "the key in the address is not this viewer's (it changes each start): use the address iwz view printed"
+            return (
+                "",
+                "the key in the address is not this viewer's (new at each start): use the address iwz view printed",
+            )
         if self.local and self._own_host(host):
             return "steer", ""
         if self.local:
@@ -103,7 +106,7 @@ class Access:
                 f"Host {host[:100]!r} is not this viewer's address ({', '.join(LOOPBACK_NAMES)} with port "
                 f"{self.port}): a foreign name pointing here (DNS rebinding?) needs the key iwz view printed"
             )
-        return "", "this viewer serves the network: only its addresses with a key get in (iwz view printed them at start)"
+        return "", "this viewer serves the network: only its addresses with a key get in (printed at its start)"
 
     def addresses(self, shown_host: str) -> tuple[str, str]:
         """The watch and steer addresses of the page, on ``shown_host``."""
@@ -115,7 +118,9 @@ def check_command(cmd: PageCommand, right: str) -> str:
     """Why a page with ``right`` may not send ``cmd`` ("" when it may): beyond a watch key, or out
     of bounds (the decoder already bounded its ids, steps, times and rate)."""
     if cmd.cmd not in WATCH_COMMANDS and right != "steer":
-        return f"{cmd.cmd!r} steers the run: this page may only watch (its address has the watch key; steering needs the steer key)"
+        return (
+            f"{cmd.cmd!r} steers the run: this page may only watch (its key is the watch key; steer with the steer key)"
+        )
     ob = cmd.obstacle
     if ob is None:
         return ""

@@ -19,8 +19,8 @@ import pytest
 from playwright.sync_api import sync_playwright
 from websockets.sync.client import ClientConnection, connect
 
-from tests.integration import netns
 from benchmarks.chromium import CHROMIUM, FLAGS, INSTALL
+from tests.integration import netns
 from tests.integration.browser import viewer_url
 from tests.integration.harness import ROOT, Net, start_world
 
@@ -97,7 +97,8 @@ def test_in_chromium_the_pages_own_origin_steers_a_rebound_name_and_another_site
 
                 rebound = browser.new_page()
                 resp = rebound.goto(f"http://evil.example:{port}/")
-                assert resp is not None and resp.status == 403
+                assert resp is not None
+                assert resp.status == 403
                 assert "DNS rebinding" in rebound.content()
 
                 evil = browser.new_page()  # another site's page (any file it serves) opening the viewer's socket
@@ -203,10 +204,12 @@ def test_a_second_machine_needs_the_printed_key_and_only_the_steer_key_steers(tm
             )  # fmt: skip
             deadline = time.monotonic() + 60
             while not (m := re.search(r"STEER \(.*\) (http://\S+)", view.output())):
-                assert view.popen.poll() is None and time.monotonic() < deadline, view.output()
+                assert view.popen.poll() is None, view.output()
+                assert time.monotonic() < deadline, view.output()
                 time.sleep(0.05)  # polling its log: there is no event to wait on
             out = view.output()
-            assert "WARNING" in out and "open to the network" in out
+            assert "WARNING" in out
+            assert "open to the network" in out
             watch = re.search(r"WATCH \(read-only\) (http://\S+)", out)
             assert watch, out
             steer_ws = m.group(1).replace("http://", "ws://").replace("/?key=", "/ws?key=")
@@ -221,7 +224,7 @@ def test_a_second_machine_needs_the_printed_key_and_only_the_steer_key_steers(tm
 
             watcher = _client_in(ns_b, watch_ws, ['{"cmd":"pause"}', '{"cmd":"reading","robot_id":1}'])
             assert watcher["hello"]["steer"] is False  # type: ignore[index]
-            assert any("may only watch" in e for e in watcher["errors"]), watcher  # type: ignore[union-attr]
+            assert any("may only watch" in e for e in list(watcher["errors"])), watcher  # type: ignore[call-overload]
 
             steerer = _client_in(ns_b, steer_ws, ['{"cmd":"pause"}', '{"cmd":"seek","at_ns":0}'])
             assert steerer["hello"]["steer"] is True  # type: ignore[index]
