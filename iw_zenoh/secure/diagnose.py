@@ -18,6 +18,7 @@ import ssl
 from pathlib import Path
 
 from cryptography import x509
+from cryptography.exceptions import InvalidSignature
 
 from iw_zenoh.errors import ConfigError
 from iw_zenoh.secure.certs import identity_files
@@ -52,7 +53,7 @@ def _own(cert_path: Path, ca_path: Path, now: datetime.datetime) -> str:
         return f"the certificate {cert_path} is not valid before {since} UTC (is this machine's clock right?)"
     try:
         cert.verify_directly_issued_by(ca)
-    except (ValueError, TypeError, Exception):  # InvalidSignature, or another issuer's name
+    except (InvalidSignature, ValueError, TypeError):  # another key's signature, another issuer's name
         return (
             f"the certificate {cert_path} was not issued by the authority beside it ({ca_path}): "
             f"a certificate and its ca.crt come from the same `iwz secure init` folder; {again}"
