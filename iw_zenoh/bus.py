@@ -13,7 +13,7 @@ import json
 import logging
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Protocol
 
 import zenoh
@@ -309,6 +309,16 @@ class _Kept:
         self._handle.undeclare()
 
 
+def _tls_cause(net: NetConfig, endpoints: Sequence[str]) -> str:
+    """A secured client's join refused: which certificate and why ("" when none is found, or not secured)."""
+    if net.identity is None or net.mode != "client":
+        return ""
+    from iw_zenoh.secure.diagnose import join_refused  # only a secured process that failed to join needs it
+
+    why = join_refused(net.identity, list(endpoints))
+    return f"as the identity {net.identity}: {why}" if why else ""
+
+
 class ZenohBus:
     """The bus over a real Zenoh session.
 
@@ -325,8 +335,11 @@ class ZenohBus:
         except zenoh.ZError as e:
             named = self.net.connect or self.net.listen
             where = ", ".join(named or _endpoints(conf, "connect/endpoints", self.net.mode))
+            cause = _tls_cause(self.net, named or _endpoints(conf, "connect/endpoints", self.net.mode))
             raise IwError(
-                f"cannot join the bus ({self.net.mode} of {where}): {e}. "
+                f"cannot join the bus ({self.net.mode} of {where}): {cause}"
+                if cause
+                else f"cannot join the bus ({self.net.mode} of {where}): {e}. "
                 "Is `iwz router` running there (or use `iwz run`)? Is the port free, for a router?"
             ) from None
         # per-key publishers, those of keys gone quiet (robots that left) undeclared

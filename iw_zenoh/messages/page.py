@@ -16,6 +16,7 @@ from typing import Annotated, Any, Literal
 import msgspec
 
 from iw_zenoh.messages.events import WorldCommand
+from iw_zenoh.messages.wire import NonNeg, RobotId
 from iw_zenoh.messages.world import Obstacle
 
 __all__ = [
@@ -52,6 +53,7 @@ class PageHello(_Out, frozen=True, kw_only=True, tag="hello"):
     live: bool
     sim: str
     version: str = ""
+    steer: bool = True  # False: this page may only watch (its address has the watch key)
 
 
 class PageSensor(msgspec.Struct, frozen=True, kw_only=True):
@@ -238,9 +240,9 @@ class PageCommand(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_on
     ``scans="selected"``, no robot's with ``scans="none"``; every robot's until it says)."""
 
     cmd: Literal[WorldCommand, "reading", "seek", "rate", "scans"]
-    robot_id: Annotated[int, msgspec.Meta(ge=0)] = 0
+    robot_id: RobotId = 0  # within 63 bits, as every id the world uses
     obstacle: Obstacle | None = None
     steps: Annotated[int, msgspec.Meta(ge=1, le=10_000)] = 1
-    at_ns: Annotated[int, msgspec.Meta(ge=0)] = 0
+    at_ns: NonNeg = 0
     rate: Annotated[float, msgspec.Meta(ge=0.0, le=1000.0)] = 1.0
     scans: Literal["all", "selected", "none"] = "all"

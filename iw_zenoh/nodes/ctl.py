@@ -4,7 +4,8 @@ Joins the bus as every one-shot command does (a client of the loopback router by
 ``--connect`` for another), asks the world for its description (``world/info``: no answer is
 "no world"), publishes one :class:`~iw_zenoh.messages.Control` on ``world/control`` and waits
 for the world's answering event (or, for a step, the tick to advance by N), within ``--timeout``.
-Exit status: 0 done, 1 refused by the world, 3 no answer in time, 2 a bad command line or no bus.
+Exit status: 0 done, 1 refused by the world, 3 no answer in time, 2 a bad command line or no bus,
+4 a secured identity the policy beside it does not let send control (checked before anything is sent).
 """
 
 from __future__ import annotations
@@ -20,11 +21,13 @@ from iw_zenoh.errors import IwError
 from iw_zenoh.messages import Control, Event, Tick, WorldInfo, decode
 from iw_zenoh.nodes.ctl_requests import COMMANDS, Answer, Request, answer_to, parse_request, resolve_move
 from iw_zenoh.runtime import Process, start_role
+from iw_zenoh.secure.diagnose import control_denied
 
-__all__ = ["EXIT_NO_ANSWER", "EXIT_REFUSED", "main"]
+__all__ = ["EXIT_DENIED", "EXIT_NO_ANSWER", "EXIT_REFUSED", "main"]
 
 EXIT_REFUSED = 1  # the world answered: it cannot do it (bad-control, with its reason)
 EXIT_NO_ANSWER = 3  # no world answered within the timeout
+EXIT_DENIED = 4  # the identity's policy does not let it send control (the router would drop it unseen)
 TIMEOUT_MAX_S = 86_400.0  # a day: the router's connect timeout is given to Zenoh in ms
 POLL_S = 0.05  # how long one wait for an inbox lasts before the deadline is looked at again
 
@@ -50,7 +53,9 @@ Examples:
   iwz ctl stop --connect tcp/10.0.0.5:7447 --timeout 10
 
 Exit status: 0 done, 1 the world refused (its reason is printed), 3 no world
-answered within --timeout, 2 a bad command line or no bus. --json prints one
+answered within --timeout, 2 a bad command line or no bus (a refused certificate:
+which and why), 4 the identity may not send control (by DIR/policy.toml beside
+--identity DIR/NAME: only an operator may). --json prints one
 object: ok, command, event, reason, tick, sim_time_s (and steps, from_tick
 for a step)."""
 
@@ -139,7 +144,9 @@ class _Session:
 
 
 def _report(args: argparse.Namespace, result: dict[str, object], text: str) -> int:
-    code = 0 if result.get("ok") else EXIT_REFUSED if result.get("event") == "bad-control" else EXIT_NO_ANSWER
+    event = result.get("event")
+    codes = {"bad-control": EXIT_REFUSED, "denied": EXIT_DENIED}
+    code = 0 if result.get("ok") else codes.get(str(event), EXIT_NO_ANSWER)
     if args.json:
         print(json.dumps(result), flush=True)
     else:
@@ -147,11 +154,19 @@ def _report(args: argparse.Namespace, result: dict[str, object], text: str) -> i
     return code
 
 
+def _secured(args: argparse.Namespace, what: str) -> str:
+    """What a secured ctl adds to a silence: the router drops what the identity may not do, unseen."""
+    if not getattr(args, "identity", None):
+        return ""
+    return f" (secured as {args.identity}: the router {what} without a word; is it an operator in the router's policy?)"
+
+
 def _no_world(args: argparse.Namespace, s: _Session, req: Request) -> int:
     where = ", ".join(args.connect) or "the local router"
     why = (
         f"no world answered on {keys.info(s.proc.sim)} within {s.timeout_s:g} s (via {where}): start one "
         f"(iwz run SCENARIO, or iwz world MAP), or name its simulation (--sim) and its router (--connect)"
+        + _secured(args, "sends an identity its policy does not name nothing")
     )
     return _report(args, {"ok": False, "command": req.what, "event": "", "reason": why}, why)
 
@@ -192,12 +207,15 @@ def _silent(args: argparse.Namespace, s: _Session, req: Request, tick: int, what
         f"{req.what}: {what} within {s.timeout_s:g} s (last tick seen {last}); is every role running "
         "(without a collision process the world holds; in lock-step it waits for its agents)? "
         "A longer --timeout may help on a busy machine"
+        + _secured(args, "drops a control from an identity that is no operator")
     )
     return _report(args, {"ok": False, "command": req.what, "event": "", "reason": why, "tick": last}, why)
 
 
 def _run(proc: Process, req: Request) -> int:
     args = proc.args
+    if getattr(args, "identity", None) and (denied := control_denied(args.identity)):
+        return _report(args, {"ok": False, "command": req.what, "event": "denied", "reason": denied}, denied)
     s = _Session(proc, args.timeout)
     info = s.info()
     if info is None:

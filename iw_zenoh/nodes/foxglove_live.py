@@ -31,6 +31,7 @@ from iw_zenoh.publishers import Publishers
 from iw_zenoh.record.channels import ENCODING, SCHEMA_ENCODING, ChannelSpec, Derivation, key_channel
 from iw_zenoh.record.foxglove import SCENE_TOPIC, TF_TOPIC
 from iw_zenoh.runtime import NodeIO, Process, start_role
+from iw_zenoh.viewer.guard import is_loopback
 
 __all__ = ["DEFAULT_PORT", "FoxgloveLive", "main", "start_foxglove_live"]
 
@@ -241,6 +242,12 @@ def _run(proc: Process, _args: argparse.Namespace) -> int:
         print(f"iwz foxglove: cannot listen on {args.host}:{args.port}: {e}. Is the port taken? Try --port", flush=True)
         return 2
     print(f"iwz foxglove: serving iw/{proc.sim}/** on ws://{args.host}:{live.port}", flush=True)
+    if not is_loopback(args.host):
+        print(
+            f"iwz foxglove: WARNING: {args.host} is open to the network with no key: anyone there can watch the run "
+            "(read-only: Foxglove cannot steer it); --host 127.0.0.1 keeps it on this machine",
+            flush=True,
+        )
     try:
         while not proc.io.stop.is_set():
             proc.io.stop.wait(0.5)

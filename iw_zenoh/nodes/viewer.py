@@ -18,6 +18,7 @@ from iw_zenoh.nodes.foxglove_live import FoxgloveLive, start_foxglove_live
 from iw_zenoh.record.reader import file_error
 from iw_zenoh.runtime import Process, start_role
 from iw_zenoh.viewer.feed import Feed
+from iw_zenoh.viewer.guard import Access, is_loopback
 from iw_zenoh.viewer.server import MAX_PAGES, make_app
 from iw_zenoh.viewer.sources import LiveSource, ReplaySource, Source
 
@@ -28,7 +29,7 @@ logger = logging.getLogger(__name__)
 EPILOG = """Examples:
   iwz run demo &  iwz view            then open http://127.0.0.1:8080/
   iwz view --port 9000 --sim hospital          a simulation named hospital, on port 9000
-  iwz view --host 0.0.0.0 -e tcp/10.0.0.5:7447  a run on another laptop; the page open to the LAN
+  iwz view --host 0.0.0.0 -e tcp/10.0.0.5:7447  the page on the LAN: only with a key (printed at start)
   iwz view recordings/demo-sample.mcap         replay a recording with a timeline (no router needed)
   iwz view --port 0                            any free port (the address is printed)
   iwz view --foxglove-port 9765                Foxglove / Lichtblick live on ws://127.0.0.1:9765
@@ -41,7 +42,14 @@ channels as in a recording (docs/foxglove.md).
 
 On the page: drag to pan, wheel to zoom, click a robot for its panel; the
 buttons start, pause, step, stop; docs/viewer.md explains every control and
-the WebSocket messages."""
+the WebSocket messages.
+
+Who gets in: on loopback (the default), this machine's pages of 127.0.0.1, localhost
+and [::1] with the port, and they steer; a page of another site (its Origin), or a
+foreign Host name (DNS rebinding), is refused with HTTP 403. Served anywhere else
+(--host 0.0.0.0), nobody gets in without a key: two addresses are printed at start,
+a WATCH one (read-only) and a STEER one (start, pause, stop, remove, obstacles).
+The keys change each start (docs/viewer.md, docs/security.md)."""
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -68,7 +76,9 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("recording", nargs="?", help="an MCAP recording to replay (default: the live simulation)")
     p.add_argument("--port", type=int, default=8080, help="HTTP port of the page (default 8080; 0: any free port)")
     p.add_argument(
-        "--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1: this machine only; 0.0.0.0: all)"
+        "--host",
+        default="127.0.0.1",
+        help="address to serve on (default 127.0.0.1: this machine only; 0.0.0.0: the network, with keys)",
     )
     p.add_argument("--rate", type=float, default=1.0, help="replay: the speed to start at (default 1)")
     p.add_argument(
@@ -137,11 +147,18 @@ def _foxglove(proc: Process) -> FoxgloveLive | bool:
         )
         return False
     print(f"iwz view: Foxglove live on ws://{host}:{live.port}", flush=True)
+    if not is_loopback(host):
+        print(
+            f"iwz view: WARNING: Foxglove on {host} has no key: anyone on the network can watch the run there "
+            "(read-only: it cannot steer); --no-foxglove closes it",
+            flush=True,
+        )
     return live
 
 
 async def _serve(proc: Process, source: Source, feed: Feed, wake: threading.Event) -> int:
-    runner = web.AppRunner(make_app(source, feed, wake, max_pages=proc.args.max_pages), access_log=None)
+    access = Access(proc.args.host)
+    runner = web.AppRunner(make_app(source, feed, wake, max_pages=proc.args.max_pages, access=access), access_log=None)
     await runner.setup()
     site = web.TCPSite(runner, proc.args.host, proc.args.port)
     try:
@@ -154,11 +171,28 @@ async def _serve(proc: Process, source: Source, feed: Feed, wake: threading.Even
             flush=True,
         )
         return 2
-    port = runner.addresses[0][1] if runner.addresses else proc.args.port
+    access.port = runner.addresses[0][1] if runner.addresses else proc.args.port
     what = f"replay of {proc.args.recording}" if not source.live else f"live simulation {proc.sim!r}"
-    print(f"iwz view: http://{proc.args.host}:{port}/ ({what}); Ctrl-C stops", flush=True)
+    _announce(access, what)
     try:
         await asyncio.get_running_loop().run_in_executor(None, proc.io.stop.wait)
     finally:
         await runner.cleanup()
     return 0
+
+
+def _announce(access: Access, what: str) -> None:
+    """Prints the page's addresses: on loopback its plain one; elsewhere, loudly, the keyed ones."""
+    watch, steer = access.addresses(access.host)
+    if access.local:
+        print(f"iwz view: http://{access.host}:{access.port}/ ({what}); Ctrl-C stops", flush=True)
+        print(f"iwz view: from another name for this machine (a tunnel), steer with {steer}", flush=True)
+        return
+    print(
+        f"iwz view: WARNING: serving {what} on {access.host}:{access.port}, open to the network; nobody gets in "
+        "without a key (they change each start; anyone with an address below has its right):",
+        flush=True,
+    )
+    print(f"iwz view: WATCH (read-only) {watch}", flush=True)
+    print(f"iwz view: STEER (start, pause, stop, remove, obstacles: operators only) {steer}", flush=True)
+    print("iwz view: (with --host 0.0.0.0, put this machine's address in place of 0.0.0.0); Ctrl-C stops", flush=True)

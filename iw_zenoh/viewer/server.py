@@ -8,6 +8,11 @@ per choice. A page that joins, or falls too far behind (:data:`MAX_BACKLOG` mess
 given the feed's snapshot and goes on from there. At most :data:`MAX_PAGES` pages are open at once
 (each costs its queue and a share of every delivery): the next is refused with HTTP 503 and its
 reason, and logged.
+
+Every request to the page or its WebSocket passes :class:`~iw_zenoh.viewer.guard.Access` first (its
+``Origin``, ``Host`` and key: HTTP 403 and why when refused), and every command
+:func:`~iw_zenoh.viewer.guard.check_command` and the page's :class:`~iw_zenoh.viewer.guard.Rate`;
+a command that fails on the pump is answered with an error to its page, and the pump goes on.
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ from aiohttp import WSMsgType, web
 from iw_zenoh import __version__
 from iw_zenoh.messages.page import PageCommand, PageError, PageHello, PageMessage, PageScans
 from iw_zenoh.viewer.feed import Feed, ScansWanted
+from iw_zenoh.viewer.guard import Access, Rate, check_command
 from iw_zenoh.viewer.sources import Source
 
 __all__ = ["MAX_PAGES", "STATIC", "Client", "Pump", "Scans", "make_app"]
@@ -52,6 +58,8 @@ class Client:
     joined: bool = False
     closed: bool = False
     scans: ScansWanted = field(default_factory=ScansWanted)
+    right: str = "steer"  # or "watch": what its address's key (or its being on loopback) lets it do
+    rate: Rate = field(default_factory=Rate)
 
 
 class Scans:
@@ -125,11 +133,18 @@ class Pump(threading.Thread):
                 self.deliver(None, _encoded(out), False)
             while not self.requests.empty():
                 client, cmd = self.requests.get()
-                self.deliver(client, _encoded(self._answer(cmd, now)), cmd is None)
+                try:
+                    answer = self._answer(client, cmd, now)
+                except Exception as e:  # one page's command must not end the pump of every page
+                    logger.exception("a page's command %r failed", cmd)
+                    answer = [PageError(error=f"command failed: {type(e).__name__}: {str(e)[:200]}")]
+                self.deliver(client, _encoded(answer), cmd is None)
 
-    def _answer(self, cmd: PageCommand | None, now: int) -> list[PageMessage]:
+    def _answer(self, client: Client, cmd: PageCommand | None, now: int) -> list[PageMessage]:
         if cmd is None:
-            hello = PageHello(live=self.source.live, sim=self.source.sim, version=__version__)
+            hello = PageHello(
+                live=self.source.live, sim=self.source.sim, version=__version__, steer=client.right == "steer"
+            )
             return [hello, *self.feed.snapshot(now), *self.source.extra()]
         if cmd.cmd == "reading":
             return [self.feed.reading(cmd.robot_id)]
@@ -140,7 +155,9 @@ class Pump(threading.Thread):
         return [PageError(error=why)] if why else []
 
 
-def make_app(source: Source, feed: Feed, wake: threading.Event, *, max_pages: int = MAX_PAGES) -> web.Application:
+def make_app(
+    source: Source, feed: Feed, wake: threading.Event, *, max_pages: int = MAX_PAGES, access: Access | None = None
+) -> web.Application:
     """The web application: ``/`` the page, ``/static/`` its files, ``/ws`` its WebSocket.
 
     The pump starts with the application and stops with it.
@@ -150,26 +167,24 @@ def make_app(source: Source, feed: Feed, wake: threading.Event, *, max_pages: in
         feed: The source's messages as page messages.
         wake: Set when the source has something.
         max_pages: Pages open at once; the next WebSocket is refused (HTTP 503).
+        access: Who gets in (default: loopback names with their port, once the app serves).
     """
-    pages = _Pages(source, feed, wake, max_pages)
+    pages = _Pages(source, feed, wake, max_pages, access or Access("127.0.0.1"))
     app = web.Application()
     app.on_startup.append(pages.start)
     app.on_cleanup.append(pages.cleanup)
-    app.router.add_get("/", _index)
+    app.router.add_get("/", pages.index)
     app.router.add_get("/ws", pages.socket)
     app.router.add_static("/static/", STATIC)
     return app
-
-
-async def _index(request: web.Request) -> web.FileResponse:
-    return web.FileResponse(STATIC / "index.html", headers={"Cache-Control": "no-cache"})
 
 
 class _Pages:
     """The open pages and the pump that feeds them (everything here runs on the server's loop,
     but what the pump hands over through ``call_soon_threadsafe``)."""
 
-    def __init__(self, source: Source, feed: Feed, wake: threading.Event, max_pages: int) -> None:
+    def __init__(self, source: Source, feed: Feed, wake: threading.Event, max_pages: int, access: Access) -> None:
+        self.access = access
         self.source = source
         self.feed = feed
         self.wake = wake
@@ -199,6 +214,26 @@ class _Pages:
                     c.waiting.append(text)
             c.ready.set()
 
+    def _right(self, request: web.Request) -> tuple[str, web.Response | None]:
+        """The request's right, or its refusal (HTTP 403 and why, logged)."""
+        if not self.access.port and request.transport is not None:  # served on port 0: learn the one taken
+            sock = request.transport.get_extra_info("sockname")
+            self.access.port = int(sock[1]) if sock else 0
+        right, why = self.access.right(
+            request.headers.get("Host"), request.headers.get("Origin"), request.query.get("key")
+        )
+        if right:
+            return right, None
+        logger.warning("refused %s from %s: %s", request.path, request.remote, why)
+        return "", web.Response(status=403, text=f"iwz view: {why}\n")
+
+    async def index(self, request: web.Request) -> web.StreamResponse:
+        """The page, to those let in."""
+        _, refused = self._right(request)
+        if refused is not None:
+            return refused
+        return web.FileResponse(STATIC / "index.html", headers={"Cache-Control": "no-cache"})
+
     async def start(self, app: web.Application) -> None:
         """Starts the pump."""
         loop = asyncio.get_running_loop()
@@ -220,7 +255,10 @@ class _Pages:
 
     async def socket(self, request: web.Request) -> web.StreamResponse:
         """One page's WebSocket: its snapshot, then what happens; its commands to the pump. Past
-        ``max_pages`` pages open, refused with HTTP 503 and why."""
+        ``max_pages`` pages open, refused with HTTP 503 and why; a request not let in, with 403."""
+        right, refused = self._right(request)
+        if refused is not None:
+            return refused
         if len(self.clients) >= self.max_pages:
             why = (
                 f"the viewer serves at most {self.max_pages} pages at once and all are open: close one, "
@@ -229,7 +267,7 @@ class _Pages:
             logger.warning("refused a page from %s: %s", request.remote, why)
             return web.Response(status=503, text=f"iwz view: {why}\n", headers={"Retry-After": "10"})
         ws = web.WebSocketResponse(max_msg_size=MAX_COMMAND_BYTES, heartbeat=30.0)
-        client = Client(ws)
+        client = Client(ws, right=right)
         self.clients.add(client)  # counted before the handshake's await: two pages cannot both take the last place
         try:
             await ws.prepare(request)
@@ -245,10 +283,17 @@ class _Pages:
                     continue
                 if msg.type != WSMsgType.TEXT:
                     continue
+                if not client.rate.take(time.monotonic()):
+                    if told := client.rate.tell(time.monotonic()):
+                        _refuse(client, told)
+                    continue
                 try:
                     cmd = _COMMAND.decode(msg.data)
                 except msgspec.DecodeError as e:  # ValidationError is one
                     _refuse(client, str(e))
+                    continue
+                if why := check_command(cmd, client.right):
+                    _refuse(client, why)
                     continue
                 if cmd.cmd == "scans":  # from now on: what follows is filtered before it is queued
                     client.scans = ScansWanted.of(cmd)
@@ -262,7 +307,10 @@ class _Pages:
 
 
 def _refuse(client: Client, why: str) -> None:
-    """Tells a page its command was refused, and why."""
+    """Tells a page its command was refused, and why (nothing more once its queue is long: a page
+    that floods and does not read costs a bounded amount)."""
+    if len(client.waiting) > 4 * MAX_BACKLOG:
+        return
     client.waiting.append(_ENCODER.encode(PageError(error=f"command refused: {why}")).decode())
     client.ready.set()
 

@@ -119,6 +119,7 @@ const handlers = {
   hello(m) {
     world.live = m.live; world.sim = m.sim;
     document.body.classList.toggle("replay", !m.live);
+    document.body.classList.toggle("watch", m.steer === false);  // a watch key: no control is shown
     $("timeline").hidden = m.live;
     $("title").textContent = `iwz view \u00b7 ${m.live ? "live" : "replay"} \u00b7 ${m.sim}`;
   },
@@ -140,7 +141,7 @@ const handlers = {
 };
 
 function connect() {
-  ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws`);
+  ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws${location.search}`);  // its key, if any
   ws.onopen = () => { world.connected = true; scansSaid = SCANS_ALL; tellScans(); hud(); };
   ws.onmessage = (e) => {
     const m = JSON.parse(e.data);
