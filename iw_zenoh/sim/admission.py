@@ -15,6 +15,7 @@ from iw_zenoh import keys
 from iw_zenoh.convert import spec_from_msg, spec_to_msg
 from iw_zenoh.errors import SpecError
 from iw_zenoh.messages import EventKind, Outgoing, RefusedData, RegisteredData, RegisterReply, RegisterRequest
+from iw_zenoh.sim import registry as roster
 from iw_zenoh.sim.registry import Refused, Registry
 
 if TYPE_CHECKING:
@@ -45,6 +46,9 @@ def admit(core: WorldCore, req: RegisterRequest, now_ns: int) -> tuple[RegisterR
     if again is not None:  # its agent restarted: the same robot, answered with where it is now
         entry, placed = registry.reclaim(again, core.state, now_ns)
     else:
+        if req.agent and registry.per_agent[req.agent] >= roster.MAX_ROBOTS_PER_AGENT:
+            why = f"agent {req.agent!r} has {roster.MAX_ROBOTS_PER_AGENT} robots, the most one agent may register"
+            return _refuse(core, req, why)
         owned = owned_id(core.cfg.owners, registry, req.agent, spec.id)
         if isinstance(owned, str):
             return _refuse(core, req, owned)

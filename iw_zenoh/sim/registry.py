@@ -3,6 +3,7 @@ what; the rules that accept or refuse a registration; and the order of the array
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -13,7 +14,11 @@ from iw_zenoh.core.lab import Grid, Scene
 from iw_zenoh.core.spec import RobotSpec, RobotType
 from iw_zenoh.core.world import WorldState
 
-__all__ = ["Entry", "Registry", "Refused"]
+__all__ = ["MAX_ROBOTS", "MAX_ROBOTS_PER_AGENT", "MAX_ROBOT_ID", "Entry", "Registry", "Refused"]
+
+MAX_ROBOT_ID = 2**31 - 1  # far below 64 bits: ids are summed, numbered on and kept in int64 arrays
+MAX_ROBOTS = 10_000  # in one world (the largest benchmarked: 10,000 chairs)
+MAX_ROBOTS_PER_AGENT = 2_000  # registered under one agent name (a host of 1,000 chairs is benchmarked)
 
 
 class Refused(Exception):
@@ -64,6 +69,7 @@ class Registry:
         self.arrayed: list[int] = []  # robot ids in the order of the arrays last built
         self._stale = False  # the roster changed since the arrays were built
         self._new_poses: dict[int, np.ndarray] = {}  # start poses of robots not yet in the arrays
+        self.per_agent: Counter[str] = Counter()  # robots registered under each agent name
 
     @property
     def ids(self) -> list[int]:
@@ -83,6 +89,14 @@ class Registry:
             "give X and Y, or remove a robot"
         )
 
+    def _next_id(self) -> int:
+        """The id of a robot placed by its pose: past the grid and every id taken, or (that being
+        past :data:`MAX_ROBOT_ID`) the first free one past the grid."""
+        k = max([0, len(self.grid.positions), *self.entries]) + 1
+        if k <= MAX_ROBOT_ID:
+            return k
+        return next(k for k in range(len(self.grid.positions) + 1, MAX_ROBOT_ID + 1) if k not in self.entries)
+
     def place(self, spec: RobotSpec, pose: dict[int, tuple[float, float, float]]) -> RobotSpec:
         """Chooses the id and start pose of a new robot, or refuses it.
 
@@ -98,8 +112,12 @@ class Registry:
                 outside the lab, inside a wall or on another robot.
         """
         rid = spec.id
+        if rid > MAX_ROBOT_ID:
+            raise Refused(f"id {rid} is beyond the largest robot id, {MAX_ROBOT_ID}; ask for a smaller one or 0")
+        if len(self.entries) >= MAX_ROBOTS:
+            raise Refused(f"the world holds {MAX_ROBOTS} robots, the most it takes; remove one first")
         if rid == 0:
-            rid = self._free_id() if spec.x_m is None else max([0, len(self.grid.positions), *self.entries]) + 1
+            rid = self._free_id() if spec.x_m is None else self._next_id()
         if rid in self.entries:
             raise Refused(
                 f"id {rid} is taken by {self.entries[rid].spec.name!r}; ask for another id or 0 for the first free one"
@@ -146,6 +164,8 @@ class Registry:
             pose: Where it is (x, y, heading rad), when not at its start pose (a resumed world).
         """
         e = Entry(spec=spec, agent=agent, last_action_ns=now_ns)
+        self.remove(spec.id)
+        self.per_agent[agent] += 1
         self.entries[spec.id] = e
         start = (spec.x_m or 0.0, spec.y_m or 0.0, float(np.radians(spec.dir_deg or 0.0)))
         self._new_poses[spec.id] = np.array(pose if pose is not None else start)
@@ -179,6 +199,9 @@ class Registry:
         e = self.entries.pop(robot_id, None)
         if e is not None:
             self._stale = True
+            self.per_agent[e.agent] -= 1
+            if not self.per_agent[e.agent]:
+                del self.per_agent[e.agent]
         return e
 
     def poses(self, state: WorldState) -> dict[int, tuple[float, float, float]]:
