@@ -97,11 +97,8 @@ class _World:
         """Handles every input waiting now (not verdicts: the tick takes those)."""
         now = self.clock.now_ns()
         core, io = self.core, self.io
-        while self.alive_changes:
-            key, alive = self.alive_changes.pop(0)
-            parts = keys.alive_parts(key)
-            if parts:
-                io.send_all(core.on_alive(parts[0], parts[1], alive, now))
+        self._take_alive(now)
+        io.send_all(core.overdue(now))
         for q in self.register_q.poll():
             try:
                 req = decode(q.payload, RegisterRequest)
@@ -134,6 +131,17 @@ class _World:
             r = io.decode(d, PoseReport)
             if r is not None and self._robot_message(d[0], r.robot_id, r.tick, now):
                 core.on_pose_report(r, now)
+
+    def _take_alive(self, now: int) -> bool:
+        """Takes the liveliness changes waiting; whether a collision process was lost among them."""
+        lost = False
+        while self.alive_changes:
+            key, alive = self.alive_changes.pop(0)
+            parts = keys.alive_parts(key)
+            if parts:
+                lost |= parts[0] == "collision" and not alive
+                self.io.send_all(self.core.on_alive(parts[0], parts[1], alive, now))
+        return lost
 
     def _robot_message(self, key: str, robot_id: int, tick: int, now: int) -> bool:
         """Whether a robot's message may be acted on: on its own key, for a robot the world knows,
@@ -204,13 +212,18 @@ class _World:
             self.io.wait(min(left, 0.05))
 
     def take_verdict(self, deadline_ns: int) -> Verdict | None:
-        """Waits for the verdict on the pending proposal, until the deadline."""
+        """Waits for the verdict on the pending proposal, until the deadline, or until a
+        collision process is lost: one restarted meanwhile never saw the proposal, so the tick
+        is held at once rather than at the deadline (a minute in a patient lock-step run). Only
+        liveliness is taken meanwhile (the roster stays the proposal's: ``sim/early.py``)."""
+        lost = False
         while True:
             for d in self.verdicts.drain():
                 v = self.io.decode(d, Verdict)
                 if v is not None and self.core.verdict_ok(v):
                     return v
-            if not self.core.collision_alive or self.io.stop.is_set():
+            lost |= self._take_alive(self.clock.now_ns())
+            if lost or not self.core.collision_alive or self.io.stop.is_set():
                 return None
             left = (deadline_ns - self.clock.now_ns()) / 1e9
             if left <= 0:

@@ -63,7 +63,7 @@ def admit(core: WorldCore, req: RegisterRequest, now_ns: int) -> tuple[RegisterR
     # and its agent is alive
     entry.last_action_tick = core.tick
     if req.agent:
-        core.presence.agent_registered(req.agent)
+        core.presence.agent_registered(req.agent, now_ns)
     msg = spec_to_msg(placed)
     reply = RegisterReply(tick=core.tick, sim_time_ns=core.sim_time_ns(), ok=True, robot_id=placed.id, spec=msg)
     out: list[Outgoing] = [

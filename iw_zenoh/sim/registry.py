@@ -40,6 +40,8 @@ class Entry:
         report: Last reported pose of a Real robot (x, y, heading rad), or None.
         instance: Which run of its agent process registered it (the first part of the request
             id, the process id): the same agent name from another process is its agent restarted.
+        dropped: Its agent's token went away since it registered (a process stopped past its
+            lease): the same process asking for it again gets it back.
     """
 
     spec: RobotSpec
@@ -52,6 +54,7 @@ class Entry:
     report: tuple[float, float, float] | None = None
     leds: dict[str, bool] = field(default_factory=dict)
     instance: str = ""
+    dropped: bool = False  # its agent's token went away since it registered (it may ask again)
 
 
 class Registry:
@@ -174,13 +177,15 @@ class Registry:
 
     def reclaimable(self, spec: RobotSpec, agent: str, instance: str) -> int | None:
         """The robot a restarted agent asks for again, or None: one registered by the same agent
-        name from another process (another ``instance``), with the id asked (or, for id 0, the
-        same name). Its robot keeps its id and place instead of being refused as a duplicate.
+        name from another process (another ``instance``), or from the same process once its token
+        went away (the agent was stopped past its lease: its old body is its own), with the
+        id asked (or, for id 0, the same name). Its robot keeps its id and place instead of being
+        refused as a duplicate or as on another robot.
         """
         if not agent or not instance:
             return None
         for rid, e in self.entries.items():
-            if e.agent != agent or e.instance == instance:
+            if e.agent != agent or e.instance == instance and not e.dropped:
                 continue
             if rid == spec.id if spec.id else e.spec.name == spec.name:
                 return rid
@@ -191,7 +196,7 @@ class Registry:
         placed where it is now (the registration's answer)."""
         e = self.entries[robot_id]
         x, y, h = self.poses(state)[robot_id]
-        e.lost_ns, e.cmd, e.last_action_ns = None, (0.0, 0.0), now_ns
+        e.lost_ns, e.cmd, e.last_action_ns, e.dropped = None, (0.0, 0.0), now_ns, False
         return e, e.spec.placed(robot_id, x, y, float(np.degrees(h)))
 
     def remove(self, robot_id: int) -> Entry | None:
@@ -318,7 +323,7 @@ class Registry:
         lost: list[int] = []
         for rid, e in self.entries.items():
             if e.agent == agent and e.lost_ns is None:
-                e.lost_ns = now_ns
+                e.lost_ns, e.dropped = now_ns, True
                 e.cmd = (0.0, 0.0)
                 lost.append(rid)
         return lost
