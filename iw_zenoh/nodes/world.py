@@ -9,10 +9,11 @@ from __future__ import annotations
 import argparse
 import logging
 import time
+from collections import deque
 from collections.abc import Callable, Sequence
 
 from iw_zenoh import keys
-from iw_zenoh.bus import Bus
+from iw_zenoh.bus import Bus, PendingQuery
 from iw_zenoh.clock import Clock, WallClock
 from iw_zenoh.core.lab import Grid
 from iw_zenoh.core.modes import Mode
@@ -34,6 +35,7 @@ from iw_zenoh.messages import (
     encode,
 )
 from iw_zenoh.nodes.world_options import WorldOptions, add_arguments, parse_obstacle
+from iw_zenoh.nodes.world_seal import seal, seal_key
 from iw_zenoh.runtime import NodeIO, Process, options_from_args, start_role
 from iw_zenoh.sim.config import MS, WorldConfig
 from iw_zenoh.sim.resume import resume
@@ -48,6 +50,11 @@ logger = logging.getLogger(__name__)
 UNKNOWN_EVERY_NS = 1_000_000_000  # messages for a robot the world does not have: one event a second
 UNKNOWN_KEPT = 1_000  # robots remembered for that (forged ids by the million cost no memory)
 BATCHES_KEPT = 4_096  # agent hosts' action batches waiting, at most
+# a flood of registrations does not stop the clock: a pass answers them for this long (one at
+# least), the rest wait for the next; past REGISTRATIONS_KEPT waiting, the newest are refused
+REGISTRATIONS_A_PUMP_NS = 20_000_000
+REGISTRATIONS_KEPT = 4_096
+BUSY = "the world has too many registrations waiting; ask again in a moment"
 
 
 class _World:
@@ -68,10 +75,12 @@ class _World:
         self.control = self.io.inbox(keys.control(sim))
         self.verdicts = self.io.inbox(keys.verdict(sim))
         self.register_q = bus.serve(keys.all_registers(sim))  # the shared key and each agent's own
+        self._registrations: deque[PendingQuery] = deque()  # asked, not yet answered (a flood waits here)
         self.info_q = bus.serve(keys.info(sim))
         self.alive_changes: list[tuple[str, bool]] = []
         self._unknown: dict[int, int] = {}  # robot the world does not have -> when last reported
         self._info_revision = -1
+        self.seal_key = seal_key()  # iwz run's, so that it knows its world's description from a forgery
         bus.watch_alive(keys.all_alive(sim), self._on_alive)
         self.io.alive()
 
@@ -79,7 +88,7 @@ class _World:
         """Answers late joiners' info queries (also while a tick waits for its verdict)."""
         pending = self.info_q.poll()
         if pending:
-            data = encode(self.core.info())
+            data = encode(seal(self.core.info(), self.seal_key))
             for q in pending:
                 q.reply(data)
 
@@ -87,7 +96,7 @@ class _World:
         """Publishes the world's description whenever it changed (recorders, replays, viewers)."""
         if self.core.revision != self._info_revision:
             self._info_revision = self.core.revision
-            self.io.send(keys.info(self.core.cfg.sim), self.core.info())
+            self.io.send(keys.info(self.core.cfg.sim), seal(self.core.info(), self.seal_key))
 
     def _on_alive(self, key: str, alive: bool) -> None:
         self.alive_changes.append((key, alive))  # list.append is atomic; drained by the loop
@@ -99,7 +108,14 @@ class _World:
         core, io = self.core, self.io
         self._take_alive(now)
         io.send_all(core.overdue(now))
-        for q in self.register_q.poll():
+        self._registrations.extend(self.register_q.poll())
+        answered = 0
+        while len(self._registrations) > REGISTRATIONS_KEPT:  # the newest are told to ask again
+            self._registrations.pop().reply(encode(RegisterReply(ok=False, reason=BUSY)))
+        budget_end = self.clock.now_ns() + REGISTRATIONS_A_PUMP_NS
+        while self._registrations and (budget_end > self.clock.now_ns() or not answered):
+            answered += 1
+            q = self._registrations.popleft()
             try:
                 req = decode(q.payload, RegisterRequest)
             except IwError as e:
@@ -331,6 +347,7 @@ def world_config(opts: WorldOptions, sim: str) -> WorldConfig:
         motors_noise_pct=opts.motors_noise_pct,
         silence=opts.silence,
         owners=None if opts.owners is None else {a: None if r is None else tuple(r) for a, r in opts.owners.items()},
+        reserved=None if opts.reserved is None else {a: tuple(r) for a, r in opts.reserved.items()},
     )
 
 

@@ -11,12 +11,13 @@ import shapely
 
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.lab import Grid, Scene
-from iw_zenoh.core.spec import RobotSpec, RobotType
+from iw_zenoh.core.spec import MAX_BODY_M, RobotSpec, RobotType
 from iw_zenoh.core.world import WorldState
 
 __all__ = ["MAX_ROBOTS", "MAX_ROBOTS_PER_AGENT", "MAX_ROBOT_ID", "Entry", "Registry", "Refused"]
 
 MAX_ROBOT_ID = 2**31 - 1  # far below 64 bits: ids are summed, numbered on and kept in int64 arrays
+_REACH_M = 3 * MAX_BODY_M  # two bodies whose poses are farther apart than this cannot touch (corners: 11.2 m)
 MAX_ROBOTS = 10_000  # in one world (the largest benchmarked: 10,000 chairs)
 MAX_ROBOTS_PER_AGENT = 2_000  # registered under one agent name (a host of 1,000 chairs is benchmarked)
 
@@ -83,29 +84,33 @@ class Registry:
         """Accepted specs in array order."""
         return [e.spec for e in self.entries.values()]
 
-    def _free_id(self) -> int:
+    def _free_id(self, skip: set[int]) -> int:
         for k in range(1, len(self.grid.positions) + 1):
-            if k not in self.entries:
+            if k not in self.entries and k not in skip:
                 return k
         raise Refused(
             f"the grid is full: all {len(self.grid.positions)} start positions are taken; "
             "give X and Y, or remove a robot"
         )
 
-    def _next_id(self) -> int:
+    def _next_id(self, skip: set[int]) -> int:
         """The id of a robot placed by its pose: past the grid and every id taken, or (that being
         past :data:`MAX_ROBOT_ID`) the first free one past the grid."""
-        k = max([0, len(self.grid.positions), *self.entries]) + 1
+        k = max([0, len(self.grid.positions), *self.entries, *skip]) + 1
         if k <= MAX_ROBOT_ID:
             return k
-        return next(k for k in range(len(self.grid.positions) + 1, MAX_ROBOT_ID + 1) if k not in self.entries)
+        last = MAX_ROBOT_ID + 1
+        return next(k for k in range(len(self.grid.positions) + 1, last) if k not in self.entries and k not in skip)
 
-    def place(self, spec: RobotSpec, pose: dict[int, tuple[float, float, float]]) -> RobotSpec:
+    def place(
+        self, spec: RobotSpec, pose: dict[int, tuple[float, float, float]], *, skip: set[int] | None = None
+    ) -> RobotSpec:
         """Chooses the id and start pose of a new robot, or refuses it.
 
         Args:
             spec: The requested spec.
             pose: Current poses of the registered robots (x, y, heading rad) by id.
+            skip: Ids not given to a robot asking for any (0): the scenario's, for its agents.
 
         Returns:
             The spec with id and pose set.
@@ -120,7 +125,7 @@ class Registry:
         if len(self.entries) >= MAX_ROBOTS:
             raise Refused(f"the world holds {MAX_ROBOTS} robots, the most it takes; remove one first")
         if rid == 0:
-            rid = self._free_id() if spec.x_m is None else self._next_id()
+            rid = self._free_id(skip or set()) if spec.x_m is None else self._next_id(skip or set())
         if rid in self.entries:
             raise Refused(
                 f"id {rid} is taken by {self.entries[rid].spec.name!r}; ask for another id or 0 for the first free one"
@@ -145,7 +150,9 @@ class Registry:
             hit = self.scene.wall_tree.query(poly, predicate="intersects")
             if len(hit):
                 raise Refused(f"start ({x:g}, {y:g}) puts the body on wall {int(hit[0])}; choose a free place")
-        others = list(pose.items())
+        # only robots near enough to touch it (a body is within MAX_BODY_M of its pose): placing
+        # against every robot there made each registration of a flood slower than the last
+        others = [(i, q) for i, q in pose.items() if abs(q[0] - x) <= _REACH_M and abs(q[1] - y) <= _REACH_M]
         if placed.type == RobotType.DOOR:  # the leaves of one revolving door share its hub
             others = [(i, q) for i, q in others if i not in self.entries or self.entries[i].spec.type != RobotType.DOOR]
         if others:
