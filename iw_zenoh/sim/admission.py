@@ -52,8 +52,14 @@ def admit(core: WorldCore, req: RegisterRequest, now_ns: int) -> tuple[RegisterR
         owned = owned_id(core.cfg.owners, registry, req.agent, spec.id)
         if isinstance(owned, str):
             return _refuse(core, req, owned)
+        theirs = {r: a for a, rs in (core.cfg.reserved or {}).items() if a != req.agent for r in rs}
+        if owned in theirs:
+            why = (
+                f"robot {owned} is the scenario's, for agent {theirs[owned]!r}; ask for another id, or 0 for a free one"
+            )
+            return _refuse(core, req, why)
         try:
-            placed = registry.place(replace(spec, id=owned), registry.poses(core.state))
+            placed = registry.place(replace(spec, id=owned), registry.poses(core.state), skip=set(theirs))
         except Refused as e:
             return _refuse(core, req, str(e))
         entry = registry.add(placed, req.agent, now_ns)

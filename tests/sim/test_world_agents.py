@@ -62,3 +62,17 @@ def test_an_agent_stopped_past_its_lease_gets_its_own_robot_back_from_the_same_p
     assert reply.ok, reply.reason  # was: 'start (5, 5) puts the body on robot 1': its own old body
     assert reply.robot_id == first.robot_id
     assert core.registry.entries[first.robot_id].lost_ns is None
+
+
+def test_the_scenario_s_ids_are_its_agents_not_a_wanderer_s() -> None:
+    grid = Grid((GridPosition(2, 5, 0), GridPosition(5, 5, 0), GridPosition(8, 5, 0)))
+    core = WorldCore(WorldConfig(sim="t", reserved={"driver": (1,)}), Lab("t", 20.0, 10.0), grid)
+    wanderer, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="w"), agent="wanderer"), 0)
+    assert wanderer.ok
+    assert wanderer.robot_id == 2  # was 1: the scenario's robot 1 then could not register
+    taken, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="w2", id=1), agent="wanderer"), 0)
+    assert not taken.ok
+    assert "robot 1 is the scenario's, for agent 'driver'" in taken.reason
+    mine, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="d", id=1), agent="driver"), 0)
+    assert mine.ok, mine.reason
+    assert mine.robot_id == 1
