@@ -102,6 +102,16 @@ class Registry:
         last = MAX_ROBOT_ID + 1
         return next(k for k in range(len(self.grid.positions) + 1, last) if k not in self.entries and k not in skip)
 
+    def _id_for(self, spec: RobotSpec, skip: set[int]) -> int:
+        """The id a new robot gets (the one asked, or a free one for 0), within the bounds."""
+        if spec.id > MAX_ROBOT_ID:
+            raise Refused(f"id {spec.id} is beyond the largest robot id, {MAX_ROBOT_ID}; ask for a smaller one or 0")
+        if len(self.entries) >= MAX_ROBOTS:
+            raise Refused(f"the world holds {MAX_ROBOTS} robots, the most it takes; remove one first")
+        if spec.id:
+            return spec.id
+        return self._free_id(skip) if spec.x_m is None else self._next_id(skip)
+
     def place(
         self, spec: RobotSpec, pose: dict[int, tuple[float, float, float]], *, skip: set[int] | None = None
     ) -> RobotSpec:
@@ -119,13 +129,7 @@ class Registry:
             Refused: Duplicate id, full grid, id beyond the grid without a pose, or a start pose
                 outside the lab, inside a wall or on another robot.
         """
-        rid = spec.id
-        if rid > MAX_ROBOT_ID:
-            raise Refused(f"id {rid} is beyond the largest robot id, {MAX_ROBOT_ID}; ask for a smaller one or 0")
-        if len(self.entries) >= MAX_ROBOTS:
-            raise Refused(f"the world holds {MAX_ROBOTS} robots, the most it takes; remove one first")
-        if rid == 0:
-            rid = self._free_id(skip or set()) if spec.x_m is None else self._next_id(skip or set())
+        rid = self._id_for(spec, skip or set())
         if rid in self.entries:
             raise Refused(
                 f"id {rid} is taken by {self.entries[rid].spec.name!r}; ask for another id or 0 for the first free one"
