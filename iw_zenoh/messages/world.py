@@ -162,6 +162,8 @@ class WorldInfo(Message, frozen=True, kw_only=True):
     # before. One per robot, in the order of ``robots``: the liveliness name of the agent driving
     # it ("" for none), so a late joiner knows it without having seen its ``registered`` event.
     agents: list[str] | msgspec.UnsetType = msgspec.UNSET
+    # added later too: an HMAC of the rest under the key iwz run gave its world (nodes/world_seal.py)
+    seal: Annotated[str, msgspec.Meta(max_length=64)] | msgspec.UnsetType = msgspec.UNSET
 
     def __post_init__(self) -> None:
         """Refuses a roster that names a robot twice, or agents that are not one per robot."""

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import msgspec
 
+from iw_zenoh.nodes.world_seal import SEAL_ENV
+
 __all__ = ["RECORDER_STOP_S", "Child", "stop_in_order"]
 
 logger = logging.getLogger(__name__)
@@ -47,7 +49,10 @@ class Child:
         return {"record": "recorder", "bridge": "agent"}.get(self.role, self.role)
 
     def start(self, env: dict[str, str]) -> None:
-        """Starts (or restarts) the process, its output to its log file."""
+        """Starts (or restarts) the process, its output to its log file (the world's key for
+        sealing its descriptions, :mod:`iw_zenoh.nodes.world_seal`, to the world only)."""
+        if self.role != "world":
+            env = {k: v for k, v in env.items() if k != SEAL_ENV}
         with self.log.open("ab") as f:
             self.proc = subprocess.Popen(
                 self.argv,

@@ -37,6 +37,7 @@ from iw_zenoh.nodes.run_waits import wait_listening, wait_roles
 from iw_zenoh.nodes.secure_run import LAUNCHER
 from iw_zenoh.nodes.tally import Tally
 from iw_zenoh.nodes.world_options import world_options
+from iw_zenoh.nodes.world_seal import SEAL_ENV, new_key, sealed
 from iw_zenoh.options import options_json
 from iw_zenoh.runtime import SUPERVISOR_ENV, setup_logging
 from iw_zenoh.shipped import resolve_scenario
@@ -99,9 +100,13 @@ class Launcher:
         self.record_cut: float | None = None  # when (sim s) the recorder could no longer write its file
         self.bus: ZenohBus | None = None  # the launcher's own session, from the router's start
         self._inboxes: tuple[Inbox, Inbox, Inbox] | None = None
+        self.forged_infos = 0  # world descriptions ignored: not sealed by the world started
         self.stop_event = threading.Event()
         # each child stops by itself if this launcher is ever gone without stopping it (a kill)
         self.env = dict(os.environ, PYTHONUNBUFFERED="1", **{SUPERVISOR_ENV: str(os.getpid())})
+        # the world alone is given it (Child.start): its descriptions are known from forgeries
+        self.seal = new_key()
+        self.env[SEAL_ENV] = self.seal
         self.world_options = world_options(scenario)
         self.tally.running = not self.world_options[0].start_paused
 
@@ -207,9 +212,15 @@ class Launcher:
     def _update(self, states: Inbox, events: Inbox, infos: Inbox) -> None:
         for _, data, _ in infos.drain():
             try:
-                self.tally.info = decode(data, WorldInfo)
+                info = decode(data, WorldInfo)
             except IwError:
                 continue
+            if sealed(info, bytes.fromhex(self.seal)):
+                self.tally.info = info
+            else:  # not its world's: a restarted world resumes from the last description it sent
+                self.forged_infos += 1
+                if self.forged_infos == 1:
+                    logger.warning("a world description not from the world iwz run started was ignored")
         for _, data, _ in events.drain():
             try:
                 self.tally.on_event(decode(data, Event))

@@ -133,6 +133,8 @@ class _Loop:
         """Why proposal ``p`` is refused, or ``""``."""
         if why := self.window.ahead(p.tick, now_ns):
             return why
+        if len(p.rolled_left) != len(p.ids):  # a tick delivered early commits them (sim.early)
+            return f"no rolled_left/rolled_right for its {len(p.ids)} robots: it cannot be delivered early"
         last = self.roster  # one revision, one roster: the world bumps it when a robot comes or goes
         if last is None or p.revision != last[0] or p.ids == last[1]:
             return ""

@@ -55,7 +55,7 @@ def agent_name(index: int, entry: AgentEntry) -> str:
     return entry.name or f"agent-{index + 1}-{program_label(entry.program)}"
 
 
-def _asked_id(argv: Sequence[str]) -> int | None:
+def asked_id(argv: Sequence[str]) -> int | None:
     for flag, value in zip(argv, argv[1:], strict=False):
         if flag == "--id" and value.isdigit() and int(value) > 0:
             return int(value)
@@ -64,7 +64,7 @@ def _asked_id(argv: Sequence[str]) -> int | None:
 
 def agent_robots(sc: Scenario) -> dict[str, tuple[int, ...]]:
     """Each agent process's robots: its ``--id``, or the lowest ids no other agent asks for."""
-    asked = {agent_name(i, a): _asked_id(a.argv) for i, a in enumerate(sc.agents)}
+    asked = {agent_name(i, a): asked_id(a.argv) for i, a in enumerate(sc.agents)}
     taken = {r for r in asked.values() if r is not None}
     if sc.chair is not None:
         taken.add(sc.chair.robot)

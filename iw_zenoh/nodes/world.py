@@ -9,10 +9,11 @@ from __future__ import annotations
 import argparse
 import logging
 import time
+from collections import deque
 from collections.abc import Callable, Sequence
 
 from iw_zenoh import keys
-from iw_zenoh.bus import Bus
+from iw_zenoh.bus import Bus, PendingQuery
 from iw_zenoh.clock import Clock, WallClock
 from iw_zenoh.core.lab import Grid
 from iw_zenoh.core.modes import Mode
@@ -34,6 +35,7 @@ from iw_zenoh.messages import (
     encode,
 )
 from iw_zenoh.nodes.world_options import WorldOptions, add_arguments, parse_obstacle
+from iw_zenoh.nodes.world_seal import seal, seal_key
 from iw_zenoh.runtime import NodeIO, Process, options_from_args, start_role
 from iw_zenoh.sim.config import MS, WorldConfig
 from iw_zenoh.sim.resume import resume
@@ -48,6 +50,11 @@ logger = logging.getLogger(__name__)
 UNKNOWN_EVERY_NS = 1_000_000_000  # messages for a robot the world does not have: one event a second
 UNKNOWN_KEPT = 1_000  # robots remembered for that (forged ids by the million cost no memory)
 BATCHES_KEPT = 4_096  # agent hosts' action batches waiting, at most
+# a flood of registrations does not stop the clock: a pass answers them for this long (one at
+# least), the rest wait for the next; past REGISTRATIONS_KEPT waiting, the newest are refused
+REGISTRATIONS_A_PUMP_NS = 20_000_000
+REGISTRATIONS_KEPT = 4_096
+BUSY = "the world has too many registrations waiting; ask again in a moment"
 
 
 class _World:
@@ -68,10 +75,12 @@ class _World:
         self.control = self.io.inbox(keys.control(sim))
         self.verdicts = self.io.inbox(keys.verdict(sim))
         self.register_q = bus.serve(keys.all_registers(sim))  # the shared key and each agent's own
+        self._registrations: deque[PendingQuery] = deque()  # asked, not yet answered (a flood waits here)
         self.info_q = bus.serve(keys.info(sim))
         self.alive_changes: list[tuple[str, bool]] = []
         self._unknown: dict[int, int] = {}  # robot the world does not have -> when last reported
         self._info_revision = -1
+        self.seal_key = seal_key()  # iwz run's, so that it knows its world's description from a forgery
         bus.watch_alive(keys.all_alive(sim), self._on_alive)
         self.io.alive()
 
@@ -79,7 +88,7 @@ class _World:
         """Answers late joiners' info queries (also while a tick waits for its verdict)."""
         pending = self.info_q.poll()
         if pending:
-            data = encode(self.core.info())
+            data = encode(seal(self.core.info(), self.seal_key))
             for q in pending:
                 q.reply(data)
 
@@ -87,7 +96,7 @@ class _World:
         """Publishes the world's description whenever it changed (recorders, replays, viewers)."""
         if self.core.revision != self._info_revision:
             self._info_revision = self.core.revision
-            self.io.send(keys.info(self.core.cfg.sim), self.core.info())
+            self.io.send(keys.info(self.core.cfg.sim), seal(self.core.info(), self.seal_key))
 
     def _on_alive(self, key: str, alive: bool) -> None:
         self.alive_changes.append((key, alive))  # list.append is atomic; drained by the loop
@@ -97,12 +106,16 @@ class _World:
         """Handles every input waiting now (not verdicts: the tick takes those)."""
         now = self.clock.now_ns()
         core, io = self.core, self.io
-        while self.alive_changes:
-            key, alive = self.alive_changes.pop(0)
-            parts = keys.alive_parts(key)
-            if parts:
-                io.send_all(core.on_alive(parts[0], parts[1], alive, now))
-        for q in self.register_q.poll():
+        self._take_alive(now)
+        io.send_all(core.overdue(now))
+        self._registrations.extend(self.register_q.poll())
+        answered = 0
+        while len(self._registrations) > REGISTRATIONS_KEPT:  # the newest are told to ask again
+            self._registrations.pop().reply(encode(RegisterReply(ok=False, reason=BUSY)))
+        budget_end = self.clock.now_ns() + REGISTRATIONS_A_PUMP_NS
+        while self._registrations and (budget_end > self.clock.now_ns() or not answered):
+            answered += 1
+            q = self._registrations.popleft()
             try:
                 req = decode(q.payload, RegisterRequest)
             except IwError as e:
@@ -134,6 +147,17 @@ class _World:
             r = io.decode(d, PoseReport)
             if r is not None and self._robot_message(d[0], r.robot_id, r.tick, now):
                 core.on_pose_report(r, now)
+
+    def _take_alive(self, now: int) -> bool:
+        """Takes the liveliness changes waiting; whether a collision process was lost among them."""
+        lost = False
+        while self.alive_changes:
+            key, alive = self.alive_changes.pop(0)
+            parts = keys.alive_parts(key)
+            if parts:
+                lost |= parts[0] == "collision" and not alive
+                self.io.send_all(self.core.on_alive(parts[0], parts[1], alive, now))
+        return lost
 
     def _robot_message(self, key: str, robot_id: int, tick: int, now: int) -> bool:
         """Whether a robot's message may be acted on: on its own key, for a robot the world knows,
@@ -204,13 +228,18 @@ class _World:
             self.io.wait(min(left, 0.05))
 
     def take_verdict(self, deadline_ns: int) -> Verdict | None:
-        """Waits for the verdict on the pending proposal, until the deadline."""
+        """Waits for the verdict on the pending proposal, until the deadline, or until a
+        collision process is lost: one restarted meanwhile never saw the proposal, so the tick
+        is held at once rather than at the deadline (a minute in a patient lock-step run). Only
+        liveliness is taken meanwhile (the roster stays the proposal's: ``sim/early.py``)."""
+        lost = False
         while True:
             for d in self.verdicts.drain():
                 v = self.io.decode(d, Verdict)
                 if v is not None and self.core.verdict_ok(v):
                     return v
-            if not self.core.collision_alive or self.io.stop.is_set():
+            lost |= self._take_alive(self.clock.now_ns())
+            if lost or not self.core.collision_alive or self.io.stop.is_set():
                 return None
             left = (deadline_ns - self.clock.now_ns()) / 1e9
             if left <= 0:
@@ -318,6 +347,7 @@ def world_config(opts: WorldOptions, sim: str) -> WorldConfig:
         motors_noise_pct=opts.motors_noise_pct,
         silence=opts.silence,
         owners=None if opts.owners is None else {a: None if r is None else tuple(r) for a, r in opts.owners.items()},
+        reserved=None if opts.reserved is None else {a: tuple(r) for a, r in opts.reserved.items()},
     )
 
 

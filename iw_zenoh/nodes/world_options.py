@@ -15,6 +15,7 @@ from iw_zenoh.config import Scenario
 from iw_zenoh.core.modes import Mode, Profile, Silence
 from iw_zenoh.errors import ConfigError, IwError
 from iw_zenoh.messages import Obstacle
+from iw_zenoh.nodes.secure_run import SERIAL_BRIDGE, agent_name, asked_id
 from iw_zenoh.options import Flag, add_option_flags, option, options_from_argv
 from iw_zenoh.secure.policy import load_policy, owners
 from iw_zenoh.sim.config import WorldConfig
@@ -47,6 +48,8 @@ class WorldOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
         obstacles: Rectangular obstacles placed before the first tick.
         owners: A secured run's agents and the robots each may register (from ``--policy``;
             ``None`` for a bridge: any); None: every agent registers any robot.
+        reserved: The ids a scenario gives its agents (``--id``), by agent name: no one else
+            takes them by asking for any id (``iwz run`` sets it); None: none.
         resume: Go on from this last committed state (``iwz run`` restarting a world that died;
             its obstacles replace ``obstacles``); None: a new run.
     """
@@ -68,6 +71,7 @@ class WorldOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     obstacles: tuple[Obstacle, ...] = ()
     owners: dict[str, list[int] | None] | None = None
     resume: WorldSnapshot | None = None
+    reserved: dict[str, list[int]] | None = None
 
 
 def parse_obstacle(text: str) -> Obstacle:
@@ -192,6 +196,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_option_flags(p, WorldOptions, _FLAGS)
 
 
+def scenario_ids(sc: Scenario) -> dict[str, list[int]]:
+    """The ids the scenario names for its agents (an agent's ``--id``, the chair's robot), by the
+    name each registers under."""
+    out = {agent_name(i, a): [r] for i, a in enumerate(sc.agents) if (r := asked_id(a.argv)) is not None}
+    if sc.chair is not None:
+        out[SERIAL_BRIDGE] = [sc.chair.robot]
+    return out
+
+
 def world_options(sc: Scenario) -> tuple[WorldOptions, list[str]]:
     """The world's options for a scenario, and what of its ``world.args`` is not an option flag.
 
@@ -209,6 +222,7 @@ def world_options(sc: Scenario) -> tuple[WorldOptions, list[str]]:
         duration_s=w.duration_s,
         expect=sc.robots,
         obstacles=sc.obstacles,
+        reserved=scenario_ids(sc) or None,
     )
     try:
         return options_from_argv(w.argv, WorldOptions, add_arguments, base=options, prog="iwz world")

@@ -15,6 +15,7 @@ from iw_zenoh import keys
 from iw_zenoh.convert import spec_from_msg, spec_to_msg
 from iw_zenoh.errors import SpecError
 from iw_zenoh.messages import EventKind, Outgoing, RefusedData, RegisteredData, RegisterReply, RegisterRequest
+from iw_zenoh.sim import registry as roster
 from iw_zenoh.sim.registry import Refused, Registry
 
 if TYPE_CHECKING:
@@ -45,11 +46,20 @@ def admit(core: WorldCore, req: RegisterRequest, now_ns: int) -> tuple[RegisterR
     if again is not None:  # its agent restarted: the same robot, answered with where it is now
         entry, placed = registry.reclaim(again, core.state, now_ns)
     else:
+        if req.agent and registry.per_agent[req.agent] >= roster.MAX_ROBOTS_PER_AGENT:
+            why = f"agent {req.agent!r} has {roster.MAX_ROBOTS_PER_AGENT} robots, the most one agent may register"
+            return _refuse(core, req, why)
         owned = owned_id(core.cfg.owners, registry, req.agent, spec.id)
         if isinstance(owned, str):
             return _refuse(core, req, owned)
+        theirs = {r: a for a, rs in (core.cfg.reserved or {}).items() if a != req.agent for r in rs}
+        if owned in theirs:
+            why = (
+                f"robot {owned} is the scenario's, for agent {theirs[owned]!r}; ask for another id, or 0 for a free one"
+            )
+            return _refuse(core, req, why)
         try:
-            placed = registry.place(replace(spec, id=owned), registry.poses(core.state))
+            placed = registry.place(replace(spec, id=owned), registry.poses(core.state), skip=set(theirs))
         except Refused as e:
             return _refuse(core, req, str(e))
         entry = registry.add(placed, req.agent, now_ns)
@@ -59,7 +69,7 @@ def admit(core: WorldCore, req: RegisterRequest, now_ns: int) -> tuple[RegisterR
     # and its agent is alive
     entry.last_action_tick = core.tick
     if req.agent:
-        core.presence.agent_registered(req.agent)
+        core.presence.agent_registered(req.agent, now_ns)
     msg = spec_to_msg(placed)
     reply = RegisterReply(tick=core.tick, sim_time_ns=core.sim_time_ns(), ok=True, robot_id=placed.id, spec=msg)
     out: list[Outgoing] = [

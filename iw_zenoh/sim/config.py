@@ -37,6 +37,8 @@ class WorldConfig:
             :meth:`Silence.of`).
         owners: A secured run's agents and the robots each may register (``None`` for any
             robot: a trusted bridge); an agent not listed registers nothing. ``None``: open.
+        reserved: The ids a scenario gives its agents, by agent name: another registration asking
+            for any id (0) does not get one, and one asking for it by number is refused.
     """
 
     sim: str = "default"
@@ -54,6 +56,7 @@ class WorldConfig:
     motors_noise_pct: float = 0.0
     silence: Silence | None = None
     owners: dict[str, tuple[int, ...] | None] | None = None
+    reserved: dict[str, tuple[int, ...]] | None = None
 
     @property
     def silent_robots(self) -> Silence:

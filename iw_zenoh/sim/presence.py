@@ -37,6 +37,11 @@ class Presence:
         self.collision: set[str] = set()
         self.sensors: set[str] = set()
         self.agents: set[str] = set()
+        self.seen: set[str] = set()  # agents whose liveliness token is there
+        # agents that registered while their token was not there, by when (oldest first): one
+        # whose token never comes is lost after the grace period (:meth:`overdue`), or a flood
+        # of registrations for agents that do not exist left robots no one drives, for ever
+        self.unconfirmed: dict[str, int] = {}
         self.holding = ""  # why every robot is held still ("" when they move)
         # lock-step: the robots tick n still waits for, kept up to date as actions arrive (the
         # loop asks after every input; scanning the roster each time is quadratic at 1,000 robots)
@@ -62,11 +67,14 @@ class Presence:
                     )
                 )
         elif role == "agent":
+            self.unconfirmed.pop(name, None)
             if alive:
                 self.agents.add(name)
+                self.seen.add(name)
                 self.registry.agent_back(name)
             else:
                 self.agents.discard(name)
+                self.seen.discard(name)
                 out += [
                     self._event(
                         EventKind.AGENT_LOST,
@@ -103,12 +111,38 @@ class Presence:
         processes joined)."""
         return not (self.lockstep and self.registry.entries and not (self.sensors and self.collision))
 
-    def agent_registered(self, agent: str) -> None:
+    def agent_registered(self, agent: str, now_ns: int) -> None:
         """An agent registered a robot: it is alive (it declares its token before it registers),
         whether or not the token has reached us yet; waiting for it from the first tick keeps a
-        run the same every time."""
+        run the same every time. Until its token is seen it is on probation (:meth:`overdue`)."""
         self.agents.add(agent)
+        if agent not in self.seen:
+            self.unconfirmed.setdefault(agent, now_ns)
         self._awaiting = None
+
+    def overdue(self, now_ns: int, grace_ns: int) -> list[Outgoing]:
+        """Agents that registered more than ``grace_ns`` ago and whose token never came are lost,
+        as if it had gone when they registered: their robots stop and are removed at the next
+        tick (a registration flood for agents that do not exist leaves no robot behind; lock-step
+        stops waiting for them)."""
+        out: list[Outgoing] = []
+        while self.unconfirmed:
+            agent, since = next(iter(self.unconfirmed.items()))
+            if now_ns - since <= grace_ns:
+                break
+            del self.unconfirmed[agent]
+            self.agents.discard(agent)
+            self._awaiting = None
+            out += [
+                self._event(
+                    EventKind.AGENT_LOST,
+                    f"agent {agent!r} registered robot {rid} but its liveliness never appeared: robot {rid} stopped",
+                    rid,
+                    payload=AgentLostData(agent=agent),
+                )
+                for rid in self.registry.agent_lost(agent, since)
+            ]
+        return out
 
     def forget(self) -> None:
         """The roster changed: which robots a tick waits for is worked out again."""

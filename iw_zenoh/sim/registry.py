@@ -3,6 +3,7 @@ what; the rules that accept or refuse a registration; and the order of the array
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -10,10 +11,15 @@ import shapely
 
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.lab import Grid, Scene
-from iw_zenoh.core.spec import RobotSpec, RobotType
+from iw_zenoh.core.spec import MAX_BODY_M, RobotSpec, RobotType
 from iw_zenoh.core.world import WorldState
 
-__all__ = ["Entry", "Registry", "Refused"]
+__all__ = ["MAX_ROBOTS", "MAX_ROBOTS_PER_AGENT", "MAX_ROBOT_ID", "Entry", "Registry", "Refused"]
+
+MAX_ROBOT_ID = 2**31 - 1  # far below 64 bits: ids are summed, numbered on and kept in int64 arrays
+_REACH_M = 3 * MAX_BODY_M  # two bodies whose poses are farther apart than this cannot touch (corners: 11.2 m)
+MAX_ROBOTS = 10_000  # in one world (the largest benchmarked: 10,000 chairs)
+MAX_ROBOTS_PER_AGENT = 2_000  # registered under one agent name (a host of 1,000 chairs is benchmarked)
 
 
 class Refused(Exception):
@@ -35,6 +41,8 @@ class Entry:
         report: Last reported pose of a Real robot (x, y, heading rad), or None.
         instance: Which run of its agent process registered it (the first part of the request
             id, the process id): the same agent name from another process is its agent restarted.
+        dropped: Its agent's token went away since it registered (a process stopped past its
+            lease): the same process asking for it again gets it back.
     """
 
     spec: RobotSpec
@@ -47,6 +55,7 @@ class Entry:
     report: tuple[float, float, float] | None = None
     leds: dict[str, bool] = field(default_factory=dict)
     instance: str = ""
+    dropped: bool = False  # its agent's token went away since it registered (it may ask again)
 
 
 class Registry:
@@ -64,6 +73,7 @@ class Registry:
         self.arrayed: list[int] = []  # robot ids in the order of the arrays last built
         self._stale = False  # the roster changed since the arrays were built
         self._new_poses: dict[int, np.ndarray] = {}  # start poses of robots not yet in the arrays
+        self.per_agent: Counter[str] = Counter()  # robots registered under each agent name
 
     @property
     def ids(self) -> list[int]:
@@ -74,21 +84,43 @@ class Registry:
         """Accepted specs in array order."""
         return [e.spec for e in self.entries.values()]
 
-    def _free_id(self) -> int:
+    def _free_id(self, skip: set[int]) -> int:
         for k in range(1, len(self.grid.positions) + 1):
-            if k not in self.entries:
+            if k not in self.entries and k not in skip:
                 return k
         raise Refused(
             f"the grid is full: all {len(self.grid.positions)} start positions are taken; "
             "give X and Y, or remove a robot"
         )
 
-    def place(self, spec: RobotSpec, pose: dict[int, tuple[float, float, float]]) -> RobotSpec:
+    def _next_id(self, skip: set[int]) -> int:
+        """The id of a robot placed by its pose: past the grid and every id taken, or (that being
+        past :data:`MAX_ROBOT_ID`) the first free one past the grid."""
+        k = max([0, len(self.grid.positions), *self.entries, *skip]) + 1
+        if k <= MAX_ROBOT_ID:
+            return k
+        last = MAX_ROBOT_ID + 1
+        return next(k for k in range(len(self.grid.positions) + 1, last) if k not in self.entries and k not in skip)
+
+    def _id_for(self, spec: RobotSpec, skip: set[int]) -> int:
+        """The id a new robot gets (the one asked, or a free one for 0), within the bounds."""
+        if spec.id > MAX_ROBOT_ID:
+            raise Refused(f"id {spec.id} is beyond the largest robot id, {MAX_ROBOT_ID}; ask for a smaller one or 0")
+        if len(self.entries) >= MAX_ROBOTS:
+            raise Refused(f"the world holds {MAX_ROBOTS} robots, the most it takes; remove one first")
+        if spec.id:
+            return spec.id
+        return self._free_id(skip) if spec.x_m is None else self._next_id(skip)
+
+    def place(
+        self, spec: RobotSpec, pose: dict[int, tuple[float, float, float]], *, skip: set[int] | None = None
+    ) -> RobotSpec:
         """Chooses the id and start pose of a new robot, or refuses it.
 
         Args:
             spec: The requested spec.
             pose: Current poses of the registered robots (x, y, heading rad) by id.
+            skip: Ids not given to a robot asking for any (0): the scenario's, for its agents.
 
         Returns:
             The spec with id and pose set.
@@ -97,9 +129,7 @@ class Registry:
             Refused: Duplicate id, full grid, id beyond the grid without a pose, or a start pose
                 outside the lab, inside a wall or on another robot.
         """
-        rid = spec.id
-        if rid == 0:
-            rid = self._free_id() if spec.x_m is None else max([0, len(self.grid.positions), *self.entries]) + 1
+        rid = self._id_for(spec, skip or set())
         if rid in self.entries:
             raise Refused(
                 f"id {rid} is taken by {self.entries[rid].spec.name!r}; ask for another id or 0 for the first free one"
@@ -124,7 +154,9 @@ class Registry:
             hit = self.scene.wall_tree.query(poly, predicate="intersects")
             if len(hit):
                 raise Refused(f"start ({x:g}, {y:g}) puts the body on wall {int(hit[0])}; choose a free place")
-        others = list(pose.items())
+        # only robots near enough to touch it (a body is within MAX_BODY_M of its pose): placing
+        # against every robot there made each registration of a flood slower than the last
+        others = [(i, q) for i, q in pose.items() if abs(q[0] - x) <= _REACH_M and abs(q[1] - y) <= _REACH_M]
         if placed.type == RobotType.DOOR:  # the leaves of one revolving door share its hub
             others = [(i, q) for i, q in others if i not in self.entries or self.entries[i].spec.type != RobotType.DOOR]
         if others:
@@ -146,6 +178,8 @@ class Registry:
             pose: Where it is (x, y, heading rad), when not at its start pose (a resumed world).
         """
         e = Entry(spec=spec, agent=agent, last_action_ns=now_ns)
+        self.remove(spec.id)
+        self.per_agent[agent] += 1
         self.entries[spec.id] = e
         start = (spec.x_m or 0.0, spec.y_m or 0.0, float(np.radians(spec.dir_deg or 0.0)))
         self._new_poses[spec.id] = np.array(pose if pose is not None else start)
@@ -154,13 +188,15 @@ class Registry:
 
     def reclaimable(self, spec: RobotSpec, agent: str, instance: str) -> int | None:
         """The robot a restarted agent asks for again, or None: one registered by the same agent
-        name from another process (another ``instance``), with the id asked (or, for id 0, the
-        same name). Its robot keeps its id and place instead of being refused as a duplicate.
+        name from another process (another ``instance``), or from the same process once its token
+        went away (the agent was stopped past its lease: its old body is its own), with the
+        id asked (or, for id 0, the same name). Its robot keeps its id and place instead of being
+        refused as a duplicate or as on another robot.
         """
         if not agent or not instance:
             return None
         for rid, e in self.entries.items():
-            if e.agent != agent or e.instance == instance:
+            if e.agent != agent or e.instance == instance and not e.dropped:
                 continue
             if rid == spec.id if spec.id else e.spec.name == spec.name:
                 return rid
@@ -171,7 +207,7 @@ class Registry:
         placed where it is now (the registration's answer)."""
         e = self.entries[robot_id]
         x, y, h = self.poses(state)[robot_id]
-        e.lost_ns, e.cmd, e.last_action_ns = None, (0.0, 0.0), now_ns
+        e.lost_ns, e.cmd, e.last_action_ns, e.dropped = None, (0.0, 0.0), now_ns, False
         return e, e.spec.placed(robot_id, x, y, float(np.degrees(h)))
 
     def remove(self, robot_id: int) -> Entry | None:
@@ -179,6 +215,9 @@ class Registry:
         e = self.entries.pop(robot_id, None)
         if e is not None:
             self._stale = True
+            self.per_agent[e.agent] -= 1
+            if not self.per_agent[e.agent]:
+                del self.per_agent[e.agent]
         return e
 
     def poses(self, state: WorldState) -> dict[int, tuple[float, float, float]]:
@@ -295,7 +334,7 @@ class Registry:
         lost: list[int] = []
         for rid, e in self.entries.items():
             if e.agent == agent and e.lost_ns is None:
-                e.lost_ns = now_ns
+                e.lost_ns, e.dropped = now_ns, True
                 e.cmd = (0.0, 0.0)
                 lost.append(rid)
         return lost

@@ -232,6 +232,11 @@ class WorldCore:
         """Tracks collision and sensors processes and agents; an agent lost zeroes its robots at once."""
         return self.presence.on_alive(role, name, alive, now_ns)
 
+    def overdue(self, now_ns: int) -> list[Outgoing]:
+        """Agents whose liveliness never appeared within the grace period after they registered
+        are lost (:meth:`Presence.overdue`)."""
+        return self.presence.overdue(now_ns, int(self.cfg.grace_ms * MS))
+
     # --- the tick --------------------------------------------------------------------------
 
     def due(self) -> bool:
@@ -272,6 +277,7 @@ class WorldCore:
             self._paused = False
         self._last_tick_ns = now_ns
         grace_ns = self.cfg.grace_ms * MS
+        out += self.overdue(now_ns)
         gone = [
             (rid, e.agent)
             for rid, e in self.registry.entries.items()

@@ -85,6 +85,8 @@ def _forgeries(sim: str, st: WorldState, solo: int) -> list[tuple[str, bytes]]:
     return [
         (keys.proposed(sim), _forged(prop, tick=st.tick + 1, x=st.x[:-1])),  # arrays of different lengths
         (keys.proposed(sim), encode(prop)),  # a tick far ahead
+        # another revision, no distances rolled: the radio's early path raised on it and died
+        (keys.proposed(sim), _forged(prop, tick=st.tick + 1, revision=st.revision + 5, rolled_left=[], rolled_right=[])),
         (keys.verdict(sim), _forged(Verdict(tick=st.tick + 1, revision=st.revision, ids=st.ids, collided=[False] * n), collided=[])),
         (keys.state(sim), _forged(st, speed=[*st.speed, 1.0])),
         (keys.state(sim), encode(far_state)),

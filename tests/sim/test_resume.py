@@ -15,6 +15,8 @@ from tests.sim.test_world import _core, _kinds, _tick
 def _driven() -> tuple[WorldCore, WorldState]:
     """A world of two robots of two agents, one driven forward and turning, after 20 ticks."""
     core = _core()
+    for agent in ("ag-a", "ag-b"):  # their tokens (a robot whose agent never appears is removed)
+        core.on_alive("agent", agent, True, 0)
     assert core.register(RegisterRequest(spec=RobotSpecMsg(name="a"), agent="ag-a", request_id="11-1"), 0)[0].ok
     assert core.register(RegisterRequest(spec=RobotSpecMsg(name="b"), agent="ag-b", request_id="12-1"), 0)[0].ok
     ob = Obstacle(name="X", x0=15.0, y0=1.0, x1=16.0, y1=2.0)

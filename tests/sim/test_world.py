@@ -15,7 +15,9 @@ from iw_zenoh.messages import (
     Verdict,
     WorldState,
 )
+from iw_zenoh.sim import registry
 from iw_zenoh.sim.config import MS, WorldConfig
+from iw_zenoh.sim.registry import MAX_ROBOT_ID
 from iw_zenoh.sim.world import WorldCore
 from tests.conftest import box_wall
 
@@ -387,3 +389,31 @@ def test_the_leaves_of_a_revolving_door_are_placed_on_one_hub_and_a_chair_is_not
     reply, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="chair", x=15.5, y=5.0)), 0)
     assert not reply.ok
     assert "robot" in reply.reason
+
+
+def test_the_largest_id_then_id_0_overflows_nothing_and_ids_past_the_bound_are_refused() -> None:
+    core = _core()
+    huge, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="huge", id=2**63 - 1, x=12.0, y=5.0)), 0)
+    assert not huge.ok
+    assert f"beyond the largest robot id, {MAX_ROBOT_ID}" in huge.reason
+    top, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="top", id=MAX_ROBOT_ID, x=12.0, y=5.0)), 0)
+    assert top.ok  # the largest id there is: the next robot placed by its pose takes the first free one
+    any_id, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="any", x=15.0, y=5.0)), 0)
+    assert any_id.ok, any_id.reason
+    assert any_id.robot_id == 3  # past the grid's two
+    st = _tick(core, 0)  # overflowed in registry.py (max + 1) and core/bodies.py (int64)
+    assert st.ids == [MAX_ROBOT_ID, 3]
+
+
+def test_a_world_holds_a_bounded_number_of_robots_per_agent(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(registry, "MAX_ROBOTS_PER_AGENT", 2)
+    core = _core()
+    for k in range(2):
+        reply, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name=f"r{k}", x=12.0 + 2 * k, y=5.0), agent="a"), 0)
+        assert reply.ok, reply.reason
+    reply, out = core.register(RegisterRequest(spec=RobotSpecMsg(name="r2", x=17.0, y=5.0), agent="a"), 0)
+    assert not reply.ok
+    assert "agent 'a' has 2 robots, the most one agent may register" in reply.reason
+    assert "refused" in _kinds(out)
+    other, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="b", x=17.0, y=5.0), agent="b"), 0)
+    assert other.ok  # another agent is not refused for it
