@@ -102,7 +102,7 @@ def test_options_argument_names_the_struct() -> None:
 
 
 def test_the_launcher_reserves_the_ids_the_scenario_gives_its_agents() -> None:
-    opts, _ = world_options(load_scenario(MAPS / "demo.toml"))
+    opts, _ = world_options(load_scenario(MAPS / "scenarios" / "demo.toml"))
     assert opts.reserved == {"agent-1-waypoint": [2], "agent-2-waypoint": [1], "agent-3-waypoint": [4]}
     cfg = world_config(opts, "demo")
     assert cfg.reserved is not None
