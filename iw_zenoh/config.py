@@ -11,8 +11,10 @@ field (``agents[0].robots``) and the reason. Paths are relative to the scenario 
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import re
+import stat
 import tomllib
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -20,8 +22,10 @@ from typing import Annotated, Any, Literal
 import msgspec
 
 from iw_zenoh.core.modes import Mode, Profile
-from iw_zenoh.errors import ConfigError
+from iw_zenoh.errors import ConfigError, MapError
+from iw_zenoh.maps import load_grid, load_lab
 from iw_zenoh.messages import Obstacle
+from iw_zenoh.sim.obstacles import Obstacles
 from iw_zenoh.specfile import SPEC_TABLE, check_spec, load_spec_file
 
 __all__ = [
@@ -44,6 +48,18 @@ __all__ = [
 ObstacleEntry = Obstacle  # a scenario's obstacle is the very message the world is sent
 Arg = str | int | float  # an argument as TOML writes it; handed on as its text
 
+# the ranges of docs/scenarios.md, checked when the file is read (before anything starts)
+SEED_MAX = 2**64 - 1  # numpy's seeds are 64-bit here
+ID_MAX = 2**63 - 1  # a robot id: 63 bits
+PERIOD_MS = (1.0, 60_000.0)  # a tick from 1 ms to a minute
+DURATION_S_MAX = 7 * 86_400.0  # a week of simulated time
+ROBOTS_MAX = 1000  # robots one agent process registers
+EXTENT_M = 10_000.0  # any coordinate or length, m (obstacles, goals, doorways)
+DEPTH_MAX = 16  # tables and arrays nested deeper are refused (no scenario needs more than 4)
+NAME = r"^([A-Za-z0-9][A-Za-z0-9._-]{0,63})?$"  # a name safe for a file name: a log, a recording
+Name = Annotated[str, msgspec.Meta(pattern=NAME)]
+Coord = Annotated[float, msgspec.Meta(ge=-EXTENT_M, le=EXTENT_M)]
+
 
 class WorldSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """``[world]``: the map and how the world runs."""
@@ -52,9 +68,9 @@ class WorldSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     grid: Path | None = None
     mode: Mode = Mode.REALTIME
     profile: Profile = Profile.NATIVE
-    period_ms: Annotated[float, msgspec.Meta(gt=0)] = 100.0
-    seed: Annotated[int, msgspec.Meta(ge=0)] = 0  # numpy takes no negative seed
-    duration_s: Annotated[float, msgspec.Meta(gt=0)] = 60.0
+    period_ms: Annotated[float, msgspec.Meta(ge=PERIOD_MS[0], le=PERIOD_MS[1])] = 100.0
+    seed: Annotated[int, msgspec.Meta(ge=0)] = 0  # numpy takes no negative seed; 64 bits at most (_numbers)
+    duration_s: Annotated[float, msgspec.Meta(gt=0, le=DURATION_S_MAX)] = 60.0
     args: tuple[Arg, ...] = ()
 
     @property
@@ -66,7 +82,7 @@ class WorldSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
 class RolesSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """``[roles]``: which roles run beside the world, and how many."""
 
-    sensors_shards: Annotated[int, msgspec.Meta(ge=1)] = 1
+    sensors_shards: Annotated[int, msgspec.Meta(ge=1)] = 1  # at most the cores (checked on reading)
     radio: bool = True
 
 
@@ -76,8 +92,8 @@ class AgentEntry(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_onl
 
     program: str
     args: tuple[Arg, ...] = ()
-    robots: Annotated[int, msgspec.Meta(ge=0)] = 1
-    name: str = ""
+    robots: Annotated[int, msgspec.Meta(ge=0, le=ROBOTS_MAX)] = 1
+    name: Name = ""
     # its robots' spec as data (docs/spec.md): a table of the registration's fields, or a spec
     # file's path; read and checked when the scenario is, then handed to the agent as a table
     spec: dict[str, Any] | str | None = None
@@ -91,10 +107,10 @@ class AgentEntry(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_onl
 class Reach(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """``[[criteria.reach]]``: robot ``robot`` must come within ``within`` metres of (x, y)."""
 
-    robot: int
-    x: float
-    y: float
-    within: Annotated[float, msgspec.Meta(gt=0)] = 0.5
+    robot: Annotated[int, msgspec.Meta(ge=0, le=ID_MAX)]
+    x: Coord
+    y: Coord
+    within: Annotated[float, msgspec.Meta(gt=0, le=EXTENT_M)] = 0.5
 
 
 class DoorCriterion(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -105,19 +121,19 @@ class DoorCriterion(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_
     heading taken modulo ``symmetry_deg``: a four-wing revolving door looks shut every 90 degrees).
     """
 
-    robot: int
+    robot: Annotated[int, msgspec.Meta(ge=0, le=ID_MAX)]
     opened: bool = True
     closed_again: bool = True
-    x: float | None = None
-    y: float | None = None
-    one_chair_within: Annotated[float, msgspec.Meta(gt=0)] | None = None
+    x: Coord | None = None
+    y: Coord | None = None
+    one_chair_within: Annotated[float, msgspec.Meta(gt=0, le=EXTENT_M)] | None = None
     symmetry_deg: Annotated[float, msgspec.Meta(gt=0, le=360)] = 360.0
 
 
 class Criteria(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """``[criteria]``: what makes a run a success."""
 
-    max_collisions: Annotated[int, msgspec.Meta(ge=0)] | None = None
+    max_collisions: Annotated[int, msgspec.Meta(ge=0, le=ID_MAX)] | None = None
     reach: tuple[Reach, ...] = ()
     doors: tuple[DoorCriterion, ...] = ()
     stop_when_reached: bool = True
@@ -137,12 +153,12 @@ class ChairSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
 
     hardware: Literal["serial"] = "serial"
     port: str = ""  # the chair's device or pyserial URL; "": `iwz chair emulate --pty` stands in
-    robot: Annotated[int, msgspec.Meta(ge=1)] = 1  # the robot id the bridge registers
-    name: str = "chair"
+    robot: Annotated[int, msgspec.Meta(ge=1, le=ID_MAX)] = 1  # the robot id the bridge registers
+    name: Name = "chair"
     start: Annotated[str, msgspec.Meta(pattern=r"^[^,]+,[^,]+,[^,]+$")] = "1,1,0"  # x,y,dir_deg
     room: str = ""  # emulator: real obstacles not in the map, x0,y0,x1,y1;...
-    seed: int = 0  # emulator: noise seed
-    baud: Annotated[int, msgspec.Meta(gt=0)] = 115200
+    seed: Annotated[int, msgspec.Meta(ge=0)] = 0  # emulator: noise seed, 64 bits at most (_numbers)
+    baud: Annotated[int, msgspec.Meta(gt=0, le=10_000_000)] = 115200
     spec: Path | None = None  # a spec file (docs/spec.md) the bridge and the emulator both read
 
 
@@ -165,7 +181,7 @@ class ScenarioFile(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     """A scenario file's tables, as written (paths still relative to the file)."""
 
     world: WorldSection
-    name: str = ""
+    name: Name = ""
     roles: RolesSection = msgspec.field(default_factory=RolesSection)
     agents: tuple[AgentEntry, ...] = ()
     obstacles: tuple[Obstacle, ...] = ()
@@ -215,7 +231,11 @@ def _refusal(error: msgspec.ValidationError, doc: dict[str, Any], name: str) -> 
     assert m is not None  # the pattern matches any text
     reason, path = m["reason"], (m["path"] or "").lstrip(".")
     named = _NAMED.match(reason)
-    if named:
+    if NAME in reason:  # msgspec would show the regex
+        got = _value_at(doc, path)
+        shown = repr(got) if len(repr(got)) <= 40 else f"{repr(got)[:37]}...' ({len(got)} characters)"
+        reason = f"must be 1 to 64 letters, digits, '.', '_' or '-', from a letter or digit (names files), got {shown}"
+    elif named:
         path = f"{path}.{named['field']}" if path else named["field"]
         reason = "is required" if "missing" in reason else "unknown field"
     elif "got" not in reason and "value" not in reason:
@@ -227,8 +247,85 @@ def _refusal(error: msgspec.ValidationError, doc: dict[str, Any], name: str) -> 
 
 
 def _exists(path: Path | None, where: str) -> None:
-    if path is not None and not path.is_file():
-        raise ConfigError(where, f"{path} does not exist")
+    """Refuses a path that is not a regular file this process can read, saying what it is instead."""
+    if path is None:
+        return
+    try:
+        mode = path.stat().st_mode
+    except OSError as e:
+        what = "does not exist" if isinstance(e, FileNotFoundError) else f"cannot be read ({e.strerror})"
+        raise ConfigError(where, f"{path} {what}") from None
+    if stat.S_ISDIR(mode):
+        raise ConfigError(where, f"{path} is a directory: name a file")
+    if not stat.S_ISREG(mode):
+        kind = (
+            "a FIFO" if stat.S_ISFIFO(mode) else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "a socket"
+        )
+        raise ConfigError(where, f"{path} is {kind}, not a regular file: name a file")
+    if not os.access(path, os.R_OK):
+        raise ConfigError(where, f"{path} cannot be read (permission denied)")
+
+
+def _numbers(value: Any, path: str = "", depth: int = 0) -> None:
+    """Refuses nesting deeper than :data:`DEPTH_MAX`, and any number not finite or beyond 64 bits,
+    anywhere in the decoded TOML (``args`` and ``spec`` tables included), naming where."""
+    if depth > DEPTH_MAX:
+        raise ConfigError(path or "scenario", f"nested more than {DEPTH_MAX} tables or arrays deep")
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _numbers(v, f"{path}.{k}" if path else str(k), depth + 1)
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            _numbers(v, f"{path}[{i}]", depth + 1)
+    elif isinstance(value, float) and not math.isfinite(value):
+        raise ConfigError(path, f"must be a finite number, got {value!r}")
+    elif isinstance(value, int) and not isinstance(value, bool) and not -(2**63) <= value <= SEED_MAX:
+        raise ConfigError(path, f"must fit in 64 bits, got a number of {len(str(abs(value)))} digits")
+
+
+def _toml(text: str, name: str) -> dict[str, Any]:
+    """The TOML decoded, its numbers and nesting checked (:func:`_numbers`)."""
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError(name, f"not valid TOML: {e}") from None
+    except RecursionError:
+        raise ConfigError(name, f"nested more than {DEPTH_MAX} tables or arrays deep") from None
+    try:
+        _numbers(doc)
+    except ConfigError as e:
+        if not re.search(r"[.\[]", e.field):  # a top-level field is named after the scenario
+            raise ConfigError(f"{name}.{e.field}", e.reason) from None
+        raise
+    return doc
+
+
+def _check_ranges(sc: ScenarioFile) -> None:
+    """The ranges no field's type says: shards within the cores, obstacles within the extent."""
+    cores = max(2, os.cpu_count() or 1)
+    if sc.roles.sensors_shards > cores:
+        raise ConfigError("roles.sensors_shards", f"at most the machine's {cores} cores, got {sc.roles.sensors_shards}")
+    for i, o in enumerate(sc.obstacles):
+        for f in ("x0", "y0", "x1", "y1", "height"):
+            v = getattr(o, f)
+            if not -EXTENT_M <= v <= EXTENT_M:
+                raise ConfigError(f"obstacles[{i}].{f}", f"must be within +-{EXTENT_M:g} m, got {v!r}")
+
+
+def _check_map(world: WorldSection, obstacles: tuple[Obstacle, ...]) -> None:
+    """Reads the map and grid, and places the obstacles, as the world will: a bad one is refused
+    now, naming its field, not by the world once the run has started."""
+    try:
+        lab = load_lab(world.map)
+        if world.grid is not None:
+            load_grid(world.grid, lab)
+    except MapError as e:
+        field = "world.grid" if world.grid is not None and str(world.grid) in str(e) else "world.map"
+        raise ConfigError(field, str(e)) from None
+    placed = Obstacles(lab)
+    for i, o in enumerate(obstacles):
+        if why := placed.apply("add_obstacle", o):
+            raise ConfigError(f"obstacles[{i}]", why)
 
 
 def parse_scenario(text: str, base: Path, name: str = "scenario") -> Scenario:
@@ -242,19 +339,18 @@ def parse_scenario(text: str, base: Path, name: str = "scenario") -> Scenario:
     Raises:
         ConfigError: Naming the field and the reason.
     """
-    try:
-        doc = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise ConfigError(name, f"not valid TOML: {e}") from None
+    doc = _toml(text, name)
     try:
         sc = msgspec.convert(doc, ScenarioFile, dec_hook=_dec_path)
     except msgspec.ValidationError as e:
         raise _refusal(e, doc, name) from None
+    _check_ranges(sc)
     world = msgspec.structs.replace(
         sc.world, map=_beside(base, sc.world.map), grid=_beside(base, sc.world.grid) if sc.world.grid else None
     )
     _exists(world.map, "world.map")
     _exists(world.grid, "world.grid")
+    _check_map(world, sc.obstacles)
     bridge = sc.bridge
     if bridge is not None and bridge.params is not None:
         bridge = msgspec.structs.replace(bridge, params=_beside(base, bridge.params))

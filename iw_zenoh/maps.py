@@ -38,6 +38,7 @@ __all__ = [
 ]
 
 MAX_MAP_BYTES = 4 * 1024 * 1024  # far above any real map; refuses accidental huge files
+LAB_MAX_M = 10_000.0  # a lab wider or longer than 10 km is a mistake (and past what the grid arithmetic takes)
 ROW_WALL_HALF = 0.1  # Ciber-Rato row walls are 0.2 thick
 ROW_LAST_COLUMN = 39  # Ciber-Rato hard-wires the last column of a 14-cell-wide lab
 
@@ -218,8 +219,13 @@ def parse_lab(data: bytes, source: str = "<bytes>") -> Lab:
         raise MapError(source, root.sourceline, str(root.tag), "the root element of a lab file must be <Lab>")
     width = _num(root, "Width", source, 16.0)
     height = _num(root, "Height", source, 16.0)
-    if width <= 0 or height <= 0:
-        raise MapError(source, root.sourceline, "Lab", f"Width and Height must be > 0, got {width:g} x {height:g}")
+    if not (0 < width <= LAB_MAX_M and 0 < height <= LAB_MAX_M):
+        raise MapError(
+            source,
+            root.sourceline,
+            "Lab",
+            f"Width and Height must be > 0 and <= {LAB_MAX_M:g} m, got {width:g} x {height:g}",
+        )
     walls: list[Wall] = []
     beacons: list[Beacon] = []
     targets: list[Target] = []

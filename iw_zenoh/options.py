@@ -2,7 +2,8 @@
 the role's flags or handed whole as ``--options JSON``.
 
 Its flags are declared as a table (:data:`Flag`, :func:`add_option_flags`) and fill it
-(:func:`options_from_args`); ``--options JSON`` hands it whole (:func:`options_json`), decoded
+(:func:`options_from_args`); ``--options JSON`` hands it whole (:func:`options_json`; long ones
+as ``--options @FILE``, :func:`options_argument`), decoded
 and validated by msgspec, so ``iwz run`` passes typed configuration instead of strings the child
 parses again.
 """
@@ -11,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any, TypeVar
 
 import msgspec
@@ -24,11 +26,13 @@ __all__ = [
     "option",
     "options_from_args",
     "options_from_argv",
+    "options_argument",
     "options_json",
 ]
 
 S = TypeVar("S", bound=msgspec.Struct)
 
+INLINE_MAX = 32 * 1024  # longer options go to a child in a file (--options @FILE), not its command line
 OPTION_DEST = "option:"  # the dest of a flag that fills an options field: never clashes with --mode, --name
 
 
@@ -62,6 +66,27 @@ def options_json(options: msgspec.Struct) -> str:
     return msgspec.json.encode(options).decode()
 
 
+def options_argument(options: msgspec.Struct, spill: Path) -> str:
+    """The value of ``--options`` that hands ``options`` to a child: its JSON, or, past
+    :data:`INLINE_MAX` characters (a world of thousands of obstacles: a command line's argument
+    is limited to 128 KiB), ``@FILE`` with the JSON written to ``spill``."""
+    text = options_json(options)
+    if len(text) <= INLINE_MAX:
+        return text
+    spill.write_text(text, encoding="utf-8")
+    return "@" + str(spill)
+
+
+def _options_text(value: str) -> str:
+    """``--options``'s JSON: the value, or the file ``@FILE`` names."""
+    if not value.startswith("@"):
+        return value
+    try:
+        return Path(value[1:]).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        raise IwError(f"--options {value}: cannot read it ({getattr(e, 'strerror', None) or e})") from None
+
+
 def add_options_argument(parser: argparse.ArgumentParser, kind: type[msgspec.Struct]) -> None:
     """Adds ``--options JSON``: the role's whole configuration (a ``kind``) as one JSON object.
 
@@ -72,7 +97,7 @@ def add_options_argument(parser: argparse.ArgumentParser, kind: type[msgspec.Str
         "--options",
         metavar="JSON",
         help=f"every option at once, a JSON object with the fields of {kind.__module__}.{kind.__name__} "
-        "(what iwz run passes); flags given beside it override it",
+        "(what iwz run passes), or @FILE holding it; flags given beside it override it",
     )
 
 
@@ -93,7 +118,7 @@ def options_from_args(args: argparse.Namespace, kind: type[S], base: S | None = 
     """
     try:
         if base is None and getattr(args, "options", None):
-            base = msgspec.json.decode(args.options, type=kind)
+            base = msgspec.json.decode(_options_text(args.options), type=kind)
         start: dict[str, Any] = msgspec.structs.asdict(base) if base is not None else {}
         given = {f: getattr(args, option(f)) for f in kind.__struct_fields__ if hasattr(args, option(f))}
         return msgspec.convert(msgspec.to_builtins({**start, **given}), kind)

@@ -38,7 +38,7 @@ from iw_zenoh.nodes.secure_run import LAUNCHER
 from iw_zenoh.nodes.tally import Tally
 from iw_zenoh.nodes.world_options import world_options
 from iw_zenoh.nodes.world_seal import SEAL_ENV, new_key, sealed
-from iw_zenoh.options import options_json
+from iw_zenoh.options import options_argument
 from iw_zenoh.runtime import SUPERVISOR_ENV, setup_logging
 from iw_zenoh.shipped import resolve_scenario
 
@@ -332,7 +332,7 @@ class Launcher:
         if c.role == "world":
             snap = self.tally.snapshot()
             options = msgspec.structs.replace(self.world_options[0], resume=snap)
-            c.set_option("--options", options_json(options))
+            c.set_option("--options", options_argument(options, c.log.with_suffix(".options.json")))
             c.options = options
             if snap is None:
                 self._say("the world's description was never heard: the new world starts afresh")

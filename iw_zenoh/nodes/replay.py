@@ -13,6 +13,7 @@ from pathlib import Path
 
 from iw_zenoh import keys
 from iw_zenoh.errors import IwError
+from iw_zenoh.record.checksums import in_words
 from iw_zenoh.record.progress import Progress
 from iw_zenoh.record.reader import file_error, open_recording, print_notes
 from iw_zenoh.record.replay import Player, ReplayOptions
@@ -91,6 +92,6 @@ def _run(proc: Process, opts: ReplayOptions) -> int:
         print(f"iwz replay: {file_error(path, e)}; check it with iwz doctor")
         return 2
     except Exception as e:  # whatever else a file's bytes may provoke
-        print(f"iwz replay: {path}: {type(e).__name__}: {e}; check it with iwz doctor")
+        print(f"iwz replay: {path}: {in_words(e)}; check it with iwz doctor")
         return 2
     return 0

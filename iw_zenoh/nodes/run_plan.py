@@ -28,7 +28,7 @@ from iw_zenoh.nodes.secure_run import (
     on_host,
 )
 from iw_zenoh.nodes.world_options import WorldOptions
-from iw_zenoh.options import options_json
+from iw_zenoh.options import options_argument
 from iw_zenoh.secure.cli import POLICY_FILE
 
 __all__ = ["RunPlan"]
@@ -80,7 +80,8 @@ class RunPlan:
         if self.ids is not None:
             who = ["--identity", str(self.ids / (token or name if client else ROUTER))]
             common += who if client else [*who, "--policy", str(self.ids / POLICY_FILE)]
-        given = ["--options", options_json(options)] if options is not None else []
+        spill = self.log_dir / f"{name}.options.json"
+        given = ["--options", options_argument(options, spill)] if options is not None else []
         c = Child(role, name, self.command(role, *args, *given, *common), self.log_dir / f"{name}.log", options=options)
         c.token = token
         self.children.append(c)

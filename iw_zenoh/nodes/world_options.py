@@ -11,7 +11,7 @@ from typing import Annotated
 
 import msgspec
 
-from iw_zenoh.config import Scenario
+from iw_zenoh.config import DURATION_S_MAX, PERIOD_MS, Scenario
 from iw_zenoh.core.modes import Mode, Profile, Silence
 from iw_zenoh.errors import ConfigError, IwError
 from iw_zenoh.messages import Obstacle
@@ -56,7 +56,7 @@ class WorldOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
 
     map: str = ""
     grid: str = ""
-    period_ms: Annotated[float, msgspec.Meta(gt=0)] = _CORE.period_ms
+    period_ms: Annotated[float, msgspec.Meta(ge=PERIOD_MS[0], le=PERIOD_MS[1])] = _CORE.period_ms
     mode: Mode = _CORE.mode
     profile: Profile = _CORE.profile
     seed: Annotated[int, msgspec.Meta(ge=0)] = _CORE.seed  # numpy takes no negative seed
@@ -64,7 +64,7 @@ class WorldOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     grace_ms: float = _CORE.grace_ms
     lockstep_timeout_ms: float = _CORE.lockstep_timeout_ms
     expect: int = _CORE.expect
-    duration_s: float = 0.0
+    duration_s: Annotated[float, msgspec.Meta(ge=0, le=DURATION_S_MAX)] = 0.0
     start_paused: bool = _CORE.start_paused
     motors_noise_pct: float = _CORE.motors_noise_pct
     silence: Silence | None = _CORE.silence

@@ -24,6 +24,7 @@ from mcap.summary import Summary
 from mcap.writer import MCAP0_MAGIC
 
 from iw_zenoh.errors import IwError
+from iw_zenoh.record.checksums import in_words
 from iw_zenoh.record.reader import RecordingReader, decode_record
 
 __all__ = ["Integrity", "scan", "statistics_disagree", "undecodable"]
@@ -118,8 +119,8 @@ def scan(f: IO[bytes]) -> Integrity:
         if footer is None or not _summary_crc_ok(f, footer, size):
             raise ValueError("the summary section's CRC does not match: its indexes or statistics are damaged")
     except Exception as e:  # a damaged file raises anything from struct to zstd errors
-        text = str(e).strip() or "the file is damaged"
-        out.problem = f"damaged {where}: {type(e).__name__}: {text}"
+        said = str(e).strip() if type(e) is ValueError else in_words(e).removeprefix("damaged: ")
+        out.problem = f"damaged {where}: {said or 'the file is damaged'}"
     return out
 
 

@@ -22,7 +22,6 @@ from contextlib import ExitStack
 from pathlib import Path
 from typing import IO, TypeVar
 
-from mcap.exceptions import InvalidMagic
 from mcap.reader import McapReader, make_reader
 from mcap.records import Channel, Chunk, Message, Metadata
 from mcap.stream_reader import StreamReader
@@ -30,6 +29,7 @@ from mcap.summary import Summary
 from mcap.writer import MCAP0_MAGIC as MAGIC
 
 from iw_zenoh.errors import RecordingError
+from iw_zenoh.record.checksums import checksums_fail, in_words
 
 __all__ = [
     "PART_META",
@@ -91,13 +91,10 @@ def recovered_copy(path: Path) -> Path:
 
 
 def reason(e: BaseException) -> str:
-    """An exception as a reason a user can read (some of mcap's say nothing on their own)."""
-    if isinstance(e, InvalidMagic):
-        return "not an MCAP file (it does not start with the MCAP magic)"
+    """An exception as a reason a user can read, in words (never the exception's name)."""
     if isinstance(e, OSError) and e.strerror:
         return e.strerror
-    text = str(e).strip()
-    return f"{type(e).__name__}: {text}" if text else f"{type(e).__name__} (the file is damaged or not MCAP)"
+    return in_words(e)
 
 
 def head_metadata(stream: IO[bytes]) -> dict[str, dict[str, str]]:
@@ -148,17 +145,18 @@ def next_part(first: Path, run: str | None) -> tuple[Path, dict[str, str], dict[
     return first, {"part": "1", "recording": run or uuid.uuid4().hex, "previous": ""}, {}
 
 
-def open_parts(path: Path, files: ExitStack, *, validate_crcs: bool = False) -> tuple[list[Part], list[str]]:
+def open_parts(path: Path, files: ExitStack, *, validate_crcs: bool = True) -> tuple[list[Part], list[str]]:
     """Opens every part of the recording ``path`` belongs to (see :func:`iw_zenoh.record.reader.open_recording`).
 
     A cut-off part is read from its recovered copy when there is one of it (same recording, same
-    part); else, in a recording of several parts, as far as it goes.
+    part); else, in a recording of several parts, as far as it goes. A whole part whose data or
+    summary section fails its checksum is refused (:func:`~iw_zenoh.record.checksums.checksums_fail`).
 
     Returns:
         The parts, and a note for each part read from its recovered copy.
 
     Raises:
-        RecordingError: When a file cannot be opened or is not MCAP (or, alone, is cut off).
+        RecordingError: When a file cannot be opened, is not MCAP or is damaged (or, alone, is cut off).
     """
     paths = recording_parts(path) if path.exists() else [path]  # a part not there is no other part's name
     parts = []
@@ -169,6 +167,7 @@ def open_parts(path: Path, files: ExitStack, *, validate_crcs: bool = False) -> 
         if part.cut_off and copy.exists() and _same_part(part.stream, _open(copy, files)):
             part = Part(_open(copy, files), str(copy), validate_crcs=validate_crcs)
             notes.append(f"{p} is cut off (a crash): read from its recovered copy {copy}")
+        part.refuse_damage()
         parts.append(part)
     return parts, notes
 
@@ -217,6 +216,16 @@ class Part:
         if self.cut_off and not cut_off_ok:
             raise RecordingError(
                 self.name, f"cut off after {self.size} bytes (a crash, or still being written): iwz recover rebuilds it"
+            )
+
+    def refuse_damage(self) -> None:
+        """Raises ``RecordingError`` when the part is whole but its checksums fail."""
+        if self.cut_off or not self.stream.seekable():
+            return
+        if why := self.guard(lambda: checksums_fail(self.stream)):
+            raise RecordingError(
+                self.name,
+                f"{why}: refused; iwz doctor {self.name} says where, iwz recover {self.name} keeps what is intact",
             )
 
     def _ends_cut(self) -> bool:
@@ -277,7 +286,7 @@ class Part:
         """The records of a cut-off part up to its first incomplete one (noted in ``lost``)."""
         self.stream.seek(0)
         try:
-            yield from StreamReader(self.stream, emit_chunks=False).records
+            yield from StreamReader(self.stream, emit_chunks=False, validate_crcs=True).records
         except Exception as e:  # the cut, or damage before it: what follows is lost
             at = self.stream.tell() if self.stream.seekable() else 0
             self.lost = f"read up to byte {at} of {self.size}, the rest is lost ({reason(e)})"

@@ -367,7 +367,7 @@ def decode_record(r: RawRecord) -> Record | None:
 def open_recording(
     source: str | Path | IO[bytes],
     *,
-    validate_crcs: bool = False,
+    validate_crcs: bool = True,
     on_bad: Callable[[BadMessage], None] | None = None,
 ) -> Iterator[RecordingReader]:
     """Opens a recording for reading: every part of it, as one, from any of its parts.
@@ -375,11 +375,13 @@ def open_recording(
     A recording of several parts (``run.mcap``, ``run.part2.mcap``...) is read part after part;
     a part cut off by a crash is read as far as it goes, or from its recovered copy
     (``run.part2.recovered.mcap``) when ``iwz recover`` made one, and the reader's ``notes`` say
-    so. A recording of one part that is cut off is refused (``iwz recover`` rebuilds it).
+    so. A recording of one part that is cut off is refused (``iwz recover`` rebuilds it), and so is
+    a whole part whose checksums fail (a damaged file: its data could be altered).
 
     Args:
         source: A file name, or a seekable binary stream (left open; one part).
-        validate_crcs: Check each chunk's CRC as it is read.
+        validate_crcs: Check each chunk's CRC as it is read (a stream source only: a file's
+            checksums are always checked).
         on_bad: Called with each payload that does not decode.
 
     Yields:
@@ -392,7 +394,7 @@ def open_recording(
         yield RecordingReader(source, validate_crcs=validate_crcs, on_bad=on_bad)
         return
     with ExitStack() as files:
-        parts, notes = open_parts(Path(source), files, validate_crcs=validate_crcs)
+        parts, notes = open_parts(Path(source), files)
         reader = RecordingReader(name=str(parts[0].name), on_bad=on_bad, parts=parts)
         reader.notes[:0] = notes
         yield reader

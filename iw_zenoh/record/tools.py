@@ -1,8 +1,9 @@
 """``iwz doctor FILE`` and ``iwz recover FILE``: is a recording whole, and rebuild one cut off.
 
 A file cut off by a crash has no summary and may end inside a chunk. ``recover`` reads records
-from the start until the first one that is incomplete or corrupt, and writes every complete
-message, schema, channel and metadata into a new, indexed file, reporting what was lost.
+from the start until the first one that is incomplete, and writes every message, schema and
+channel of each chunk whose CRC matches, and the metadata, into a new, indexed file, reporting
+what was lost: a chunk whose CRC fails is dropped whole (never decoded into altered messages).
 """
 
 from __future__ import annotations
@@ -14,13 +15,26 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO
 
-from mcap.records import Channel, DataEnd, Footer, Message, Metadata, Schema
-from mcap.stream_reader import StreamReader
+from mcap.records import (
+    Channel,
+    Chunk,
+    ChunkIndex,
+    DataEnd,
+    Footer,
+    Message,
+    Metadata,
+    MetadataIndex,
+    Schema,
+    Statistics,
+    SummaryOffset,
+)
+from mcap.stream_reader import CRCValidationError, StreamReader
 from mcap.writer import CompressionType, Writer
 
 from iw_zenoh import __version__
 from iw_zenoh.errors import RecordingError
-from iw_zenoh.record.integrity import scan, statistics_disagree, undecodable
+from iw_zenoh.record.checksums import in_words, verified_chunk
+from iw_zenoh.record.integrity import FOOTER_BYTES, _summary_crc_ok, scan, statistics_disagree, undecodable
 from iw_zenoh.record.parts import first_part, part_number, recording_parts, recovered_copy
 from iw_zenoh.record.progress import Progress
 from iw_zenoh.record.reader import RecordingReader, discard_cut_off, file_error
@@ -149,62 +163,134 @@ class Recovery:
     total_bytes: int = 0
     stopped_by: str = ""
     per_topic: dict[str, int] = field(default_factory=dict)
+    dropped_chunks: int = 0  # chunks whose CRC fails (or that have none): dropped whole
+    orphans: int = 0  # messages of a channel whose record was in a dropped chunk
+    unchecked: int = 0  # schema, channel or message records outside chunks: no CRC vouches for them, dropped
+    metadata: str = "unchecked"  # "checked": the data section's CRC vouched for the metadata kept; or why not
+
+    def lines(self, dst: Path, size: int) -> list[str]:
+        """The report ``iwz recover`` prints."""
+        lost = size - self.good_bytes if self.good_bytes else 0
+        out = [
+            f"iwz recover: {self.messages} messages on {self.channels} channels saved to {dst}",
+            f"  last message logged at {self.last_log_ns} ns; {lost} bytes after the last complete record were lost",
+            f"  reading stopped: {self.stopped_by or 'the file was complete'}",
+        ]
+        if self.dropped_chunks or self.orphans or self.unchecked:
+            out.append(
+                f"  dropped whole: {self.dropped_chunks} damaged chunks (their checksum fails), {self.orphans} "
+                f"messages of channels declared in them, {self.unchecked} records outside chunks (no checksum)"
+            )
+        if self.metadata != "checked":
+            out.append(f"  metadata kept but not vouched for: {self.metadata}")
+        return out
+
+
+class _Rebuild:
+    """The new file being written: schemas and channels by their old ids, and what went in."""
+
+    def __init__(self, dst: IO[bytes], out: Recovery) -> None:
+        self.w = Writer(dst, compression=CompressionType.ZSTD, enable_data_crcs=True)
+        self.w.start(profile=PROFILE, library=f"iw-zenoh {__version__} (recovered)")
+        self.out = out
+        self.schemas: dict[int, int] = {}
+        self.channels: dict[int, tuple[int, str]] = {}
+
+    def take(self, rec: object) -> None:
+        """Writes a record a checksum vouched for (a schema, channel or message)."""
+        if isinstance(rec, Schema) and rec.id not in self.schemas:
+            self.schemas[rec.id] = self.w.register_schema(rec.name, rec.encoding, rec.data)
+        elif isinstance(rec, Channel) and rec.id not in self.channels:
+            cid = self.w.register_channel(
+                rec.topic, rec.message_encoding, self.schemas.get(rec.schema_id, 0), rec.metadata
+            )
+            self.channels[rec.id] = (cid, rec.topic)
+        elif isinstance(rec, Message):
+            if rec.channel_id not in self.channels:
+                self.out.orphans += 1
+                return
+            cid, topic = self.channels[rec.channel_id]
+            self.w.add_message(cid, rec.log_time, rec.data, rec.publish_time, rec.sequence)
+            self.out.messages += 1
+            self.out.last_log_ns = max(self.out.last_log_ns, rec.log_time)
+            self.out.per_topic[topic] = self.out.per_topic.get(topic, 0) + 1
+
+
+def _summary_records(src: IO[bytes]) -> list[Schema | Channel]:
+    """The schemas and channels of a summary section its CRC vouches for (none otherwise): the
+    channels of a chunk dropped as damaged are still known, and their messages in other chunks kept."""
+    try:
+        size = src.seek(0, 2)
+        src.seek(size - len(MAGIC) - FOOTER_BYTES)
+        footer = next(StreamReader(src, skip_magic=True).records)
+        if not isinstance(footer, Footer) or not footer.summary_start or not footer.summary_crc:
+            return []
+        if not _summary_crc_ok(src, footer, size):
+            return []
+        src.seek(footer.summary_start)
+        found: list[Schema | Channel] = []
+        for rec in StreamReader(src, skip_magic=True).records:
+            if isinstance(rec, Schema | Channel):
+                found.append(rec)
+            elif not isinstance(rec, Statistics | ChunkIndex | MetadataIndex | SummaryOffset):
+                break
+        return found
+    except Exception:  # a damaged or cut-off end: the file's own records are all there is
+        return []
+    finally:
+        src.seek(0)
 
 
 def recover(
     src: IO[bytes], dst: IO[bytes], total_bytes: int = 0, *, progress: Callable[[float], None] | None = None
 ) -> Recovery:
-    """Copies every complete record of a (possibly cut-off) recording into a new indexed file.
+    """Copies every record a checksum vouches for of a (cut-off or damaged) recording into a new indexed file.
+
+    A chunk is kept only when its CRC matches: one that fails it (or has none) is dropped whole,
+    never decoded into altered messages; schema, channel and message records outside chunks have
+    no CRC and are dropped; metadata is kept, vouched for when the data section's CRC matches.
 
     Args:
-        src: The damaged recording, from its start.
+        src: The damaged recording, from its start, seekable.
         dst: Where the rebuilt file goes.
         total_bytes: The damaged file's size, for the report (and ``progress``).
         progress: Told now and then the fraction of ``total_bytes`` read.
 
     Returns:
-        What was saved.
+        What was saved, and what dropped.
     """
     out = Recovery(total_bytes=total_bytes)
-    w = Writer(dst, compression=CompressionType.ZSTD, enable_data_crcs=True)
-    w.start(profile=PROFILE, library=f"iw-zenoh {__version__} (recovered)")
-    schemas: dict[int, int] = {}
-    channels: dict[int, int] = {}
-    topics: dict[int, str] = {}
-    reader = StreamReader(src, skip_magic=False, emit_chunks=False)
+    new = _Rebuild(dst, out)
+    for known in _summary_records(src):
+        new.take(known)
+    out.metadata = "the file ends before its data section's checksum"
     try:
-        for rec in reader.records:
-            if isinstance(rec, Schema):
-                if rec.id not in schemas:
-                    schemas[rec.id] = w.register_schema(rec.name, rec.encoding, rec.data)
-            elif isinstance(rec, Channel):
-                if rec.id not in channels:
-                    channels[rec.id] = w.register_channel(
-                        rec.topic, rec.message_encoding, schemas.get(rec.schema_id, 0), rec.metadata
-                    )
-                    topics[rec.id] = rec.topic
-            elif isinstance(rec, Message):
-                cid = channels.get(rec.channel_id)
-                if cid is None:
-                    continue
-                w.add_message(cid, rec.log_time, rec.data, rec.publish_time, rec.sequence)
-                out.messages += 1
-                out.last_log_ns = max(out.last_log_ns, rec.log_time)
-                t = topics[rec.channel_id]
-                out.per_topic[t] = out.per_topic.get(t, 0) + 1
+        for rec in StreamReader(src, skip_magic=False, emit_chunks=True, validate_crcs=True).records:
+            if isinstance(rec, Chunk):
+                kept = verified_chunk(rec)
+                out.dropped_chunks += kept is None
+                for r in kept or ():
+                    new.take(r)
+            elif isinstance(rec, Schema | Channel | Message):
+                out.unchecked += 1
             elif isinstance(rec, Metadata):
-                w.add_metadata(rec.name, rec.metadata)
+                new.w.add_metadata(rec.name, rec.metadata)
             elif isinstance(rec, DataEnd | Footer):  # the data section read to its end: nothing lost
+                out.metadata = "checked" if isinstance(rec, DataEnd) and rec.data_section_crc else "written without one"
                 out.good_bytes = total_bytes or out.good_bytes  # (its summary is written anew)
                 break
-            out.good_bytes = src.tell() if src.seekable() else out.good_bytes
-            if progress is not None and total_bytes and out.messages % 1000 == 0:
+            out.good_bytes = src.tell()
+            if progress is not None and total_bytes:
                 progress(out.good_bytes / total_bytes)
     except Exception as e:  # any truncation or corruption ends the readable part
-        out.stopped_by = f"{type(e).__name__}: {e}"
-    w.add_metadata("iw.recovered", {"messages": str(out.messages), "stopped_by": out.stopped_by or "end of file"})
-    w.finish()  # type: ignore[no-untyped-call]
-    out.channels = len(channels)
+        out.stopped_by = in_words(e)
+        if isinstance(e, CRCValidationError):
+            out.metadata = "the data section's checksum does not match"
+    done = {"messages": str(out.messages), "stopped_by": out.stopped_by or "end of file"}
+    done |= {"dropped_chunks": str(out.dropped_chunks), "orphans": str(out.orphans), "metadata": out.metadata}
+    new.w.add_metadata("iw.recovered", done)
+    new.w.finish()  # type: ignore[no-untyped-call]
+    out.channels = len(new.channels)
     return out
 
 
@@ -300,8 +386,5 @@ def recover_main(argv: Sequence[str] | None = None) -> int:
         dst.unlink(missing_ok=True)
         print(f"iwz recover: {src}: nothing could be saved, no complete message in it ({r.stopped_by})")
         return 1
-    lost = size - r.good_bytes if r.good_bytes else 0
-    print(f"iwz recover: {r.messages} messages on {r.channels} channels saved to {dst}")
-    print(f"  last message logged at {r.last_log_ns} ns; {lost} bytes after the last complete record were lost")
-    print(f"  reading stopped: {r.stopped_by or 'the file was complete'}")
+    print("\n".join(r.lines(dst, size)))
     return 0
