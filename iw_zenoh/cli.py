@@ -26,6 +26,7 @@ COMMANDS: dict[str, tuple[str, str] | tuple[str, str, str]] = {
     "sensors": ("iw_zenoh.nodes.sensors", "every robot's sensors each tick (shardable)"),
     "radio": ("iw_zenoh.nodes.radio", "robot-to-robot messages within range"),
     "agent": ("iw_zenoh.nodes.agents", "run agent programs (wanderer, waypoint, ...)"),
+    "ros2": ("iw_zenoh.nodes.ros2", "chairs a ROS 2 stack drives: odom, scan, /tf, /clock, cmd_vel on rmw_zenoh's keys"),
     "bridge": (
         "iw_zenoh.bridges.dispatch",
         "bridges: `iwz bridge ciberrato` (legacy XML/UDP agents and viewers), `iwz bridge serial` (a real chair)",
