@@ -16,7 +16,6 @@ from __future__ import annotations
 import argparse
 import collections
 import logging
-import math
 import os
 import threading
 import time
@@ -37,6 +36,7 @@ from iw_zenoh.messages import Heard, SensorReading, WorldInfo, WorldState, decod
 from iw_zenoh.nodes.ros2_link import Ros2Link, Ros2Publisher, Sample
 from iw_zenoh.ros2 import convert, graph
 from iw_zenoh.ros2 import types as t
+from iw_zenoh.ros2.chair import CLOCK_TOPIC, TF_TOPIC, ChairTopics, namespace_of
 from iw_zenoh.runtime import Process, start_role
 
 __all__ = ["CMD_TIMEOUT_S", "Ros2Chair", "main"]
@@ -70,9 +70,7 @@ class Ros2Chair:
         self.accepted = self.refused = 0
         self.command: tuple[float, float] = (0.0, 0.0)
         self.command_wall = self.command_sim = -1.0  # when the command in force came (s): none yet
-        self.spec_ok: RobotSpec | None = None
-        self.namespace = ""
-        self.frames = convert.Frames("")
+        self.topics: ChairTopics | None = None
         self.odom: Ros2Publisher | None = None
         self.scans: dict[int, Ros2Publisher] = {}
         self.ranges: dict[int, Ros2Publisher] = {}
@@ -84,24 +82,21 @@ class Ros2Chair:
         return RobotSpec(self.name, id=self.robot_id)
 
     def on_registered(self, robot_id: int, spec: RobotSpec) -> None:
-        self.robot_id, self.spec_ok = robot_id, spec
-        self.namespace = "/" + self.template.format(id=robot_id).strip("/")
-        self.frames = convert.Frames.of(self.namespace)
+        self.robot_id = robot_id
+        self.topics = ChairTopics(robot_id, namespace_of(self.template, robot_id), spec)
 
     def declare(self, link: Ros2Link) -> None:
         """Declares this chair's ROS 2 node, publishers and subscription."""
-        assert self.spec_ok is not None
-        node = link.node(self.namespace, NODE_NAME)
-        ns = self.namespace
-        self.odom = node.publisher(f"{ns}/odom", t.ODOMETRY, ODOM_QOS)
-        lasers = self.spec_ok.lasers
-        for laser in lasers:
-            topic = f"{ns}/scan" if len(lasers) == 1 else f"{ns}/scan{laser.id}"
-            self.scans[laser.id] = node.publisher(topic, t.LASER_SCAN, SENSOR_QOS)
-        for ir in self.spec_ok.ir_sensors:
-            self.ranges[ir.id] = node.publisher(f"{ns}/range/s{ir.id}", t.RANGE, SENSOR_QOS)
+        tp = self.topics
+        assert tp is not None
+        node = link.node(tp.namespace, NODE_NAME)
+        self.odom = node.publisher(tp.odom_topic(), t.ODOMETRY, ODOM_QOS)
+        for laser in tp.spec.lasers:
+            self.scans[laser.id] = node.publisher(tp.scan_topic(laser.id), t.LASER_SCAN, SENSOR_QOS)
+        for ir in tp.spec.ir_sensors:
+            self.ranges[ir.id] = node.publisher(tp.range_topic(ir.id), t.RANGE, SENSOR_QOS)
         kind = t.TWIST_STAMPED if self.stamped else t.TWIST
-        self.cmd_key = node.subscription(f"{ns}/cmd_vel", kind, ODOM_QOS, self._on_cmd)
+        self.cmd_key = node.subscription(tp.cmd_vel_topic(), kind, ODOM_QOS, self._on_cmd)
 
     def _on_cmd(self, sample: Sample) -> None:
         """Keeps a cmd_vel sample for the next tick (on Zenoh's thread: no parsing here)."""
@@ -125,57 +120,21 @@ class Ros2Chair:
 
     def on_sensors(self, reading: SensorReading, heard: list[Heard]) -> Command:
         """Publishes the tick's scans and ranges, then answers with the newest command."""
-        assert self.spec_ok is not None
-        stamp = reading.sim_time_ns
-        self._publish_readings(reading, stamp)
-        sim_s = stamp / 1e9
+        tp = self.topics
+        assert tp is not None
+        for lid, data in tp.scans(reading):
+            if lid in self.scans:
+                self.scans[lid].put(data)
+        for sid, data in tp.ranges(reading):
+            if sid in self.ranges:
+                self.ranges[sid].put(data)
+        sim_s = reading.sim_time_ns / 1e9
         self._take_commands(sim_s)
-        stale = self.command_wall < 0 or (
-            self.clock() - self.command_wall > CMD_TIMEOUT_S or sim_s - self.command_sim > CMD_TIMEOUT_S
-        )
-        if stale:
-            return Command(0.0, 0.0)
-        left, right = powers_for_twist(*self.command, self.spec_ok.max_speed_mps, self.spec_ok.height_m)
+        age_wall, age_sim = self.clock() - self.command_wall, sim_s - self.command_sim
+        if self.command_wall < 0 or age_wall > CMD_TIMEOUT_S or age_sim > CMD_TIMEOUT_S:
+            return Command(0.0, 0.0)  # no command, or a stale one: the chair stops
+        left, right = powers_for_twist(*self.command, tp.spec.max_speed_mps, tp.spec.height_m)
         return Command(left, right)
-
-    def _publish_readings(self, reading: SensorReading, stamp: int) -> None:
-        assert self.spec_ok is not None
-        scans = {s.id: s.ranges for s in reading.lasers} if isinstance(reading.lasers, list) else {}
-        for laser in self.spec_ok.lasers:
-            pub = self.scans.get(laser.id)
-            if pub is not None and laser.id in scans:
-                frame = self.frames.name(f"laser{laser.id}")
-                pub.put(
-                    convert.laser_scan(
-                        frame,
-                        stamp,
-                        angle_deg=laser.angle_deg,
-                        fov_deg=laser.fov_deg,
-                        range_m=laser.range_m,
-                        ranges=scans[laser.id],
-                        scan_time_s=0.0,
-                    )
-                )
-        cones = {ir.id: ir for ir in self.spec_ok.ir_sensors}
-        for sid, value in zip(reading.proximity_ids, reading.proximity_m, strict=True):
-            pub, ir = self.ranges.get(sid), cones.get(sid)
-            if pub is not None and ir is not None:
-                frame = self.frames.name(f"range{sid}")
-                pub.put(convert.range_reading(frame, stamp, cone_deg=ir.cone_deg, range_m=ir.range_m, value=value))
-
-    def sensor_links(self) -> list[tuple[str, str, float, float, float]]:
-        """base_link -> each sensor's frame (where it is mounted, which way it looks)."""
-        assert self.spec_ok is not None
-        base = self.frames.base
-        out = [
-            (base, self.frames.name(f"laser{s.id}"), s.x_m, s.y_m, math.radians(s.angle_deg))
-            for s in self.spec_ok.lasers
-        ]
-        out += [
-            (base, self.frames.name(f"range{s.id}"), s.x_m, s.y_m, math.radians(s.angle_deg))
-            for s in self.spec_ok.ir_sensors
-        ]
-        return out
 
 
 class StateToRos:
@@ -183,8 +142,8 @@ class StateToRos:
 
     def __init__(self, link: Ros2Link, chairs: dict[int, Ros2Chair], period_s: float, on_bad: Any) -> None:
         root = link.node("/", "iwz_sim")
-        self.tf = root.publisher("/tf", t.TF_MESSAGE, TF_QOS)
-        self.clock = root.publisher("/clock", t.CLOCK, CLOCK_QOS)
+        self.tf = root.publisher(TF_TOPIC, t.TF_MESSAGE, TF_QOS)
+        self.clock = root.publisher(CLOCK_TOPIC, t.CLOCK, CLOCK_QOS)
         self.chairs, self.period_s, self.on_bad = chairs, period_s, on_bad
         self.lock = threading.Lock()
         self.published = 0
@@ -202,13 +161,10 @@ class StateToRos:
         links: list[tuple[str, str, float, float, float]] = []
         for i, rid in enumerate(st.ids):
             chair = self.chairs.get(rid)
-            if chair is None or chair.odom is None or chair.spec_ok is None:
+            if chair is None or chair.odom is None or chair.topics is None:
                 continue
-            turn = (st.rolled_right[i] - st.rolled_left[i]) / chair.spec_ok.height_m
-            pose = convert.Pose2(st.x[i], st.y[i], st.heading[i], v=st.speed[i], w=turn / self.period_s)
-            chair.odom.put(convert.odometry(chair.frames, st.sim_time_ns, pose))
-            links.append((chair.frames.odom, chair.frames.base, st.x[i], st.y[i], st.heading[i]))
-            links += chair.sensor_links()
+            chair.odom.put(chair.topics.odom(st, i, self.period_s))
+            links += chair.topics.links(st, i)
         if links:
             self.tf.put(convert.tf_message(st.sim_time_ns, links))
         self.clock.put(convert.clock(st.sim_time_ns))
@@ -259,7 +215,7 @@ def _run(proc: Process, agents: list[Any]) -> int:
             chair.on_bad = proc.io.bad_message
             chair.declare(link)
             chairs[rid] = chair
-            logger.info("chair %d on ROS 2 domain %d as %s", rid, link.domain, chair.namespace)
+            logger.info("chair %d on ROS 2 domain %d as %s", rid, link.domain, chair.template.format(id=rid))
         info = [decode(d, WorldInfo) for d in proc.bus.query(keys.info(proc.sim), timeout_s=5.0)]
         period_s = info[0].period_ns / 1e9 if info else 0.1
         state = StateToRos(link, chairs, period_s, proc.io.bad_message)
