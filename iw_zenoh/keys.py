@@ -64,6 +64,7 @@ __all__ = [
     "robot_id_of",
     "ros2_all_tokens",
     "ros2_everything",
+    "ros2_in_every_namespace",
     "ros2_token",
     "ros2_topic",
     "say",
@@ -406,6 +407,11 @@ def ros2_topic(domain_id: int, topic: str, dds_type: str, type_hash: str) -> str
     for part in name.split("/"):
         chunk(part)  # no empty level, no wildcard
     return f"{_ros2_domain(domain_id)}/{name}/{chunk(dds_type)}/{chunk(type_hash)}"
+
+
+def ros2_in_every_namespace(domain_id: int, name: str, dds_type: str, type_hash: str) -> str:
+    """A topic ``name`` (``odom``) of a type in every namespace of a domain (each chair's odom)."""
+    return f"{_ros2_domain(domain_id)}/**/{chunk(name)}/{chunk(dds_type)}/{chunk(type_hash)}"
 
 
 def ros2_token(domain_id: int, parts: list[str]) -> str:

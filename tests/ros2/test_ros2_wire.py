@@ -45,6 +45,9 @@ def test_the_cmd_vel_key_equals_the_one_seen_on_real_systems() -> None:
     odom = keys.ros2_topic(7, "/robot1/odom", t.dds_name(t.ODOMETRY), t.type_hash(t.ODOMETRY))
     assert odom == "7/robot1/odom/nav_msgs::msg::dds_::Odometry_/" + GOLDEN[t.ODOMETRY]
     assert zenoh.KeyExpr(keys.ros2_everything(7)).intersects(zenoh.KeyExpr(odom))
+    every = keys.ros2_in_every_namespace(7, "odom", t.dds_name(t.ODOMETRY), t.type_hash(t.ODOMETRY))
+    assert zenoh.KeyExpr(every).intersects(zenoh.KeyExpr(odom))
+    assert not zenoh.KeyExpr(every).intersects(zenoh.KeyExpr(odom.replace("/odom/", "/scan/")))
 
 
 def test_tokens_follow_rmw_zenohs_layout() -> None:
