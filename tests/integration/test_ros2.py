@@ -19,7 +19,7 @@ from iw_zenoh import keys
 from iw_zenoh.messages import Event, SensorReading, WorldState, decode
 from iw_zenoh.ros2 import graph
 from iw_zenoh.ros2 import types as t
-from tests.integration.harness import Net, start_world, subscribe, wait_alive, wait_msg
+from tests.integration.harness import OPEN_LAB, Net, start_world, subscribe, wait_alive, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(180)]
 
@@ -125,6 +125,15 @@ def test_ros2_chair_publishes_the_tick_and_obeys_cmd_vel(net: Net) -> None:
             matched += 1
     assert matched >= 3
     assert any(tr.child_frame_id == "robot1/base_link" for m in tfs for tr in m.transforms)
+    # at the tick rate: a clock, a tf and an odom for every state between the first and last clock
+    clock_ns = {c.clock.sec * 10**9 + c.clock.nanosec for c in clocks}
+    tf_ns = {m.transforms[0].header.stamp.sec * 10**9 + m.transforms[0].header.stamp.nanosec for m in tfs}
+    odom_ns = {o.header.stamp.sec * 10**9 + o.header.stamp.nanosec for o in odoms}
+    between = {ns for ns in by_time if min(clock_ns) <= ns <= max(clock_ns) and 1 in by_time[ns].ids}
+    assert len(between) >= 4
+    assert between <= clock_ns
+    assert between <= tf_ns
+    assert between <= odom_ns
     assert [c.clock.sec * 10**9 + c.clock.nanosec for c in clocks] == sorted(
         c.clock.sec * 10**9 + c.clock.nanosec for c in clocks
     )
@@ -190,3 +199,24 @@ def test_ros2_chair_publishes_the_tick_and_obeys_cmd_vel(net: Net) -> None:
     tap.wait(lambda: len(tap.samples["/robot1/odom"]) > n + 3)
     assert ros2.popen.poll() is None
     wait_alive(bus, keys.all_alive(net.sim))
+
+
+def test_in_lock_step_one_command_drives_for_half_a_simulated_second_then_the_chair_stops(net: Net) -> None:
+    """Lock-step: the world waits for iwz ros2 each tick; a single cmd_vel is taken at the next
+    tick and is stale 0.5 s of simulated time later (whatever the wall clock did meanwhile)."""
+    bus = net.client()
+    tap = Tap(bus.session)
+    states = subscribe(bus, keys.state(net.sim), maxlen=100_000)
+    (net.tmp / "lab.xml").write_text(OPEN_LAB)
+    net.spawn("world", str(net.tmp / "lab.xml"), "--lockstep", name="world")
+    net.spawn("collision", name="collision")
+    net.spawn("sensors", name="sensors")
+    net.spawn("ros2", "--id", "1", "--spec-json", json.dumps(SPEC), name="ros2")
+    tap.wait(lambda: len(tap.samples.get("/robot1/odom", [])) >= 3)
+    bus.session.declare_publisher(TWIST_KEY).put(_twist(0.4, 0.0))
+    moving = _state(states, 1, lambda s, i: s.speed[i] > 0.05)
+    stopped = _state(states, 1, lambda s, i: s.tick > moving.tick and abs(s.speed[i]) < 1e-3)
+    driven_s = (stopped.sim_time_ns - moving.sim_time_ns) / 1e9
+    assert driven_s < 0.5 + 1.5  # the command's 0.5 s, then the motors' run-down (curve 0.2)
+    later = _state(states, 1, lambda s, i: s.tick > stopped.tick + 20)
+    assert abs(later.x[later.ids.index(1)] - stopped.x[stopped.ids.index(1)]) < 0.01

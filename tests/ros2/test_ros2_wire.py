@@ -211,3 +211,13 @@ def test_powers_for_a_twist_drive_the_motor_model_at_that_twist(v: float, w: flo
     moved = integrate_pose(np.zeros((1, 3)), wheels, np.array([base]), 0.1)
     assert math.isclose(moved[0, 0], k * v * 0.1, abs_tol=abs(k * w) * 0.1 * abs(v) * 0.1 + 1e-9)
     assert powers_for_twist(math.nan, 0.0, vmax, base) == (0.0, 0.0)
+
+
+@given(st.binary(max_size=64))
+def test_any_attachment_reads_or_is_refused_with_a_reason(data: bytes) -> None:
+    try:
+        a = graph.Attachment.decode(data)
+    except DecodeError as e:
+        assert "33 bytes" in str(e)
+        return
+    assert a.encode() == data
