@@ -22,7 +22,7 @@ def test_the_demo_plans_iwz_ros2_with_its_ros2_table(tmp_path: Path) -> None:
     assert sc.ros2 == Ros2Section(domain_id=0, namespace="/robot{id}", stamped=False)
     (agent,) = sc.agents
     assert agent.program == "ros2"
-    assert agent.spec is not None
+    assert isinstance(agent.spec, dict)
     assert agent.spec["lasers"][0]["beams"] == 271
     sc = msgspec.structs.replace(sc, ros2=Ros2Section(domain_id=7, namespace="/chair_{id}", stamped=True))
     launcher = Launcher(sc, port=7447, log_dir=tmp_path, status=False, record=None)
