@@ -13,6 +13,8 @@ from iw_zenoh.config import Ros2Section, load_scenario
 from iw_zenoh.nodes import ros2
 from iw_zenoh.nodes.launcher import Launcher
 from iw_zenoh.nodes.secure_run import agent_robots
+from iw_zenoh.nodes.world_options import WorldOptions
+from iw_zenoh.secure.policy import load_policy
 
 MAPS = Path(__file__).resolve().parents[2] / "maps"
 
@@ -60,3 +62,20 @@ def test_the_scenario_refuses_a_bad_domain(tmp_path: Path) -> None:
     bad.write_text('[world]\nmap = "lab.xml"\n[ros2]\ndomain_id = 300\n')
     with pytest.raises(Exception, match="domain_id"):
         load_scenario(bad)
+
+
+def test_a_secured_demo_gives_iwz_ros2_an_identity_of_its_own_that_drives_only_its_chair(tmp_path: Path) -> None:
+    sc = load_scenario(MAPS / "ros2-demo.toml")
+    launcher = Launcher(sc, port=7447, log_dir=tmp_path, status=False, secure=True)
+    launcher.plan()
+    (c,) = [c for c in launcher.children if c.name == "agent-1-ros2"]
+    assert c.argv[c.argv.index("iw_zenoh.cli") + 1] == "ros2"
+    assert c.argv[c.argv.index("--identity") + 1] == str(tmp_path / "ids" / "agent-1-ros2")
+    assert (tmp_path / "ids" / "agent-1-ros2.crt").is_file()
+    policy = load_policy(tmp_path / "ids" / "policy.toml")
+    assert list(policy.identities["agent-1-ros2"].roles) == ["agent"]
+    assert policy.identities["agent-1-ros2"].robots == [1]
+    world = next(w for w in launcher.children if w.role == "world")
+    assert isinstance(world.options, WorldOptions)
+    assert world.options.owners is not None
+    assert world.options.owners["agent-1-ros2"] == [1]  # the world registers no other chair for it
