@@ -9,6 +9,7 @@ within its range reads ``+inf`` (REP 117).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -152,17 +153,25 @@ def range_reading(frame: str, sim_time_ns: int, *, cone_deg: float, range_m: flo
     )
 
 
-def _transform(sim_time_ns: int, parent: str, child: str, x: float, y: float, heading: float) -> object:
-    tf = t.new("geometry_msgs/msg/Transform", translation=_vec(x, y), rotation=_quat(heading))
-    return t.new(
-        "geometry_msgs/msg/TransformStamped", header=_header(sim_time_ns, parent), child_frame_id=child, transform=tf
-    )
+@functools.lru_cache(maxsize=4096)
+def _tf_body(x: float, y: float, heading: float) -> object:
+    """A planar transform (the sensors' mountings repeat every tick: built once)."""
+    return t.new("geometry_msgs/msg/Transform", translation=_vec(x, y), rotation=_quat(heading))
 
 
 def tf_message(sim_time_ns: int, links: Sequence[tuple[str, str, float, float, float]]) -> bytes:
     """tf2_msgs/TFMessage of ``(parent, child, x, y, heading)`` links (odom -> base_link of each
-    chair, base_link -> each sensor)."""
-    return t.serialize(t.new(t.TF_MESSAGE, transforms=[_transform(sim_time_ns, *link) for link in links]))
+    chair, base_link -> each sensor); links of one parent share its header."""
+    when = stamp(sim_time_ns)
+    headers: dict[str, object] = {}
+    out = []
+    for parent, child, x, y, heading in links:
+        header = headers.get(parent)
+        if header is None:
+            header = headers[parent] = t.new("std_msgs/msg/Header", stamp=when, frame_id=parent)
+        body = _tf_body(float(x), float(y), float(heading))
+        out.append(t.new("geometry_msgs/msg/TransformStamped", header=header, child_frame_id=child, transform=body))
+    return t.serialize(t.new(t.TF_MESSAGE, transforms=out))
 
 
 def clock(sim_time_ns: int) -> bytes:
