@@ -27,6 +27,7 @@ COMMANDS: dict[str, tuple[str, str] | tuple[str, str, str]] = {
     "sensors": ("iw_zenoh.nodes.sensors", "every robot's sensors each tick (shardable)"),
     "radio": ("iw_zenoh.nodes.radio", "robot-to-robot messages within range"),
     "agent": ("iw_zenoh.nodes.agents", "run agent programs (wanderer, waypoint, ...)"),
+    "ros2": ("iw_zenoh.nodes.ros2", "chairs a ROS 2 stack drives: odom, scan, /tf, /clock, cmd_vel on rmw_zenoh keys"),
     "bridge": (
         "iw_zenoh.bridges.dispatch",
         "bridges: `iwz bridge ciberrato` (legacy XML/UDP agents and viewers), `iwz bridge serial` (a real chair)",
@@ -46,6 +47,7 @@ COMMANDS: dict[str, tuple[str, str] | tuple[str, str, str]] = {
     "render": ("iw_zenoh.record.render", "draw a moment of a recording to PNG (map, bodies, cones, plots)"),
     "resim": ("iw_zenoh.record.resim", "re-run a lock-step recording exactly; swap one robot's agent"),
     "calibrate": ("iw_zenoh.record.calibrate", "fit MaxSpeed and AccelerationCurve to a real chair's log"),
+    "export": ("iw_zenoh.record.ros2_export", "a recording as a rosbag2 bag ROS 2 tools read (--ros2)"),
     "doctor": ("iw_zenoh.record.tools", "say whether a recording is whole", "doctor_main"),
     "recover": ("iw_zenoh.record.tools", "rebuild a readable, indexed file from a cut-off recording", "recover_main"),
 }

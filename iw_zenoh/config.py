@@ -162,6 +162,15 @@ class ChairSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     spec: Path | None = None  # a spec file (docs/spec.md) the bridge and the emulator both read
 
 
+class Ros2Section(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """``[ros2]``: how the chairs of ``[[agents]]`` entries with ``program = "ros2"`` (each run by
+    ``iwz ros2``) meet a ROS 2 stack (docs/ros2.md)."""
+
+    domain_id: Annotated[int, msgspec.Meta(ge=0, le=232)] = 0  # ROS_DOMAIN_ID
+    namespace: str = "/robot{id}"  # each chair's namespace; {id} is its robot id
+    stamped: bool = False  # cmd_vel is geometry_msgs/TwistStamped (else Twist)
+
+
 class SecuritySection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """``[security]``: run every role with an identity of its own (docs/security.md), and where.
 
@@ -189,6 +198,7 @@ class ScenarioFile(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     bridge: BridgeSection | None = None
     chair: ChairSection | None = None
     security: SecuritySection | None = None
+    ros2: Ros2Section = msgspec.field(default_factory=Ros2Section)
 
 
 class Scenario(ScenarioFile, frozen=True, forbid_unknown_fields=True, kw_only=True):

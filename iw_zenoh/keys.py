@@ -62,6 +62,11 @@ __all__ = [
     "radio",
     "register",
     "robot_id_of",
+    "ros2_all_tokens",
+    "ros2_everything",
+    "ros2_in_every_namespace",
+    "ros2_token",
+    "ros2_topic",
     "say",
     "sensor_batch",
     "sensors",
@@ -384,3 +389,41 @@ def alive_parts(key: str) -> tuple[str, str] | None:
     if len(parts) == 5 and parts[0] == "iw" and parts[2] == "alive":
         return parts[3], parts[4]
     return None
+
+
+# ROS 2 (rmw_zenoh, Jazzy): keys outside iw/{sim}/, shared with every ROS 2 node on the router
+# (docs/ros2.md; iw_zenoh/ros2 builds the names, types and tokens that go in them)
+
+
+def _ros2_domain(domain_id: int) -> int:
+    if isinstance(domain_id, bool) or not isinstance(domain_id, int) or not 0 <= domain_id <= 232:
+        raise ValueError(f"ROS_DOMAIN_ID must be an integer in 0..232, got {domain_id!r}")
+    return domain_id
+
+
+def ros2_topic(domain_id: int, topic: str, dds_type: str, type_hash: str) -> str:
+    """A ROS 2 topic's data key: ``<domain>/<topic without its leading slash>/<DDS type>/<RIHS01>``."""
+    name = topic[1:] if topic.startswith("/") else topic
+    for part in name.split("/"):
+        chunk(part)  # no empty level, no wildcard
+    return f"{_ros2_domain(domain_id)}/{name}/{chunk(dds_type)}/{chunk(type_hash)}"
+
+
+def ros2_in_every_namespace(domain_id: int, name: str, dds_type: str, type_hash: str) -> str:
+    """A topic ``name`` (``odom``) of a type in every namespace of a domain (each chair's odom)."""
+    return f"{_ros2_domain(domain_id)}/**/{chunk(name)}/{chunk(dds_type)}/{chunk(type_hash)}"
+
+
+def ros2_token(domain_id: int, parts: list[str]) -> str:
+    """A ROS 2 graph liveliness token: ``@ros2_lv/<domain>/`` and the entity's mangled parts."""
+    return f"@ros2_lv/{_ros2_domain(domain_id)}/" + "/".join(chunk(p) for p in parts)
+
+
+def ros2_all_tokens(domain_id: int) -> str:
+    """Every ROS 2 graph token of a domain."""
+    return f"@ros2_lv/{_ros2_domain(domain_id)}/**"
+
+
+def ros2_everything(domain_id: int) -> str:
+    """Every ROS 2 topic of a domain."""
+    return f"{_ros2_domain(domain_id)}/**"

@@ -23,6 +23,7 @@ __all__ = [
     "DriveParams",
     "clamp_power",
     "integrate_pose",
+    "powers_for_twist",
     "rise_time_s",
     "step_drive",
     "step_drive_ciberrato",
@@ -122,6 +123,30 @@ def integrate_pose(pose: FloatArray, wheel_mps: FloatArray, wheel_base_m: FloatA
     out[:, 1] = pose[:, 1] + chord * np.sin(mid)
     out[:, 2] = (th + dth + np.pi) % (2.0 * np.pi) - np.pi
     return out
+
+
+def powers_for_twist(v_mps: float, w_radps: float, max_speed_mps: float, wheel_base_m: float) -> tuple[float, float]:
+    """The (left, right) powers whose steady wheel speeds give a body velocity (the inverse of
+    :func:`wheel_speeds_mps` and :func:`integrate_pose`); a command beyond the motors' reach is
+    scaled down as a whole, so the chair keeps the commanded curvature at its top speed.
+
+    Args:
+        v_mps: Forward speed, m/s.
+        w_radps: Turn rate, rad/s, counter-clockwise.
+        max_speed_mps: The robot's speed at power 0.15.
+        wheel_base_m: Distance between the wheels.
+
+    Returns:
+        ``(left, right)`` powers within [-0.15, 0.15]; NaN in gives (0, 0).
+    """
+    if not (math.isfinite(v_mps) and math.isfinite(w_radps)):
+        return 0.0, 0.0
+    half = 0.5 * w_radps * wheel_base_m
+    left, right = (v_mps - half) * MAX_POWER / max_speed_mps, (v_mps + half) * MAX_POWER / max_speed_mps
+    over = max(abs(left), abs(right)) / MAX_POWER
+    if over > 1.0:
+        left, right = left / over, right / over
+    return left, right
 
 
 def step_drive(

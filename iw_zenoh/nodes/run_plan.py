@@ -127,12 +127,22 @@ class RunPlan:
         for i, a in enumerate(sc.agents):
             name = agent_name(i, a)
             spec = ["--spec-json", json.dumps(a.spec)] if a.spec is not None else []  # read and checked: a table
-            c = self.child("agent", name, a.program, *a.argv, *spec, "--name", name)
+            if a.program == "ros2":  # the chairs a ROS 2 stack drives (docs/ros2.md)
+                c = self.child("ros2", name, *self._ros2_args(a.robots), *a.argv, *spec, "--name", name)
+                c.role = "agent"  # an agent all the same: started last, stopped first, its chairs its own
+            else:
+                c = self.child("agent", name, a.program, *a.argv, *spec, "--name", name)
             c.cwd, c.token = sc.base.resolve(), keys.chunk(name)
         if self.ids is not None:
             identities(self.ids, self.sim, self.children, robots, [self.listen.rsplit(":", 1)[0].split("/")[-1]])
         hosts = sc.security.hosts if sc.security is not None else {}
         return [c for c in on_host(self.children, hosts, host) if not (remote_router and c.role == "router")]
+
+    def _ros2_args(self, robots: int) -> list[str]:
+        """``iwz ros2``'s flags from the scenario's ``[ros2]`` table."""
+        r = self.scenario.ros2
+        out = ["--robots", str(max(robots, 1)), "--domain", str(r.domain_id), "--namespace", r.namespace]
+        return [*out, "--stamped"] if r.stamped else out
 
     def _plan_recorder(self) -> None:
         """The recorder, with the run's metadata; restarted with these same options, it continues

@@ -1,0 +1,81 @@
+"""The ros2-demo scenario reads, and ``iwz run`` plans its ``ros2`` agent as ``iwz ros2`` with the
+``[ros2]`` table's domain, namespace and command type (an agent all the same: started last, its
+robots its own when secured); ``iwz ros2`` refuses a bad domain or namespace with the reason."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import msgspec
+import pytest
+
+from iw_zenoh.config import Ros2Section, load_scenario
+from iw_zenoh.nodes import ros2
+from iw_zenoh.nodes.launcher import Launcher
+from iw_zenoh.nodes.secure_run import agent_robots
+from iw_zenoh.nodes.world_options import WorldOptions
+from iw_zenoh.secure.policy import load_policy
+
+MAPS = Path(__file__).resolve().parents[2] / "maps"
+
+
+def test_the_demo_plans_iwz_ros2_with_its_ros2_table(tmp_path: Path) -> None:
+    sc = load_scenario(MAPS / "scenarios" / "ros2-demo.toml")
+    assert sc.ros2 == Ros2Section(domain_id=0, namespace="/robot{id}", stamped=False)
+    (agent,) = sc.agents
+    assert agent.program == "ros2"
+    assert isinstance(agent.spec, dict)
+    assert agent.spec["lasers"][0]["beams"] == 271
+    sc = msgspec.structs.replace(sc, ros2=Ros2Section(domain_id=7, namespace="/chair_{id}", stamped=True))
+    launcher = Launcher(sc, port=7447, log_dir=tmp_path, status=False, record=None)
+    launcher.plan()
+    (c,) = [c for c in launcher.children if c.name == "agent-1-ros2"]
+    assert c.role == "agent"
+    cmd = c.argv[c.argv.index("iw_zenoh.cli") + 1 :]
+    assert cmd[0] == "ros2"
+    assert cmd[cmd.index("--domain") + 1] == "7"
+    assert cmd[cmd.index("--namespace") + 1] == "/chair_{id}"
+    assert "--stamped" in cmd
+    assert cmd[cmd.index("--id") + 1] == "1"
+    assert agent_robots(sc) == {"agent-1-ros2": (1,)}
+
+
+@pytest.mark.parametrize(
+    ("argv", "why"),
+    [
+        (["--domain", "233"], "ROS_DOMAIN_ID"),
+        (["--domain", "-1"], "ROS_DOMAIN_ID"),
+        (["--robots", "2", "--namespace", "/one"], "{id}"),
+        (["--robots", "0"], "--robots"),
+    ],
+)
+def test_iwz_ros2_refuses_bad_arguments_with_the_reason(
+    argv: list[str], why: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert ros2.main([*argv, "-e", "tcp/127.0.0.1:1"]) == 2
+    assert why in capsys.readouterr().out
+
+
+def test_the_scenario_refuses_a_bad_domain(tmp_path: Path) -> None:
+    (tmp_path / "lab.xml").write_text('<Lab Name="l" Width="5" Height="5"/>')
+    bad = tmp_path / "s.toml"
+    bad.write_text('[world]\nmap = "lab.xml"\n[ros2]\ndomain_id = 300\n')
+    with pytest.raises(Exception, match="domain_id"):
+        load_scenario(bad)
+
+
+def test_a_secured_demo_gives_iwz_ros2_an_identity_of_its_own_that_drives_only_its_chair(tmp_path: Path) -> None:
+    sc = load_scenario(MAPS / "scenarios" / "ros2-demo.toml")
+    launcher = Launcher(sc, port=7447, log_dir=tmp_path, status=False, secure=True)
+    launcher.plan()
+    (c,) = [c for c in launcher.children if c.name == "agent-1-ros2"]
+    assert c.argv[c.argv.index("iw_zenoh.cli") + 1] == "ros2"
+    assert c.argv[c.argv.index("--identity") + 1] == str(tmp_path / "ids" / "agent-1-ros2")
+    assert (tmp_path / "ids" / "agent-1-ros2.crt").is_file()
+    policy = load_policy(tmp_path / "ids" / "policy.toml")
+    assert list(policy.identities["agent-1-ros2"].roles) == ["agent"]
+    assert policy.identities["agent-1-ros2"].robots == [1]
+    world = next(w for w in launcher.children if w.role == "world")
+    assert isinstance(world.options, WorldOptions)
+    assert world.options.owners is not None
+    assert world.options.owners["agent-1-ros2"] == [1]  # the world registers no other chair for it
