@@ -91,7 +91,8 @@ def grants(
     registration; collision alone publishes verdicts; sensors shards alone readings; the radio
     alone what is heard; an agent publishes actions, say and pose reports only for ``robots``
     and registers only on its own key; a bridge publishes actions only in its own batch (the
-    world takes them only for robots it registered), the serial bridge none; control only from an operator; every identity reads.
+    world takes them only for robots it registered), the serial bridge none; control only from
+    an operator; every identity reads.
 
     Args:
         roles: Some of :data:`POLICY_ROLES`.
