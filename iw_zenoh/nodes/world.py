@@ -134,24 +134,26 @@ class _World:
             r = io.decode(d, PoseReport)
             if r is not None and self._robot_message(d[0], r.robot_id, r.tick, now):
                 core.on_pose_report(r, now)
+        io.flush_refusals()
 
     def _robot_message(self, key: str, robot_id: int, tick: int, now: int) -> bool:
         """Whether a robot's message may be acted on: on its own key, for a robot the world knows,
         its tick within the window; otherwise it is refused with a bad-message event saying why
         (for a robot the world does not have, at most once a second: a removed robot's agent may
         go on sending a while)."""
-        why = too_far_ahead(tick, self.core.tick)
+        why, reason = too_far_ahead(tick, self.core.tick), "tick"
         if keys.robot_id_of(key) != robot_id:
-            why = f"a message of robot {robot_id} on another robot's key"
+            why, reason = f"a message of robot {robot_id} on another robot's key", "key"
         elif robot_id not in self.core.registry.entries:
+            reason = "unknown-robot"
             if now - self._unknown.get(robot_id, now - UNKNOWN_EVERY_NS) < UNKNOWN_EVERY_NS:
                 return False
             if len(self._unknown) >= UNKNOWN_KEPT:
                 self._unknown.clear()
             self._unknown[robot_id] = now
             why = f"robot {robot_id} is not in the world"
-        if why:
-            self.io.event(EventKind.BAD_MESSAGE, why, key=key, robot_id=robot_id, tick=self.core.tick)
+        if why:  # at most one report per key and reason a second, with its count
+            self.io.refuse(reason, why, key=key, robot_id=robot_id, tick=self.core.tick)
         return not why
 
     def _take_actions(self, now: int) -> None:
@@ -170,18 +172,15 @@ class _World:
             if keys.agent_of(d[0]) != b.agent:
                 why = f"actions of agent {b.agent!r} on another agent's key"
             if why:
-                io.event(EventKind.BAD_MESSAGE, why, key=d[0], tick=core.tick)
+                io.refuse("batch", why, key=d[0], tick=core.tick)
                 continue
             for a in b.actions:
                 entry = core.registry.entries.get(a.robot_id)
                 if entry is not None and entry.agent == b.agent:
                     io.send_all(core.on_actions(a, now))
                 elif entry is not None:
-                    io.event(
-                        EventKind.BAD_MESSAGE,
-                        f"agent {b.agent!r} sent actions for robot {a.robot_id}, not its own",
-                        key=d[0],
-                    )
+                    why = f"agent {b.agent!r} sent actions for robot {a.robot_id}, not its own"
+                    io.refuse("not-own", why, key=d[0], robot_id=a.robot_id, tick=core.tick)
 
     def wait_until(self, deadline_ns: int, done: object = None, needed: Callable[[], int] | None = None) -> None:
         """Pumps inputs until the deadline, or until ``done()`` is true.
