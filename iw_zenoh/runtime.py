@@ -144,9 +144,10 @@ class NodeIO:
             return None
 
     def bad_message(self, key: str, error: Exception) -> None:
-        """Reports a message dropped as malformed: counted, and refused (:meth:`refuse`)."""
+        """Reports a message dropped as malformed or out of the protocol: counted, and refused
+        (:meth:`refuse`, its reason the error's kind)."""
         self.bad_messages += 1
-        self.refuse("malformed", str(error), key=key)
+        self.refuse(type(error).__name__, str(error), key=key)  # a decode error, a protocol error...
 
     def refuse(self, reason: str, text: str, *, key: str, robot_id: int = -1, tick: int = 0) -> None:
         """A message on ``key`` refused for ``reason`` (a category; ``text`` says it): a warning and a

@@ -17,6 +17,7 @@ from iw_zenoh.clock import Clock, WallClock
 from iw_zenoh.core.lab import Grid
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.errors import IwError
+from iw_zenoh.fairbox import FairInbox
 from iw_zenoh.maps import load_grid, load_lab
 from iw_zenoh.messages import (
     ActionBatch,
@@ -47,7 +48,8 @@ logger = logging.getLogger(__name__)
 
 UNKNOWN_EVERY_NS = 1_000_000_000  # messages for a robot the world does not have: one event a second
 UNKNOWN_KEPT = 1_000  # robots remembered for that (forged ids by the million cost no memory)
-BATCHES_KEPT = 4_096  # agent hosts' action batches waiting, at most
+BATCHES_KEPT = 4_096  # agent hosts' keys with action batches waiting, at most
+PER_KEY_KEPT = 16  # the newest actions (or batches) of one robot's (or agent's) key waiting, at most
 
 
 class _World:
@@ -60,10 +62,14 @@ class _World:
         self.io = io or NodeIO(bus, sim, "world", name)
         # lock-step: a tick's actions wake the loop once enough are in to complete it (see _await_actions)
         self.actions_wake = CountedWake(self.io.wake)
-        self.actions = self.io.inbox(keys.all_actions(sim), wake=self.actions_wake)
-        # a host's batch holds every robot's command of a tick (a thousand chairs: ~15 kB); a
-        # world that stalled keeps the newest 4,096 (each robot's newest command is what applies)
-        self.batches = self.io.inbox(keys.all_agent_actions(sim), maxlen=BATCHES_KEPT)
+        # each robot's key and each agent's batch key keeps its newest 16 waiting (each robot's
+        # newest command is what applies): a sender flooding its own key costs the loop 16
+        # messages a pass and never pushes another's out (a host's batch holds every robot's
+        # command of a tick, a thousand chairs: ~15 kB; 4,096 agents' keys at most)
+        self.actions = FairInbox(PER_KEY_KEPT, wake=self.actions_wake)
+        bus.subscribe(keys.all_actions(sim), self.actions)
+        self.batches = FairInbox(PER_KEY_KEPT, wake=self.io.wake, keys_kept=BATCHES_KEPT)
+        bus.subscribe(keys.all_agent_actions(sim), self.batches)
         self.reports = self.io.inbox(keys.all_pose_reports(sim))
         self.control = self.io.inbox(keys.control(sim))
         self.verdicts = self.io.inbox(keys.verdict(sim))
