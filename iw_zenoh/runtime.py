@@ -25,8 +25,9 @@ from iw_zenoh import keys
 from iw_zenoh.bus import INBOX_KEPT, NEWEST_KEPT, Bus, Delivery, Inbox, Wake, ZenohBus
 from iw_zenoh.cliargs import add_common_arguments, net_from_args
 from iw_zenoh.errors import DecodeError, IwError
-from iw_zenoh.messages import EventData, EventKind, Message, Outgoing, decode, encode, make_event
+from iw_zenoh.messages import BadMessageData, EventData, EventKind, Message, Outgoing, decode, encode, make_event
 from iw_zenoh.options import options_from_args  # re-exported: nodes/world.py and nodes/sensors.py import it from here
+from iw_zenoh.refusals import RefusalLimiter, counted
 
 __all__ = [
     "SUPERVISOR_ENV",
@@ -71,6 +72,7 @@ class NodeIO:
         self.wake = threading.Event()
         self.stop = threading.Event()
         self.bad_messages = 0
+        self.refusals = RefusalLimiter()  # bad-message reports: one per key and reason a second
 
     def inbox(
         self, key_expr: str, maxlen: int | None = None, *, ordered: bool = False, wake: Wake | None = None
@@ -142,10 +144,28 @@ class NodeIO:
             return None
 
     def bad_message(self, key: str, error: Exception) -> None:
-        """Reports a message dropped as malformed: counted, logged, and a ``bad-message`` event."""
+        """Reports a message dropped as malformed or out of the protocol: counted, and refused
+        (:meth:`refuse`, its reason the error's kind)."""
         self.bad_messages += 1
-        logger.warning("dropped a bad message on %s: %s", key, error)
-        self.event(EventKind.BAD_MESSAGE, str(error), key=key)
+        self.refuse(type(error).__name__, str(error), key=key)  # a decode error, a protocol error...
+
+    def refuse(self, reason: str, text: str, *, key: str, robot_id: int = -1, tick: int = 0) -> None:
+        """A message on ``key`` refused for ``reason`` (a category; ``text`` says it): a warning and a
+        ``bad-message`` event at most once per key and reason a second, with how many it stands for."""
+        n = self.refusals.admit(key, reason, time.monotonic_ns(), text)
+        if n:
+            self._report_refusal(key, text, n, robot_id, tick)
+
+    def flush_refusals(self) -> None:
+        """Reports the refusals counted and not reported once their second is over (a loop calls it)."""
+        for key, _, n, text in self.refusals.due(time.monotonic_ns()):
+            self._report_refusal(key, text, n, -1, 0)
+
+    def _report_refusal(self, key: str, text: str, n: int, robot_id: int, tick: int) -> None:
+        logger.warning("refused a message on %s: %s", key, counted(text, n))
+        self.event(
+            EventKind.BAD_MESSAGE, counted(text, n), BadMessageData(count=n), key=key, robot_id=robot_id, tick=tick
+        )
 
     def wait(self, timeout_s: float) -> None:
         """Sleeps until something arrives, a stop is asked, or ``timeout_s`` passes."""

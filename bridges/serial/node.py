@@ -39,6 +39,7 @@ SEND_PERIOD_S = 0.05  # a command (or zero, or EStop) goes out at least this oft
 POLL_S = 0.005  # the longest an action waits before it goes out
 RETRY_S = 0.1  # how often a lost device is looked for again
 DOWN_REPORT_S = 0.2  # while the link is down, a 'down' reading this often
+IDLE_REPORT_S = 1.0  # no tick (a paused world, none yet): a reading this often; else one a tick
 _EXACT = NoiseSpec(0.0, 0.0, enabled=False)
 # the virtual sensors of a Real robot as an in-process augmented chair registers them, but an exact
 # GPS: it reads back the pose the bridge reported, where the world took the virtual readings
@@ -60,6 +61,7 @@ class _Chair:
         """The odometry pose, no actions (the chair's agent commands it)."""
         with self.bridge.lock:
             pose = self.bridge.core.odometry.pose
+        self.bridge.ticked = True  # the serial loop publishes the chair's newest reading once for it
         return Command(pose=pose, actions=False)
 
 
@@ -90,7 +92,8 @@ class SerialBridge:
         self.host = AgentHost(bus, sim, name)
         self.sim, self.port, self.baud, self.spec, self.log = sim, port, baud, spec, log
         start = (spec.x_m or 0.0, spec.y_m or 0.0, spec.dir_deg or 0.0)
-        self.core = BridgeCore(WheelOdometry(start, spec.wheel_base_m, spec.encoder.ticks_per_m))
+        odometry = WheelOdometry(start, spec.wheel_base_m, spec.encoder.ticks_per_m)
+        self.core = BridgeCore(odometry, spec.max_speed_mps)
         self.lock = threading.Lock()
         self.robot_id = 0
         self.line: Line | None = None
@@ -99,6 +102,8 @@ class SerialBridge:
         self._was_up = False
         self._told_no_device = False  # said once that the device cannot be opened (until it is)
         self._down_sent = -1e9
+        self._published = -1e9  # when the last chair reading went out
+        self.ticked = False  # a tick came since (the agent host's thread sets it)
         self._last_sent: Message | None = None
         self.actions: Inbox | None = None  # once registered
         self.control: Inbox | None = None
@@ -157,7 +162,13 @@ class SerialBridge:
 
     def _on_status(self, st: Status, now: float) -> None:
         with self.lock:
-            self.core.on_status(st, now)
+            what, why = self.core.on_status(st, now)
+        if what:  # a value the chair cannot have sent: refused (one event per reason a second)
+            rid = self.robot_id
+            held = " (the chair is held until a plausible one comes)" if self.core.held(now) else ""
+            text = f"robot {rid}: a board Status refused: {why}{held}"
+            self.host.io.refuse(what, text, key=keys.chair(self.sim, rid), robot_id=rid)
+            return
         if self.log is not None:
             cmd = self.core.command if self.core.fresh(now) else (0.0, 0.0)
             lw, rw = wheels(st)
@@ -165,9 +176,11 @@ class SerialBridge:
                 f"{now:.4f},{st.encoders[0]},{st.encoders[1]},{cmd[0]:.4f},{cmd[1]:.4f},"
                 f"{lw:.4f},{rw:.4f},{st.battery_mv / 1000:.3f},{st.flags}\n"
             )
-        self._publish(now)
+        if self.ticked or now - self._published >= IDLE_REPORT_S:  # at most one reading a tick
+            self._publish(now)
 
     def _publish(self, now: float) -> None:
+        self.ticked, self._published = False, now
         snap = self.core.snapshot(now)
         st = snap.status
         ids, dists = ranges_m(st) if st is not None else ([], [])
@@ -204,6 +217,7 @@ class SerialBridge:
         if not up and now - self._down_sent >= DOWN_REPORT_S:
             self._down_sent = now
             self._publish(now)
+        self.host.io.flush_refusals()
 
     def serial_step(self, next_send: float) -> float:
         """One pass of the serial loop; returns when to send next."""

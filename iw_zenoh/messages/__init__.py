@@ -13,6 +13,7 @@ from __future__ import annotations
 from iw_zenoh.messages.events import (
     EVENT_PAYLOADS,
     AgentLostData,
+    BadMessageData,
     CollisionData,
     Control,
     Event,
@@ -72,6 +73,7 @@ __all__ = [
     "Control",
     "EVENT_PAYLOADS",
     "AgentLostData",
+    "BadMessageData",
     "CollisionData",
     "Event",
     "EventData",

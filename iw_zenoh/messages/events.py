@@ -95,6 +95,13 @@ class NoData(EventData, frozen=True, kw_only=True):
     """The payload of a kind whose reason says it all (``data`` is ``{}``)."""
 
 
+class BadMessageData(EventData, frozen=True, kw_only=True, omit_defaults=True):
+    """How many refused messages a ``bad-message`` event stands for (one per key and reason a
+    second is reported; ``{}``: one)."""
+
+    count: Annotated[int, msgspec.Meta(ge=1, le=INT64_MAX)] = 1
+
+
 class CollisionData(EventData, frozen=True, kw_only=True):
     """Where a robot hit, and what: wall indices (the lab's wall count is the border) and robots."""
 
@@ -175,7 +182,7 @@ EVENT_PAYLOADS: dict[EventKind, type[EventData]] = {
     EventKind.STOPPED: NoData,
     EventKind.OBSTACLE: ObstacleData,
     EventKind.BAD_CONTROL: NoData,
-    EventKind.BAD_MESSAGE: NoData,
+    EventKind.BAD_MESSAGE: BadMessageData,
     EventKind.LAGGARD: LaggardData,
     EventKind.RADIO_DROPPED: RadioDroppedData,
     EventKind.LEGACY_REFUSED: LegacyRefusedData,
@@ -218,8 +225,8 @@ def make_event(
     Raises:
         TypeError: When the payload is not the kind's.
     """
-    data = NoData() if payload is None else payload
     expected = EVENT_PAYLOADS[kind]
+    data = (NoData() if expected is not BadMessageData else BadMessageData()) if payload is None else payload
     if type(data) is not expected:
         raise TypeError(f"a {kind} event carries {expected.__name__}, not {type(data).__name__}")
     return Event(

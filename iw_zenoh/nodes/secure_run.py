@@ -37,13 +37,17 @@ LAUNCHER = "launcher"
 ROUTER = "router"
 LEGACY_BRIDGE = "ciberrato"  # `iwz bridge ciberrato`'s name: it registers legacy robots under it
 SERIAL_BRIDGE = "bridge-serial"  # `iwz bridge serial`'s name in a run (its own default is serial-PID)
-_ROLES = {"record": ("recorder",), LEGACY_BRIDGE: ("bridge", "operator")}  # a legacy viewer starts and pauses
+_ROLES = {
+    "record": ("recorder",),
+    LEGACY_BRIDGE: ("bridge", "operator"),  # a legacy viewer starts and pauses
+    SERIAL_BRIDGE: ("serial",),  # it publishes no actions
+}
 
 
 def bridge_robots(sc: Scenario) -> dict[str, list[int] | None]:
     """The scenario's bridges (their names, their identities) and the robots the world registers
     for each: any for the legacy one (its UDP clients choose their ids), the chair's for the
-    serial one (the policy's ``bridge`` role lets both publish for any robot)."""
+    serial one (neither publishes on an agent's ``robot/ID/actions``)."""
     out: dict[str, list[int] | None] = {LEGACY_BRIDGE: None} if sc.bridge is not None else {}
     if sc.chair is not None:
         out[SERIAL_BRIDGE] = [sc.chair.robot]

@@ -18,6 +18,7 @@ from iw_zenoh.clock import Clock, WallClock
 from iw_zenoh.core.lab import Grid
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.errors import IwError
+from iw_zenoh.fairbox import FairInbox
 from iw_zenoh.maps import load_grid, load_lab
 from iw_zenoh.messages import (
     ActionBatch,
@@ -49,12 +50,13 @@ logger = logging.getLogger(__name__)
 
 UNKNOWN_EVERY_NS = 1_000_000_000  # messages for a robot the world does not have: one event a second
 UNKNOWN_KEPT = 1_000  # robots remembered for that (forged ids by the million cost no memory)
-BATCHES_KEPT = 4_096  # agent hosts' action batches waiting, at most
 # a flood of registrations does not stop the clock: a pass answers them for this long (one at
 # least), the rest wait for the next; past REGISTRATIONS_KEPT waiting, the newest are refused
 REGISTRATIONS_A_PUMP_NS = 20_000_000
 REGISTRATIONS_KEPT = 4_096
 BUSY = "the world has too many registrations waiting; ask again in a moment"
+BATCHES_KEPT = 4_096  # agent hosts' keys with action batches waiting, at most
+PER_KEY_KEPT = 16  # the newest actions (or batches) of one robot's (or agent's) key waiting, at most
 
 
 class _World:
@@ -67,10 +69,14 @@ class _World:
         self.io = io or NodeIO(bus, sim, "world", name)
         # lock-step: a tick's actions wake the loop once enough are in to complete it (see _await_actions)
         self.actions_wake = CountedWake(self.io.wake)
-        self.actions = self.io.inbox(keys.all_actions(sim), wake=self.actions_wake)
-        # a host's batch holds every robot's command of a tick (a thousand chairs: ~15 kB); a
-        # world that stalled keeps the newest 4,096 (each robot's newest command is what applies)
-        self.batches = self.io.inbox(keys.all_agent_actions(sim), maxlen=BATCHES_KEPT)
+        # each robot's key and each agent's batch key keeps its newest 16 waiting (each robot's
+        # newest command is what applies): a sender flooding its own key costs the loop 16
+        # messages a pass and never pushes another's out (a host's batch holds every robot's
+        # command of a tick, a thousand chairs: ~15 kB; 4,096 agents' keys at most)
+        self.actions = FairInbox(PER_KEY_KEPT, wake=self.actions_wake)
+        bus.subscribe(keys.all_actions(sim), self.actions)
+        self.batches = FairInbox(PER_KEY_KEPT, wake=self.io.wake, keys_kept=BATCHES_KEPT)
+        bus.subscribe(keys.all_agent_actions(sim), self.batches)
         self.reports = self.io.inbox(keys.all_pose_reports(sim))
         self.control = self.io.inbox(keys.control(sim))
         self.verdicts = self.io.inbox(keys.verdict(sim))
@@ -147,6 +153,7 @@ class _World:
             r = io.decode(d, PoseReport)
             if r is not None and self._robot_message(d[0], r.robot_id, r.tick, now):
                 core.on_pose_report(r, now)
+        io.flush_refusals()
 
     def _take_alive(self, now: int) -> bool:
         """Takes the liveliness changes waiting; whether a collision process was lost among them."""
@@ -164,18 +171,19 @@ class _World:
         its tick within the window; otherwise it is refused with a bad-message event saying why
         (for a robot the world does not have, at most once a second: a removed robot's agent may
         go on sending a while)."""
-        why = too_far_ahead(tick, self.core.tick)
+        why, reason = too_far_ahead(tick, self.core.tick), "tick"
         if keys.robot_id_of(key) != robot_id:
-            why = f"a message of robot {robot_id} on another robot's key"
+            why, reason = f"a message of robot {robot_id} on another robot's key", "key"
         elif robot_id not in self.core.registry.entries:
+            reason = "unknown-robot"
             if now - self._unknown.get(robot_id, now - UNKNOWN_EVERY_NS) < UNKNOWN_EVERY_NS:
                 return False
             if len(self._unknown) >= UNKNOWN_KEPT:
                 self._unknown.clear()
             self._unknown[robot_id] = now
             why = f"robot {robot_id} is not in the world"
-        if why:
-            self.io.event(EventKind.BAD_MESSAGE, why, key=key, robot_id=robot_id, tick=self.core.tick)
+        if why:  # at most one report per key and reason a second, with its count
+            self.io.refuse(reason, why, key=key, robot_id=robot_id, tick=self.core.tick)
         return not why
 
     def _take_actions(self, now: int) -> None:
@@ -194,18 +202,15 @@ class _World:
             if keys.agent_of(d[0]) != b.agent:
                 why = f"actions of agent {b.agent!r} on another agent's key"
             if why:
-                io.event(EventKind.BAD_MESSAGE, why, key=d[0], tick=core.tick)
+                io.refuse("batch", why, key=d[0], tick=core.tick)
                 continue
             for a in b.actions:
                 entry = core.registry.entries.get(a.robot_id)
                 if entry is not None and entry.agent == b.agent:
                     io.send_all(core.on_actions(a, now))
                 elif entry is not None:
-                    io.event(
-                        EventKind.BAD_MESSAGE,
-                        f"agent {b.agent!r} sent actions for robot {a.robot_id}, not its own",
-                        key=d[0],
-                    )
+                    why = f"agent {b.agent!r} sent actions for robot {a.robot_id}, not its own"
+                    io.refuse("not-own", why, key=d[0], robot_id=a.robot_id, tick=core.tick)
 
     def wait_until(self, deadline_ns: int, done: object = None, needed: Callable[[], int] | None = None) -> None:
         """Pumps inputs until the deadline, or until ``done()`` is true.

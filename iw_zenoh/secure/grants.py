@@ -10,10 +10,26 @@ from typing import NamedTuple
 
 from iw_zenoh import keys
 
-__all__ = ["POLICY_ROLES", "Grants", "grants"]
+__all__ = ["POLICY_ROLES", "REGISTRARS", "Grants", "grants"]
 
-POLICY_ROLES = ("world", "collision", "sensors", "radio", "recorder", "bridge", "viewer", "operator", "agent")
-_TOKEN_ROLES = {"bridge": ("bridge", "agent"), "operator": ("viewer", "launcher")}  # else the role itself
+POLICY_ROLES = (
+    "world",
+    "collision",
+    "sensors",
+    "radio",
+    "recorder",
+    "bridge",
+    "serial",
+    "viewer",
+    "operator",
+    "agent",
+)
+_TOKEN_ROLES = {
+    "bridge": ("bridge", "agent"),
+    "serial": ("bridge", "agent"),
+    "operator": ("viewer", "launcher"),
+}  # else the role itself
+REGISTRARS = ("agent", "bridge", "serial")  # the roles that register robots (on their own key)
 
 
 class Grants(NamedTuple):
@@ -50,11 +66,16 @@ def _role_puts(role: str, sim: str, name: str, robots: tuple[int, ...], shard: t
         + [keys.all_events(sim)],
         "radio": [keys.radio(sim), keys.all_hear(sim), keys.all_events(sim)],
         "recorder": [keys.all_events(sim)],
+        # a bridge's actions go in its own batch only (the world takes a batch only for the robots
+        # the bridge registered): a bridge certificate cannot drive an agent's chair
         "bridge": [
             keys.agent_actions(sim, name),
-            *(k(sim) for k in (keys.all_actions, keys.all_say, keys.all_pose_reports, keys.all_chairs)),
+            *(k(sim) for k in (keys.all_say, keys.all_pose_reports, keys.all_chairs)),
         ]
         + [keys.all_events(sim)],
+        # the serial bridge answers ticks with its chair's pose and publishes the chair's readings:
+        # no actions at all (an agent commands the chair)
+        "serial": [keys.all_pose_reports(sim), keys.all_chairs(sim), keys.all_events(sim)],
         "agent": [keys.agent_actions(sim, name), *own, keys.event(sim, "bad-message")],
         "viewer": [keys.event(sim, "bad-message")],
         "operator": [keys.control(sim), keys.event(sim, "bad-message")],
@@ -69,7 +90,9 @@ def grants(
     The world alone publishes the clock, proposals, state and its description and answers
     registration; collision alone publishes verdicts; sensors shards alone readings; the radio
     alone what is heard; an agent publishes actions, say and pose reports only for ``robots``
-    and registers only on its own key; control only from an operator; every identity reads.
+    and registers only on its own key; a bridge publishes actions only in its own batch (the
+    world takes them only for robots it registered), the serial bridge none; control only from
+    an operator; every identity reads.
 
     Args:
         roles: Some of :data:`POLICY_ROLES`.
@@ -90,7 +113,7 @@ def grants(
         tokens += [keys.alive(sim, r, name) for r in _TOKEN_ROLES.get(role, (role,))]
         if role == "world":
             serve += [keys.all_registers(sim), keys.info(sim)]
-        if role in ("agent", "bridge"):
+        if role in REGISTRARS:
             query.append(keys.register(sim, name))
         if role == "bridge":  # it registers legacy robots on the shared key, as a trusted registrar
             query.append(keys.register(sim))

@@ -151,12 +151,13 @@ def load_policy(path: str | Path) -> Policy:
 
 def owners(policy: Policy) -> dict[str, tuple[int, ...] | None]:
     """Every identity that registers robots, and the robots the world registers for it: an
-    agent's own, any for a bridge (a trusted registrar of legacy robots)."""
+    agent's own, any for a bridge or a serial bridge (trusted registrars of legacy robots and
+    of a chair: the world refuses them an agent's robot)."""
     out: dict[str, tuple[int, ...] | None] = {}
     for n, e in policy.identities.items():
         if "agent" in e.roles:
             out[n] = tuple(e.robots)
-        elif "bridge" in e.roles:
+        elif "bridge" in e.roles or "serial" in e.roles:
             out[n] = None
     return out
 

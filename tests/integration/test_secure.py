@@ -74,9 +74,12 @@ def _identities(ids: Path) -> None:
     for name, role in ROLES.items():
         issue(ids, name)
         add_identity(ids / "policy.toml", name, [role])
-    for name, robot in (("victim", 1), ("rogue", 2)):
+    for name, robot in (("victim", 1), ("rogue", 2), ("bystander", 3)):
         issue(ids, name)
         add_identity(ids / "policy.toml", name, ["agent"], robots=[robot])
+    for name, role in (("bridger", "bridge"), ("serialer", "serial")):  # a bridge's and a serial bridge's
+        issue(ids, name)
+        add_identity(ids / "policy.toml", name, [role])
     issue(ids, "stranger")  # of the authority, but no identity of the policy
     text = (ids / "policy.toml").read_text().replace('sim = "default"', 'sim = "sec"')
     (ids / "policy.toml").write_text(text)
@@ -154,6 +157,42 @@ def test_a_rogue_agent_cannot_drive_another_agents_chair(secured: Secured) -> No
     )
     after = _victim_pose(states)
     assert after == pytest.approx(before, abs=1e-9), "the victim's chair moved under the rogue's actions"
+
+
+def _bystander(secured: Secured, states: Inbox) -> tuple[float, float, float]:
+    """Robot 3, registered by the test for agent bystander (once) and never commanded by it, so
+    that any command which reaches the world shows; its pose."""
+    if 3 not in wait_msg(states, WorldState).ids:
+        spec = RobotSpecMsg(name="bystander-chair", id=3, x=10.0, y=5.0, dir=0.0)
+        req = encode(RegisterRequest(spec=spec, agent="bystander"))
+        reply = decode(
+            secured.session("bystander").query(keys.register("sec", "bystander"), req, timeout_s=10)[0], RegisterReply
+        )
+        assert reply.ok, reply.reason
+    now = wait_msg(states, WorldState).tick  # a state of 10 ticks later: every command sent before applied
+    x, y, h, _ = state_of(wait_msg(states, WorldState, lambda m: 3 in m.ids and m.tick > now + 10), 3)
+    return x, y, h
+
+
+@pytest.mark.parametrize("identity", ["bridger", "serialer"])
+def test_a_bridge_identity_cannot_drive_an_agents_chair(secured: Secured, identity: str) -> None:
+    """A bridge's certificate (a stolen one, a buggy bridge) publishing another agent's robot's
+    actions on its key, and in batches of its own and of that agent's, never moves the robot: a
+    bridge is granted actions only in its own batch, which the world takes only for robots it
+    registered; the serial bridge is granted none."""
+    bridge = secured.session(identity)
+    states = Inbox(maxlen=1)
+    secured.observer.subscribe(keys.state("sec"), states)
+    before = _bystander(secured, states)
+    spin = Actions(robot_id=3, left=0.15, right=-0.15)
+    _flood(
+        3.0,
+        (bridge, keys.actions("sec", 3), encode(spin)),
+        (bridge, keys.agent_actions("sec", identity), encode(ActionBatch(agent=identity, actions=[spin]))),
+        (bridge, keys.agent_actions("sec", "bystander"), encode(ActionBatch(agent="bystander", actions=[spin]))),
+    )
+    after = _bystander(secured, states)
+    assert after == pytest.approx(before, abs=1e-9), f"agent bystander's chair moved under {identity}'s actions"
 
 
 def test_the_rogue_drives_its_own_chair_so_its_messages_do_arrive(secured: Secured) -> None:

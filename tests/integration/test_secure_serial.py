@@ -1,5 +1,5 @@
 """A secured serial chair's run (``iwz run --secure``, the chair emulator on a pty): the serial
-bridge is an identity of its own (``bridge-serial``, role bridge), the chair's agent drives robot
+bridge is an identity of its own (``bridge-serial``, role serial), the chair's agent drives robot
 1 to its goal through it, and a rogue with a valid agent certificate of the same authority,
 commanding robot 1 all the while, never reaches the chair's wheels."""
 
@@ -109,7 +109,7 @@ def test_a_secured_serial_chair_is_driven_by_its_agent_and_never_by_a_rogue(tmp_
     assert any(left > 0 and right > 0 for left, right in wheels), wheels  # the chair moved under its agent
     assert (round(ROGUE * 10_000), round(ROGUE * 10_000)) not in wheels, wheels  # and never under the rogue
     policy = load_policy(ids / "policy.toml")
-    assert list(policy.identities["bridge-serial"].roles) == ["bridge"]
+    assert list(policy.identities["bridge-serial"].roles) == ["serial"]  # no actions: its chair's agent commands it
     assert policy.identities["agent-1-wheelchair"].robots == [1]
     router = (logs / "router.log").read_text()
     assert f"access denied: Put from 'rogue' on iw/{SIM}/robot/1/actions" in router, router

@@ -64,7 +64,7 @@ def _secured(tmp_path: Path, scenario: str, extra: str = "") -> Launcher:
 
 @pytest.mark.parametrize(
     ("scenario", "bridge", "roles"),
-    [("ciberrato-c1.toml", "ciberrato", ["bridge", "operator"]), ("slalom-serial.toml", "bridge-serial", ["bridge"])],
+    [("ciberrato-c1.toml", "ciberrato", ["bridge", "operator"]), ("slalom-serial.toml", "bridge-serial", ["serial"])],
 )
 def test_a_secured_runs_bridge_is_an_identity_named_as_it_registers(
     tmp_path: Path, scenario: str, bridge: str, roles: list[str]

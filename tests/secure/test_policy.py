@@ -125,3 +125,12 @@ def test_a_bad_policy_says_what_is_wrong_in_words(text: str, says: str) -> None:
         parse_policy(text)
     assert says in e.value.reason
     assert "regex" not in e.value.reason
+
+
+def test_a_bridge_publishes_actions_only_in_its_own_batch_and_the_serial_bridge_none() -> None:
+    bridge, serial = _puts(("bridge",), name="legacy"), _puts(("serial",), name="chair")
+    assert {k for k in bridge if k.endswith("/actions")} == {"iw/s/agent/legacy/actions"}
+    assert not {k for k in serial if k.endswith("/actions")}
+    assert {"iw/s/robot/*/pose_report", "iw/s/robot/*/chair"} <= serial
+    assert grants(("serial",), "s", name="chair").query == ("iw/s/world/info", "iw/s/world/register/chair")
+    assert owners(parse_policy('[identities.chair]\nrole = "serial"')) == {"chair": None}
