@@ -198,7 +198,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def scenario_ids(sc: Scenario) -> dict[str, list[int]]:
     """The ids the scenario names for its agents (an agent's ``--id``, the chair's robot), by the
-    name each registers under."""
+    name each registers under (the chair's robot is both its bridge's and its agent's)."""
     out = {agent_name(i, a): [r] for i, a in enumerate(sc.agents) if (r := asked_id(a.argv)) is not None}
     if sc.chair is not None:
         out[SERIAL_BRIDGE] = [sc.chair.robot]

@@ -52,7 +52,9 @@ def admit(core: WorldCore, req: RegisterRequest, now_ns: int) -> tuple[RegisterR
         owned = owned_id(core.cfg.owners, registry, req.agent, spec.id)
         if isinstance(owned, str):
             return _refuse(core, req, owned)
-        theirs = {r: a for a, rs in (core.cfg.reserved or {}).items() if a != req.agent for r in rs}
+        reserved = core.cfg.reserved or {}
+        mine = set(reserved.get(req.agent, ()))  # shared too (the chair's bridge and its agent)
+        theirs = {r: a for a, rs in reserved.items() if a != req.agent for r in rs if r not in mine}
         if owned in theirs:
             why = (
                 f"robot {owned} is the scenario's, for agent {theirs[owned]!r}; ask for another id, or 0 for a free one"

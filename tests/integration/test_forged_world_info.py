@@ -34,7 +34,7 @@ def test_a_forged_world_description_before_a_world_restart_does_not_empty_the_re
             run.bus.publish(keys.info(run.sim), payload)
         # the launcher looks at what came every 0.1 s: ten ticks on, it has taken them in
         now = wait_msg(run.states, WorldState, lambda m: 1 in m.ids, timeout_s=20)
-        wait_msg(run.states, WorldState, lambda m, t=now.tick: m.tick > t + 10, timeout_s=20)
+        wait_msg(run.states, WorldState, lambda m: m.tick > now.tick + 10, timeout_s=20)
         subprocess.run(["kill", "-KILL", str(run.pid("world"))], check=True, timeout=10)
         run.wait_token("world", since=time.monotonic() - 0.05)
         code, out = run.finish(timeout_s=90)

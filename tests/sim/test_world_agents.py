@@ -76,3 +76,10 @@ def test_the_scenario_s_ids_are_its_agents_not_a_wanderer_s() -> None:
     mine, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="d", id=1), agent="driver"), 0)
     assert mine.ok, mine.reason
     assert mine.robot_id == 1
+
+
+def test_an_id_reserved_for_two_names_is_either_s() -> None:
+    cfg = WorldConfig(sim="t", reserved={"bridge-serial": (1,), "agent-1-wheelchair": (1,), "other": (2,)})
+    core = WorldCore(cfg, Lab("t", 20.0, 10.0), Grid((GridPosition(2, 5, 0), GridPosition(5, 5, 0))))
+    reply, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="chair", id=1), agent="bridge-serial"), 0)
+    assert reply.ok, reply.reason  # the chair's bridge registers the robot its agent attaches to
