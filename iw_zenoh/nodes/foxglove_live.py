@@ -26,9 +26,8 @@ from foxglove.websocket import ChannelView, Client, ServerListener
 from iw_zenoh import keys
 from iw_zenoh.bus import Asked, Delivery, Handle, Inbox
 from iw_zenoh.errors import IwError
-from iw_zenoh.messages import encode
 from iw_zenoh.publishers import Publishers
-from iw_zenoh.record.channels import ENCODING, SCHEMA_ENCODING, ChannelSpec, Derivation, key_channel
+from iw_zenoh.record.channels import ChannelSpec, Derivation, key_channel
 from iw_zenoh.record.foxglove import SCENE_TOPIC, TF_TOPIC
 from iw_zenoh.runtime import NodeIO, Process, start_role
 
@@ -118,13 +117,13 @@ class FoxgloveLive:
         """Advertises the channel of ``topic``: the spec being fetched, or the Zenoh key's."""
         spec = self._declaring if self._declaring is not None and self._declaring.topic == topic else key_channel(topic)
         schema = (
-            foxglove.Schema(name=spec.schema_name, encoding=SCHEMA_ENCODING, data=spec.schema)
+            foxglove.Schema(name=spec.schema_name, encoding=spec.schema_encoding, data=spec.schema)
             if spec.schema_name
             else None
         )
         return _Channel(
             foxglove.Channel(
-                spec.topic, schema=schema, message_encoding=ENCODING, context=self._ctx, metadata=spec.metadata
+                spec.topic, schema=schema, message_encoding=spec.encoding, context=self._ctx, metadata=spec.metadata
             )
         )
 
@@ -141,8 +140,7 @@ class FoxgloveLive:
         if kind == "info":
             self._latched[key] = (key_channel(key), data)
         if kind == "info" or (kind in ("state", "sensors") and self._drawing()):
-            for spec, msg in self._derivation.derive(key, data):
-                payload = encode(msg)
+            for spec, payload in self._derivation.derive(key, data):
                 self._channel(spec).log(payload, log_time=t)
                 if kind == "info":
                     self._latched[spec.topic] = (spec, payload)  # the walls, drawn once per revision
