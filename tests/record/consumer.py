@@ -29,9 +29,14 @@ def lichtblick_refusal(schema: Any, name: str) -> str:  # noqa: ANN401 (any JSON
     return _object(schema, name, [])
 
 
+def _js(d: dict[str, Any], key: str) -> str:
+    """``JSON.stringify(d[key])`` as a template string shows it (``undefined`` when absent)."""
+    return json.dumps(d[key]) if key in d else "undefined"
+
+
 def _object(schema: dict[str, Any], type_name: str, path: list[str]) -> str:
     if schema.get("type") != "object":
-        return f'Expected "type": "object" for schema {type_name}, got {json.dumps(schema.get("type"))}'
+        return f'Expected "type": "object" for schema {type_name}, got {_js(schema, "type")}'
     for field, fs in (schema.get("properties") or {}).items():
         where = ".".join([*path, field])
         if isinstance(fs.get("oneOf"), list):
@@ -54,11 +59,11 @@ def _object(schema: dict[str, Any], type_name: str, path: list[str]) -> str:
             if items.get("type") == "string" and items.get("contentEncoding") is not None:
                 return f"Unsupported contentEncoding for array item {where}"
             if items.get("type") not in _ITEM_TYPES:
-                return f"Unsupported type {json.dumps(items.get('type'))} for array item {where}"
+                return f"Unsupported type {_js(items, 'type')} for array item {where}"
             if items["type"] == "object" and (err := _object(items, f"{type_name}.{field}", [*path, field])):
                 return err
         else:
-            return f"Unsupported type {json.dumps(kind)} for {where}"
+            return f"Unsupported type {_js(fs, 'type')} for {where}"
     return ""
 
 
