@@ -67,14 +67,19 @@ def _object(schema: dict[str, Any], type_name: str, path: list[str]) -> str:
     return ""
 
 
-def proto_decode(descriptor_set: bytes, name: str, data: bytes) -> dict[str, Any]:
+def proto_message(descriptor_set: bytes, name: str, data: bytes) -> Any:  # noqa: ANN401 (a generated class)
     """A protobuf message decoded with its channel's ``FileDescriptorSet`` (as Foxglove does)."""
     files = descriptor_pb2.FileDescriptorSet.FromString(descriptor_set)
     pool = descriptor_pool.DescriptorPool()
     for f in files.file:
         pool.Add(f)
     cls = message_factory.GetMessageClass(pool.FindMessageTypeByName(name))
-    msg = cls.FromString(data)
+    return cls.FromString(data)
+
+
+def proto_decode(descriptor_set: bytes, name: str, data: bytes) -> dict[str, Any]:
+    """:func:`proto_message` as a dictionary (field names as in the schema)."""
+    msg = proto_message(descriptor_set, name, data)
     out: dict[str, Any] = json_format.MessageToDict(msg, preserving_proto_field_name=True)
     return out
 
