@@ -287,8 +287,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         prog="iwz foxglove",
         name=lambda _args: "foxglove",
         description=(
-            "Serve a running simulation to Foxglove or Lichtblick over the Foxglove WebSocket protocol: "
-            "the same channels and schemas as a recording (every key, /foxglove/scene, /foxglove/tf)."
+            "Serve a running simulation to Foxglove or Lichtblick over the Foxglove WebSocket protocol "
+            "(subprotocols foxglove.sdk.v1 and foxglove.websocket.v1): "
+            "the same channels and schemas as a recording (every key, /foxglove/scene, /foxglove/tf, lasers)."
         ),
         epilog=(
             "Examples (then open ws://127.0.0.1:8765 in Foxglove: Open connection, Foxglove WebSocket):\n"
