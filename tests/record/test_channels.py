@@ -14,8 +14,8 @@ from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.messages import WorldInfo, WorldState, encode, json_schema
 from iw_zenoh.record.channels import Derivation, key_channel
 from iw_zenoh.record.foxglove import SCENE_TOPIC, TF_TOPIC
-from iw_zenoh.record.schemas import portable
 from iw_zenoh.record.recording import Recorder
+from iw_zenoh.record.schemas import portable
 
 INFO = WorldInfo(
     revision=1,
