@@ -105,7 +105,6 @@ def test_recover_saves_every_flushed_message_of_a_cut_off_file(tmp_path: Path) -
 
 def test_a_recording_carries_a_foxglove_scene_that_validates_against_its_schema(tmp_path: Path) -> None:
 
-
     from iw_zenoh.convert import lab_to_msg, spec_to_msg
     from iw_zenoh.core.lab import Lab, Wall
     from iw_zenoh.core.spec import RobotSpec
