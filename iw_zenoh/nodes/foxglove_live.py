@@ -1,10 +1,13 @@
 """Foxglove live: a running simulation served over the Foxglove WebSocket protocol.
 
 Through the ``foxglove-sdk`` package: its server speaks the protocol (subprotocol
-``foxglove.sdk.v1``, the ``foxglove.websocket.v1`` protocol renamed), and this module offers it the
-same channels a recording has (:mod:`iw_zenoh.record.channels`: one per Zenoh key with its JSON
-Schema, and the derived ``/foxglove/scene`` and ``/foxglove/tf``), each declared when its first
-message arrives. Foxglove or Lichtblick, connected to ``ws://HOST:PORT``, sees the scene and the
+``foxglove.sdk.v1``, the ``foxglove.websocket.v1`` protocol renamed) on a loopback port of its own,
+behind :mod:`iw_zenoh.nodes.foxglove_gate`, which serves both names on the port users connect to;
+and this module offers it the same channels a recording has (:mod:`iw_zenoh.record.channels`: one
+per Zenoh key with its JSON Schema, and the derived ``/foxglove/scene``, ``/foxglove/tf`` and laser
+scans in Foxglove's own protobuf types), each declared when its first message arrives. The world's
+description (``world/info`` and the walls it draws) is sent once per revision, and again to a
+client when it subscribes to it. Foxglove or Lichtblick, connected to ``ws://HOST:PORT``, sees the scene and the
 state and gets a scene update every tick. Loopback only unless another host is given.
 
 :func:`start_foxglove_live` is self-contained (a process that has a bus starts it: ``iwz
@@ -26,9 +29,9 @@ from foxglove.websocket import ChannelView, Client, ServerListener
 from iw_zenoh import keys
 from iw_zenoh.bus import Asked, Delivery, Handle, Inbox
 from iw_zenoh.errors import IwError
-from iw_zenoh.messages import encode
+from iw_zenoh.nodes.foxglove_gate import FoxgloveGate
 from iw_zenoh.publishers import Publishers
-from iw_zenoh.record.channels import ENCODING, SCHEMA_ENCODING, ChannelSpec, Derivation, key_channel
+from iw_zenoh.record.channels import ChannelSpec, Derivation, key_channel
 from iw_zenoh.record.foxglove import SCENE_TOPIC, TF_TOPIC
 from iw_zenoh.runtime import NodeIO, Process, start_role
 from iw_zenoh.viewer.guard import is_loopback
@@ -53,17 +56,27 @@ _REVISION = msgspec.json.Decoder(_Revision)  # a state's revision alone, without
 
 
 class _Listener(ServerListener):
-    """Notes that a client subscribed, so the latched messages are sent again (foxglove-sdk calls
-    this from its own thread: it only sets a flag)."""
+    """Notes which channels a client subscribed to, so that their latched message (the world's
+    description, the walls) is sent for it (foxglove-sdk calls this from its own thread: it only
+    notes the topic). foxglove-sdk's Python API names no client's sink, so the message goes to
+    every subscriber of that channel: a client already there gets it again when another joins."""
 
     def __init__(self, wake: threading.Event) -> None:
-        self.subscribed = threading.Event()
+        self._topics: set[str] = set()
+        self._lock = threading.Lock()
         self._wake = wake
 
     def on_subscribe(self, client: Client, channel: ChannelView) -> None:
         """A client subscribed to a channel."""
-        self.subscribed.set()
+        with self._lock:
+            self._topics.add(channel.topic)
         self._wake.set()
+
+    def take(self) -> set[str]:
+        """The topics subscribed to since the last call."""
+        with self._lock:
+            topics, self._topics = self._topics, set()
+        return topics
 
 
 class _Channel:
@@ -91,10 +104,16 @@ class FoxgloveLive:
         self._ctx = foxglove.Context()
         self._wake = threading.Event()
         self._listener = _Listener(self._wake)
+        # foxglove-sdk's server on a loopback port of its own; the gate serves both subprotocols
         self._server = foxglove.start_server(
-            name=f"iw-zenoh {io.sim}", host=host, port=port, context=self._ctx, server_listener=self._listener
+            name=f"iw-zenoh {io.sim}", host="127.0.0.1", port=0, context=self._ctx, server_listener=self._listener
         )
-        self.port: int = self._server.port
+        try:
+            self._gate = FoxgloveGate(host, port, self._server.port)
+        except OSError as e:
+            self._server.stop()
+            raise RuntimeError(e.strerror or str(e)) from None
+        self.port: int = self._gate.port
         # a channel per key and per robot's laser: those of robots that left are closed once quiet
         self._channels: Publishers[_Channel] = Publishers(self._declare, CHANNELS_KEPT)
         self._declaring: ChannelSpec | None = None  # the spec of the channel being fetched
@@ -102,6 +121,7 @@ class FoxgloveLive:
         # topic -> what a late subscriber needs (info, walls): its channel's spec and last message
         self._latched: dict[str, tuple[ChannelSpec, bytes]] = {}
         self._info_revision = -1
+        self._latched_revision: int | None = None  # the revision of the description latched
         self._asked: Asked | None = None
         self._taken = 0  # answers to it served so far
         self._stop = threading.Event()
@@ -119,13 +139,13 @@ class FoxgloveLive:
         """Advertises the channel of ``topic``: the spec being fetched, or the Zenoh key's."""
         spec = self._declaring if self._declaring is not None and self._declaring.topic == topic else key_channel(topic)
         schema = (
-            foxglove.Schema(name=spec.schema_name, encoding=SCHEMA_ENCODING, data=spec.schema)
+            foxglove.Schema(name=spec.schema_name, encoding=spec.schema_encoding, data=spec.schema)
             if spec.schema_name
             else None
         )
         return _Channel(
             foxglove.Channel(
-                spec.topic, schema=schema, message_encoding=ENCODING, context=self._ctx, metadata=spec.metadata
+                spec.topic, schema=schema, message_encoding=spec.encoding, context=self._ctx, metadata=spec.metadata
             )
         )
 
@@ -137,18 +157,28 @@ class FoxgloveLive:
 
     def _publish(self, delivery: Delivery) -> None:
         key, data, t = delivery
-        self._channels.get(key).channel.log(data, log_time=t)  # declared from key_channel(key)
         kind = keys.topic_kind(key)
         if kind == "info":
+            rev = self._revision_of(data)
+            if rev is not None and rev == self._latched_revision:
+                return  # the same description again (published and asked for): sent once per revision
+            self._latched_revision = rev
             self._latched[key] = (key_channel(key), data)
+        self._channels.get(key).channel.log(data, log_time=t)  # declared from key_channel(key)
         if kind == "info" or (kind in ("state", "sensors") and self._drawing()):
-            for spec, msg in self._derivation.derive(key, data):
-                payload = encode(msg)
+            for spec, payload in self._derivation.derive(key, data):
                 self._channel(spec).log(payload, log_time=t)
                 if kind == "info":
                     self._latched[spec.topic] = (spec, payload)  # the walls, drawn once per revision
         if kind == "state":
             self._want_info(data)
+
+    @staticmethod
+    def _revision_of(data: bytes) -> int | None:
+        try:
+            return _REVISION.decode(data).revision
+        except msgspec.DecodeError:
+            return None
 
     def _want_info(self, data: bytes) -> None:
         """Asks the world for its description when a state's revision is newer than the last one
@@ -184,11 +214,10 @@ class FoxgloveLive:
                     self._publish(d)
                 except Exception:  # one bad message never stops the server
                     logger.exception("could not serve a message on %s", d[0])
-            if self._listener.subscribed.is_set():
-                self._listener.subscribed.clear()
-                now = time.time_ns()
-                for spec, data in list(self._latched.values()):
-                    self._channel(spec).log(data, log_time=now)
+            for topic in self._listener.take():  # a client subscribed: its latched message, once
+                latched = self._latched.get(topic)
+                if latched is not None:
+                    self._channel(latched[0]).log(latched[1], log_time=time.time_ns())
 
     def close(self) -> None:
         """Stops serving: the loop, the subscription, the server (idempotent)."""
@@ -201,6 +230,7 @@ class FoxgloveLive:
             self._sub.undeclare()
         except Exception:  # the session may be closing already
             logger.debug("undeclare failed", exc_info=True)
+        self._gate.close()
         self._server.stop()
 
 
@@ -264,8 +294,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         prog="iwz foxglove",
         name=lambda _args: "foxglove",
         description=(
-            "Serve a running simulation to Foxglove or Lichtblick over the Foxglove WebSocket protocol: "
-            "the same channels and schemas as a recording (every key, /foxglove/scene, /foxglove/tf)."
+            "Serve a running simulation to Foxglove or Lichtblick over the Foxglove WebSocket protocol "
+            "(subprotocols foxglove.sdk.v1 and foxglove.websocket.v1): "
+            "the same channels and schemas as a recording (every key, /foxglove/scene, /foxglove/tf, lasers)."
         ),
         epilog=(
             "Examples (then open ws://127.0.0.1:8765 in Foxglove: Open connection, Foxglove WebSocket):\n"

@@ -10,6 +10,12 @@ crash writes the next part of the same recording (``run.part2.mcap``...:
 what arrives while it starts is kept. A file it cannot write (the disk full, the device gone) ends
 it with one line that says why and what of the file is kept, and exit :data:`CANNOT_WRITE` (4),
 which ``iwz run`` does not restart: a new part on the same full disk would be empty.
+
+Every file (a fresh one, a continued part, a recorder started beside a running simulation) is
+self-contained: the recorder asks the world for its description (``world/info``: the lab and its
+walls, the robots' accepted specs, the revision) as it opens the file, and records the answer on
+``world/info`` as if published then, so the scene, the transforms and ``iwz render`` have what
+they draw with from the part's start.
 """
 
 from __future__ import annotations
@@ -25,7 +31,7 @@ from pathlib import Path
 from typing import IO, TYPE_CHECKING
 
 from iw_zenoh import __version__, keys
-from iw_zenoh.bus import Queue, ZenohBus
+from iw_zenoh.bus import Asked, Queue, ZenohBus
 from iw_zenoh.nodes.role_options import RecorderOptions, add_recorder_arguments
 from iw_zenoh.options import options_from_args
 from iw_zenoh.record.parts import PART_META, next_part
@@ -43,6 +49,7 @@ POLL_S = 0.005  # an empty queue is looked at again this soon
 QUIET_S = 0.5  # on stop, keep writing until the bus has been quiet this long...
 DRAIN_MAX_S = 30.0  # ...but no longer than this
 CANNOT_WRITE = 4  # the exit code of a recorder that cannot write its file
+INFO_TIMEOUT_S = 5.0  # how long the world's description is waited for (the recording goes on meanwhile)
 
 
 class CannotWrite(Exception):
@@ -104,8 +111,9 @@ def record(
     try:
         with path.open("wb") as f:
             rec = Recorder(f, meta)
+            asked = bus.ask(keys.info(sim), timeout_s=INFO_TIMEOUT_S)  # the part's own description
             io.alive()
-            _write(rec, inbox, f, io, status)
+            _write(rec, inbox, f, io, status, _Described(keys.info(sim), asked))
             rec.finish({"iw.received": {k: str(v) for k, v in sorted(rec.counts.items())}})
     except OSError as e:
         raise CannotWrite(_cannot_write(path, e, rec)) from None
@@ -124,7 +132,23 @@ def _cannot_write(path: Path, e: OSError, rec: Recorder | None) -> str:
     )
 
 
-def _write(rec: Recorder, inbox: Queue, f: IO[bytes], io: NodeIO, status: bool) -> None:
+class _Described:
+    """The world's answers to the recorder's question, written on ``world/info`` as they come."""
+
+    def __init__(self, key: str, asked: Asked) -> None:
+        self.key = key
+        self.asked = asked
+        self.taken = 0
+
+    def write(self, rec: Recorder) -> None:
+        """Records the answers that came since the last call."""
+        replies = self.asked.replies[self.taken :]  # appended by the network's thread
+        self.taken += len(replies)
+        for data in replies:
+            rec.add(self.key, data, time.time_ns())
+
+
+def _write(rec: Recorder, inbox: Queue, f: IO[bytes], io: NodeIO, status: bool, described: _Described) -> None:
     """Writes what arrives until a stop, and what is still in flight after it."""
     last_flush = time.monotonic()
     last_status = last_flush
@@ -135,6 +159,7 @@ def _write(rec: Recorder, inbox: Queue, f: IO[bytes], io: NodeIO, status: bool) 
         if io.stop.is_set() and stop_at is None:
             stop_at = time.monotonic()
             _finish_at_next_signal(at_once)
+        described.write(rec)
         got = inbox.drain()
         for key, data, t in got:
             rec.add(key, data, t)

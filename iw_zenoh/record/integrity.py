@@ -147,6 +147,8 @@ def undecodable(reader: RecordingReader) -> dict[str, int]:
     """
     bad: Counter[str] = Counter()
     for r in reader.raw():
+        if r.topic.startswith("/"):
+            continue  # a derived channel (/foxglove/...): the recorder's own, in foxglove-sdk's protobuf
         try:
             if decode_record(r) is None:
                 msgspec.json.decode(r.data)  # a derived or unknown channel: JSON all the same

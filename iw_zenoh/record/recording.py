@@ -1,4 +1,5 @@
-"""Writing recordings: one MCAP channel per Zenoh key, a JSON Schema per message type.
+"""Writing recordings: one MCAP channel per Zenoh key, a JSON Schema per message type, and the
+derived Foxglove channels (protobuf).
 
 Log time is the receive wall time (ns); publish time is the message's simulation time. The
 payload is stored byte for byte as it was published, malformed or not: nothing is dropped.
@@ -15,8 +16,8 @@ from typing import IO
 from mcap.writer import CompressionType, Writer
 
 from iw_zenoh import __version__, keys
-from iw_zenoh.messages import encode, stamp_of
-from iw_zenoh.record.channels import ENCODING, SCHEMA_ENCODING, ChannelSpec, Derivation, key_channel
+from iw_zenoh.messages import stamp_of
+from iw_zenoh.record.channels import ChannelSpec, Derivation, key_channel
 
 __all__ = ["PROFILE", "SIM_INDEX", "Recorder"]
 
@@ -65,10 +66,10 @@ class Recorder:
         """Declares a channel (and its schema, once per schema name) in the file."""
         sid = self._schemas.get(spec.schema_name, 0) if spec.schema_name else 0
         if spec.schema_name and not sid:
-            sid = self._w.register_schema(name=spec.schema_name, encoding=SCHEMA_ENCODING, data=spec.schema)
+            sid = self._w.register_schema(name=spec.schema_name, encoding=spec.schema_encoding, data=spec.schema)
             self._schemas[spec.schema_name] = sid
         cid = self._w.register_channel(
-            topic=spec.topic, message_encoding=ENCODING, schema_id=sid, metadata=spec.metadata
+            topic=spec.topic, message_encoding=spec.encoding, schema_id=sid, metadata=spec.metadata
         )
         self._channels[spec.topic] = cid
         return cid
@@ -102,11 +103,11 @@ class Recorder:
     def _derive(self, key: str, data: bytes, log_time_ns: int, sim_ns: int) -> None:
         """Adds the Foxglove scene messages a world message implies (never fails the recording)."""
         assert self._scene is not None
-        for spec, msg in self._scene.derive(key, data):
+        for spec, payload in self._scene.derive(key, data):
             cid = self._channels.get(spec.topic)
             if cid is None:
                 cid = self._register(spec)
-            self._w.add_message(channel_id=cid, log_time=log_time_ns, data=encode(msg), publish_time=sim_ns, sequence=0)
+            self._w.add_message(channel_id=cid, log_time=log_time_ns, data=payload, publish_time=sim_ns, sequence=0)
 
     def flush(self) -> None:
         """Closes the chunk in progress and writes it out (a crash then loses nothing before)."""

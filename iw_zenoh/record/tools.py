@@ -31,7 +31,7 @@ from mcap.records import (
 from mcap.stream_reader import CRCValidationError, StreamReader
 from mcap.writer import CompressionType, Writer
 
-from iw_zenoh import __version__
+from iw_zenoh import __version__, keys
 from iw_zenoh.errors import RecordingError
 from iw_zenoh.record.checksums import in_words, verified_chunk
 from iw_zenoh.record.integrity import FOOTER_BYTES, _summary_crc_ok, scan, statistics_disagree, undecodable
@@ -63,6 +63,7 @@ class Health:
     part: int = 0  # its number in a recording of several parts (0: a recording of one file)
     parts: int = 0  # how many parts that recording has
     recovered: str = ""  # a cut-off part's recovered copy, when it is whole (readers read it instead)
+    described: bool | None = None  # whether it holds the world's description (world/info); None: not looked
 
     def lines(self) -> list[str]:
         """Human-readable report."""
@@ -83,6 +84,11 @@ class Health:
                 if not self.undecodable
                 else f"  {self.undecodable} messages do not decode into their key's type (recorded as received)"
             )
+            if self.described is False:
+                out.append(
+                    "  it holds no world description (world/info): Foxglove draws no scene and iwz render "
+                    "refuses it (the recorder now asks the world for it at the start of every part: record it again)"
+                )
             if self.counts_match is not None:
                 out.append(
                     f"  messages per key {'match' if self.counts_match else 'DO NOT match'} the recorder's own counts"
@@ -140,6 +146,10 @@ def check(path: str | Path) -> Health:
         end_ns=st.message_end_time,
         metadata=sorted(meta),
         undecodable=sum(bad.values()),
+    )
+    h.described = any(
+        n and (ch := summary.channels.get(cid)) is not None and keys.topic_kind(ch.topic) == "info"
+        for cid, n in st.channel_message_counts.items()
     )
     counts = meta.get("iw.counts")
     if counts is not None:

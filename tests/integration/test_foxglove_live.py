@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import base64
 import json
 import struct
 import time
@@ -9,14 +10,16 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from websockets.exceptions import InvalidStatus
 from websockets.sync.client import ClientConnection, connect
 
 from iw_zenoh import keys
-from iw_zenoh.messages import WorldState, decode, json_schema
+from iw_zenoh.messages import WorldState, decode
 from iw_zenoh.net import free_port, port_in_use
 from iw_zenoh.record.channels import key_channel
-from iw_zenoh.record.foxglove import SCENE_TOPIC, TF_TOPIC, FgFrameTransform, FgSceneUpdate
+from iw_zenoh.record.foxglove import SCENE_TOPIC, TF_TOPIC
 from tests.integration.harness import Net
+from tests.record.consumer import proto_message
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(180)]
 
@@ -82,6 +85,12 @@ def _message(ws: ClientConnection, timeout_s: float = 30.0) -> tuple[int, bytes]
             return sub, m[13:]
 
 
+def _scene(channel: dict[str, Any], payload: bytes) -> Any:  # noqa: ANN401 (a generated protobuf class)
+    """A scene update decoded with the descriptors its channel advertised (base64), as Foxglove does."""
+    assert (channel["encoding"], channel["schemaEncoding"]) == ("protobuf", "protobuf")
+    return proto_message(base64.b64decode(channel["schema"]), channel["schemaName"], payload)
+
+
 def test_a_foxglove_client_is_offered_the_scene_and_state_and_sees_every_tick_drawn(net: Net) -> None:
     port = _live_run(net)
     assert _listens_on_loopback_only(port)
@@ -99,9 +108,8 @@ def test_a_foxglove_client_is_offered_the_scene_and_state_and_sees_every_tick_dr
         )
         assert json.loads(state["schema"]) == json.loads(spec.schema)
         assert state["metadata"] == spec.metadata
-        for topic, kind in ((SCENE_TOPIC, FgSceneUpdate), (TF_TOPIC, FgFrameTransform)):
-            assert chans[topic]["schemaName"] == kind.schema
-            assert json.loads(chans[topic]["schema"]) == json_schema(kind)
+        for topic, name in ((SCENE_TOPIC, "foxglove.SceneUpdate"), (TF_TOPIC, "foxglove.FrameTransform")):
+            assert (chans[topic]["schemaName"], chans[topic]["encoding"]) == (name, "protobuf")  # Foxglove's own
         subs = {1: SCENE_TOPIC, 2: state_key}
         ws.send(
             json.dumps(
@@ -118,10 +126,10 @@ def test_a_foxglove_client_is_offered_the_scene_and_state_and_sees_every_tick_dr
                 if len(st.ids) == 2 or states:  # from when both chairs are in the world
                     states.append(st)
                 continue
-            for e in json.loads(payload)["entities"]:
-                walls |= e["id"] == "walls"
-                if e["id"].startswith("robot/"):
-                    drawn.add(e["timestamp"]["sec"] * 1_000_000_000 + e["timestamp"]["nsec"])
+            for e in _scene(chans[SCENE_TOPIC], payload).entities:
+                walls |= e.id == "walls"
+                if e.id.startswith("robot/"):
+                    drawn.add(e.timestamp.seconds * 1_000_000_000 + e.timestamp.nanos)
             assert len(states) < TICKS + 50, "the scene updates do not follow the ticks"
     ticks = [s.tick for s in states]
     assert ticks == list(range(ticks[0], ticks[0] + len(ticks)))  # every tick, in order, advancing
@@ -133,7 +141,69 @@ def test_a_foxglove_client_is_offered_the_scene_and_state_and_sees_every_tick_dr
         late.send(json.dumps({"op": "subscribe", "subscriptions": [{"id": 7, "channelId": scene["id"]}]}))
         ids: set[str] = set()
         for _ in range(50):
-            ids |= {e["id"] for e in json.loads(_message(late)[1])["entities"]}
+            ids |= {e.id for e in _scene(scene, _message(late)[1]).entities}
             if "walls" in ids:
                 break
         assert "walls" in ids, ids
+
+
+def _subscribe(ws: ClientConnection, sub: int, channel: dict[str, Any]) -> None:
+    ws.send(json.dumps({"op": "subscribe", "subscriptions": [{"id": sub, "channelId": channel["id"]}]}))
+
+
+def _one_client(port: int, sim: str, subprotocol: str) -> None:
+    """A client offering only ``subprotocol`` gets the channels and their messages, and the world's
+    description once, however many channels it subscribes to one after the other (as Foxglove's
+    panels do)."""
+    info_key, state_key = keys.info(sim), keys.state(sim)
+    with connect(f"ws://127.0.0.1:{port}", subprotocols=[subprotocol], open_timeout=30) as ws:  # type: ignore[list-item]
+        assert ws.subprotocol == subprotocol
+        chans = _advertised(ws, {SCENE_TOPIC, TF_TOPIC, state_key, info_key})
+        order = {1: info_key, 2: state_key, 3: SCENE_TOPIC, 4: TF_TOPIC}
+        got: dict[str, int] = dict.fromkeys(order.values(), 0)
+        revisions: list[int] = []  # of each description received
+
+        def take() -> None:
+            s, payload = _message(ws)
+            got[order[s]] += 1
+            if order[s] == info_key:
+                assert json.loads(payload)["lab"]["walls"], "the world's description, walls and all"
+                revisions.append(json.loads(payload)["revision"])
+
+        for sub, topic in order.items():  # one subscription at a time, each once it is served
+            _subscribe(ws, sub, chans[topic])
+            while not got[topic]:
+                take()
+        states_then = got[state_key]
+        while got[state_key] < states_then + 20:  # two more seconds of ticks
+            take()
+        # once per revision for this client: not again at each subscription, nor at each tick
+        assert revisions == sorted(set(revisions)), (revisions, got)
+
+
+def test_iwz_foxglove_serves_both_subprotocols_and_tells_a_refused_client_which(net: Net) -> None:
+    (net.tmp / "lab.xml").write_text(LAB)
+    (net.tmp / "grid.xml").write_text(GRID)
+    net.spawn("world", str(net.tmp / "lab.xml"), "--grid", str(net.tmp / "grid.xml"))
+    net.spawn("collision")
+    net.spawn("sensors")
+    net.spawn("agent", "wanderer", "--count", "2", "--seed", "5", "--name", "herd")
+    port = free_port()
+    fox = net.spawn("foxglove", "--port", str(port))
+    deadline = time.monotonic() + 60
+    while not port_in_use(port):
+        assert fox.popen.poll() is None, f"iwz foxglove died:\n{fox.output()}"
+        assert time.monotonic() < deadline, f"iwz foxglove did not listen in 60 s:\n{fox.output()}"
+        time.sleep(0.02)  # polling a port: there is no event to wait on
+    assert _listens_on_loopback_only(port)
+    _one_client(port, net.sim, "foxglove.websocket.v1")  # Lichtblick, @foxglove/ws-protocol
+    _one_client(port, net.sim, "foxglove.sdk.v1")  # Foxglove
+    with pytest.raises(InvalidStatus) as refused:
+        connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.websocket.v2"], open_timeout=30)  # type: ignore[list-item]
+    assert refused.value.response.status_code == 400
+    why = refused.value.response.body.decode()
+    assert "foxglove.sdk.v1" in why
+    assert "foxglove.websocket.v1" in why
+    assert "offered foxglove.websocket.v2" in why
+    assert fox.popen.poll() is None  # the refusal cost the server nothing
+    _one_client(port, net.sim, "foxglove.sdk.v1")

@@ -3,7 +3,6 @@ recording holds them as ``foxglove.LaserScan``. Real processes, real router, a r
 
 from __future__ import annotations
 
-import json
 import signal
 
 import pytest
@@ -14,6 +13,7 @@ from iw_zenoh.convert import spec_to_msg
 from iw_zenoh.core.spec import LaserSpec, RobotSpec, SensorNoise
 from iw_zenoh.messages import SensorReading
 from tests.integration.harness import Net, register, subscribe, wait_alive, wait_msg
+from tests.record.consumer import proto_decode
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(120)]
 
@@ -52,6 +52,7 @@ def test_a_chair_with_a_scanner_gets_scans_and_the_recording_draws_them(net: Net
     assert scans, "no foxglove.LaserScan in the recording"
     assert {c.topic for _, c, _ in scans} == {f"/foxglove/laser/{reply.robot_id}/0"}
     assert {s.name for s, _, _ in scans} == {"foxglove.LaserScan"}
-    last = json.loads(scans[-1][2].data)
+    schema, _channel, message = scans[-1]
+    last = proto_decode(schema.data, schema.name, message.data)  # Foxglove's own type, in protobuf
     assert last["frame_id"] == f"robot{reply.robot_id}"
     assert last["ranges"][4] == pytest.approx(10.0)

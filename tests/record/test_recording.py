@@ -9,6 +9,7 @@ from iw_zenoh import keys
 from iw_zenoh.messages import Actions, WorldState, encode
 from iw_zenoh.record.recording import SIM_INDEX, Recorder
 from iw_zenoh.record.tools import check, recover
+from tests.record.consumer import proto_decode
 
 
 def _state(tick: int) -> bytes:
@@ -103,9 +104,6 @@ def test_recover_saves_every_flushed_message_of_a_cut_off_file(tmp_path: Path) -
 
 
 def test_a_recording_carries_a_foxglove_scene_that_validates_against_its_schema(tmp_path: Path) -> None:
-    import json
-
-    import jsonschema
 
     from iw_zenoh.convert import lab_to_msg, spec_to_msg
     from iw_zenoh.core.lab import Lab, Wall
@@ -142,19 +140,17 @@ def test_a_recording_carries_a_foxglove_scene_that_validates_against_its_schema(
     tf = [(s, m) for s, c, m in msgs if c.topic == "/foxglove/tf"]
     assert {s.name for s, _ in scene} == {"foxglove.SceneUpdate"}
     assert {s.name for s, _ in tf} == {"foxglove.FrameTransform"}
-    ids = [e["id"] for _, m in scene for e in json.loads(m.data)["entities"]]
-    assert ids == ["walls", "robot/1", "cones/1"]
-    for s, m in scene + tf:
-        jsonschema.validate(json.loads(m.data), json.loads(s.data))
-    body = next(e for _, m in scene for e in json.loads(m.data)["entities"] if e["id"] == "robot/1")
+    # Foxglove's own types, in its protobuf encoding: decoded with the channel's own descriptors
+    assert {s.encoding for s, _ in scene + tf} == {"protobuf"}
+    decoded = [proto_decode(s.data, s.name, m.data) for s, m in scene]
+    assert [e["id"] for m in decoded for e in m["entities"]] == ["walls", "robot/1", "cones/1"]
+    assert all(proto_decode(s.data, s.name, m.data)["child_frame_id"] == "robot1" for s, m in tf)
+    body = next(e for m in decoded for e in m["entities"] if e["id"] == "robot/1")
     assert body["cubes"][0]["size"]["x"] == 1.0
 
 
 def test_a_laser_scan_is_recorded_as_a_foxglove_laser_scan_in_its_robots_frame(tmp_path: Path) -> None:
-    import json
     import math
-
-    import jsonschema
 
     from iw_zenoh.convert import lab_to_msg, spec_to_msg
     from iw_zenoh.core.lab import Lab
@@ -187,10 +183,10 @@ def test_a_laser_scan_is_recorded_as_a_foxglove_laser_scan_in_its_robots_frame(t
         [(schema, channel, m)] = [x for x in make_reader(f).iter_messages() if x[1].topic.startswith("/foxglove/laser")]
     assert channel.topic == "/foxglove/laser/1/3"
     assert schema.name == "foxglove.LaserScan"
-    scan = json.loads(m.data)
-    jsonschema.validate(scan, json.loads(schema.data))
+    assert schema.encoding == "protobuf"
+    scan = proto_decode(schema.data, schema.name, m.data)
     assert scan["frame_id"] == "robot1"
-    assert scan["ranges"] == [1.5, 0.0, 2.5]
+    assert scan["ranges"] == [1.5, "Infinity", 2.5]  # a beam that met nothing: no point drawn (range 0 drew one)
     assert scan["intensities"] == [1.0, 0.0, 1.0]
     assert (scan["start_angle"], scan["end_angle"]) == (-math.pi / 2, math.pi / 2)
     assert scan["pose"]["position"]["x"] == 0.2
