@@ -12,6 +12,7 @@ from iw_zenoh.errors import DecodeError
 from iw_zenoh.messages import (
     EVENT_PAYLOADS,
     AgentLostData,
+    BadMessageData,
     CollisionData,
     Event,
     EventData,
@@ -35,6 +36,7 @@ from iw_zenoh.messages import (
 
 EXAMPLES: dict[type[EventData], EventData] = {
     NoData: NoData(),
+    BadMessageData: BadMessageData(count=17),
     CollisionData: CollisionData(x=1.5, y=2.0, walls=[4], robots=[2]),
     RegisteredData: RegisteredData(agent="agent-1"),
     RefusedData: RefusedData(name="chair", agent="agent-1"),
