@@ -39,6 +39,7 @@ from iw_zenoh.messages import (
     Hear,
     Heard,
     Outgoing,
+    PoseReport,
     Proposed,
     RegisterRequest,
     RobotSpecMsg,
@@ -197,7 +198,9 @@ class LocalWorld:
         Args:
             commands: Wheel powers by robot id, ``(left, right)`` or anything with ``left`` and
                 ``right`` (an agent's ``Command``, an ``Actions``); clamped to +-0.15 by the
-                motor model. Unknown ids are ignored, as the world ignores them.
+                motor model. A ``Command``'s ``say`` and ``pose`` (a door's, a real chair's) are
+                taken as its agent's process sends them. Unknown ids are ignored, as the world
+                ignores them.
             say: Radio messages by robot id, with the commands (heard in this step's ``heard``).
             sense: Compute the readings (False skips sensors and radio: only states).
 
@@ -206,10 +209,19 @@ class LocalWorld:
         """
         w = self.world
         now = w.sim_time_ns(w.tick + 1)
+        said = dict(say or {})
         for rid, c in (commands or {}).items():
-            left, right = (c[0], c[1]) if isinstance(c, tuple) else (c.left, c.right)
-            w.on_actions(Actions(tick=w.tick, sim_time_ns=now, robot_id=rid, left=left, right=right), now)
-        for rid, text in (say or {}).items():
+            if isinstance(c, tuple):
+                c = Actions(tick=w.tick, sim_time_ns=now, robot_id=rid, left=c[0], right=c[1])
+            if getattr(c, "say", None) is not None:  # an agent's Command: what it says, its pose
+                said[rid] = c.say  # type: ignore[attr-defined]
+            pose = getattr(c, "pose", None)
+            if pose is not None:
+                x, y, d = pose
+                w.on_pose_report(PoseReport(tick=w.tick, sim_time_ns=now, robot_id=rid, x=x, y=y, dir_deg=d), now)
+            if getattr(c, "actions", True):  # False: a pose alone, another agent commands it
+                w.on_actions(Actions(tick=w.tick, sim_time_ns=now, robot_id=rid, left=c.left, right=c.right), now)
+        for rid, text in said.items():
             self.radio.on_say(Say(tick=w.tick, sim_time_ns=now, robot_id=rid, text=text))
         view = self.view()
         prop = next(m for _, m in w.begin_tick(now) if isinstance(m, Proposed))
