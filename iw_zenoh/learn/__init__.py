@@ -1,5 +1,6 @@
 """Learning and evaluation on the simulator's own tick (:class:`~iw_zenoh.sim.local.LocalWorld`):
-Gymnasium and PettingZoo environments. Needs the ``learn`` extra (``pip install iw-zenoh[learn]``).
+Gymnasium and PettingZoo environments (:func:`parallel_env`). Needs the ``learn`` extra
+(``pip install iw-zenoh[learn]``).
 
 Importing it registers ``iw_zenoh/ChairNav-v0`` (and ``iw_zenoh/Scenario-v0``, :func:`make_env`'s)
 with Gymnasium::
@@ -19,9 +20,19 @@ import gymnasium as gym
 
 from iw_zenoh.learn.chairnav import ChairNavEnv, default_chair
 from iw_zenoh.learn.nav import Goal, Reward
+from iw_zenoh.learn.parallel import ChairsEnv, parallel_env
 from iw_zenoh.learn.scenario import SCENARIO_ID, ScenarioEnv, make_env
 
-__all__ = ["ChairNavEnv", "Goal", "Reward", "ScenarioEnv", "default_chair", "make_env"]
+__all__ = [
+    "ChairNavEnv",
+    "ChairsEnv",
+    "Goal",
+    "Reward",
+    "ScenarioEnv",
+    "default_chair",
+    "make_env",
+    "parallel_env",
+]
 
 ENV_ID = "iw_zenoh/ChairNav-v0"
 

@@ -81,7 +81,7 @@ class ChairNavEnv(gym.Env[np.ndarray, np.ndarray]):
         for _ in range(100):
             world = LocalWorld(lab, seed=int(g.integers(SEEDS)), sim="chairnav")
             x, y = free_point(g, lab, margin)
-            gx, gy = free_point(g, lab, margin, away=(x, y))
+            gx, gy = free_point(g, lab, margin, away=[(x, y)])
             spec = replace(self.chair, id=1, x_m=x, y_m=y, dir_deg=float(g.uniform(-180, 180)))
             try:
                 return lab, world, world.add(spec), Goal(gx, gy)

@@ -81,12 +81,15 @@ class Episode:
         return self.senses[rid].observe(self.last.readings[rid], self.last.state, self._index(rid), self.goals[rid])
 
     def step(self, actions: Mapping[int, np.ndarray]) -> dict[int, Outcome]:
-        """Steps the world with each learner's action; every learner's outcome."""
-        cmds = {rid: to_powers(a, self.specs[rid], self.action) for rid, a in actions.items()}
+        """Steps the world with each learner's action (a learner given none stands still); the
+        outcome of each learner given one."""
+        cmds: dict[int, Any] = dict.fromkeys(self.goals, (0.0, 0.0))  # a learner done stands still
+        cmds.update({rid: to_powers(a, self.specs[rid], self.action) for rid, a in actions.items()})
         self.last = self._advance(cmds)
         self.steps += 1
         out: dict[int, Outcome] = {}
-        for rid, goal in self.goals.items():
+        for rid in actions:
+            goal = self.goals[rid]
             dist = goal_distance(self.last.state, self._index(rid), goal)
             reached = dist < goal.within
             collided = bool(self.last.readings[rid].collision)

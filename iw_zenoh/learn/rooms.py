@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -26,10 +27,10 @@ def random_room(g: np.random.Generator) -> Lab:
 
 
 def free_point(
-    g: np.random.Generator, lab: Lab, margin: float, away: tuple[float, float] | None = None
+    g: np.random.Generator, lab: Lab, margin: float, away: Sequence[tuple[float, float]] = ()
 ) -> tuple[float, float]:
-    """A point at least ``margin`` from the lab's edges and every wall's bounding box (and, with
-    ``away``, at least two margins from it).
+    """A point at least ``margin`` from the lab's edges and every wall's bounding box, and at least
+    two margins from each point of ``away`` (other chairs' starts, a start for its goal).
 
     Raises:
         ValueError: No such point found in a thousand tries (the lab is too full).
@@ -47,7 +48,7 @@ def free_point(
         x, y = g.uniform(margin, lab.width_m - margin), g.uniform(margin, lab.height_m - margin)
         if any(x0 - margin < x < x1 + margin and y0 - margin < y < y1 + margin for x0, y0, x1, y1 in boxes):
             continue
-        if away is not None and math.hypot(x - away[0], y - away[1]) < 2 * margin:
+        if any(math.hypot(x - ax, y - ay) < 2 * margin for ax, ay in away):
             continue
         return float(x), float(y)
     raise ValueError(f"no free place {margin} m from the walls of {lab.name!r}")
