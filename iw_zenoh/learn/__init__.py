@@ -22,9 +22,11 @@ from iw_zenoh.learn.chairnav import ChairNavEnv, default_chair
 from iw_zenoh.learn.nav import Goal, Reward
 from iw_zenoh.learn.parallel import ChairsEnv, parallel_env
 from iw_zenoh.learn.scenario import SCENARIO_ID, ScenarioEnv, make_env
+from iw_zenoh.learn.vector import ChairVectorEnv, vector_env
 
 __all__ = [
     "ChairNavEnv",
+    "ChairVectorEnv",
     "ChairsEnv",
     "Goal",
     "Reward",
@@ -32,6 +34,7 @@ __all__ = [
     "default_chair",
     "make_env",
     "parallel_env",
+    "vector_env",
 ]
 
 ENV_ID = "iw_zenoh/ChairNav-v0"

@@ -20,7 +20,7 @@ from iw_zenoh.core.lab import Lab
 from iw_zenoh.core.spec import LaserSpec, RobotSpec, prototype_chair
 from iw_zenoh.errors import IwError
 from iw_zenoh.learn.episode import Episode
-from iw_zenoh.learn.nav import ACTIONS, Goal, Reward, Senses
+from iw_zenoh.learn.nav import ACTIONS, Goal, Reward, Senses, clearance_m
 from iw_zenoh.learn.render import frame
 from iw_zenoh.learn.rooms import free_point, random_room
 from iw_zenoh.sim.local import LocalWorld
@@ -77,7 +77,7 @@ class ChairNavEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def _world(self, g: np.random.Generator) -> tuple[Lab, LocalWorld, int, Goal]:
         lab = self.maps[int(g.integers(len(self.maps)))] if self.maps else random_room(g)
-        margin = 0.5 * float(np.hypot(self.chair.width_m, self.chair.height_m)) + 0.2
+        margin = clearance_m(self.chair)
         for _ in range(100):
             world = LocalWorld(lab, seed=int(g.integers(SEEDS)), sim="chairnav")
             x, y = free_point(g, lab, margin)

@@ -36,7 +36,7 @@ from iw_zenoh.core.motor import MAX_POWER
 from iw_zenoh.core.spec import RobotSpec, default_ir_sensors
 from iw_zenoh.messages import SensorReading, WorldState
 
-__all__ = ["ACTIONS", "Goal", "Reward", "Senses", "goal_distance", "to_powers"]
+__all__ = ["ACTIONS", "Goal", "Reward", "Senses", "clearance_m", "goal_distance", "to_powers"]
 
 ACTIONS = ("vw", "wheels")
 FARTHEST_M = 1000.0  # the goal's distance is clipped to this (farther than any lab's diagonal)
@@ -124,6 +124,12 @@ def to_powers(action: np.ndarray, spec: RobotSpec, mode: str) -> tuple[float, fl
     w = a[1] * spec.max_speed_mps / half_base  # the fastest turn: wheels at +-max_speed
     per_mps = MAX_POWER / spec.max_speed_mps
     return float((v - w * half_base) * per_mps), float((v + w * half_base) * per_mps)
+
+
+def clearance_m(spec: RobotSpec) -> float:
+    """How far a start must be from any wall: the farthest corner of the body from its centre of
+    movement (where a start pose puts it), and 0.2 m more."""
+    return math.hypot(max(spec.com, 1.0 - spec.com) * spec.width_m, 0.5 * spec.height_m) + 0.2
 
 
 def goal_distance(state: WorldState, index: int, goal: Goal) -> float:

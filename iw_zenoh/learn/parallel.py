@@ -22,7 +22,7 @@ from iw_zenoh.core.lab import Lab
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.learn.chairnav import SEEDS, default_chair
 from iw_zenoh.learn.episode import Episode
-from iw_zenoh.learn.nav import ACTIONS, Goal, Reward, Senses
+from iw_zenoh.learn.nav import ACTIONS, Goal, Reward, Senses, clearance_m
 from iw_zenoh.learn.render import frame
 from iw_zenoh.learn.rooms import free_point, random_room
 from iw_zenoh.sim.local import LocalWorld
@@ -87,7 +87,7 @@ class ChairsEnv(ParallelEnv[str, np.ndarray, np.ndarray]):  # type: ignore[misc]
         g = self._g
         lab = self.maps[int(g.integers(len(self.maps)))] if self.maps else random_room(g)
         self.lab = lab
-        margin = 0.5 * float(np.hypot(self.chair.width_m, self.chair.height_m)) + 0.2
+        margin = clearance_m(self.chair)
         world = LocalWorld(lab, seed=int(g.integers(SEEDS)), sim="chairs")
         starts: list[tuple[float, float]] = []
         goals: dict[int, Goal] = {}
