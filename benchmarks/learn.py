@@ -7,7 +7,8 @@ observation; and the vector environment of 256 chairs in one world, in chair-ste
     python benchmarks/learn.py --steps 500 --json
 
 Targets (issue 36): a single environment >= 5,000 steps/s on one core; a batched vector env of 256
-chairs >= 100,000 chair-steps/s. (ir-sim's own step, measured beside, is not in yet.)
+chairs >= 100,000 chair-steps/s; ChairNav >= 10 times ir-sim's own ``env.step`` with one robot and
+a 64-beam lidar in a room of the same size, measured in the same run (ir-sim is in the dev extra).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -56,7 +58,7 @@ def measure(steps: int) -> dict[str, float]:
     world, rid, chair = env.episode.world, env.rid, env.chair
     out["world_steps_s"] = _rate(steps, lambda i: world.step({rid: to_powers(acts[i], chair, "vw")}))
     out["world_unsensed_steps_s"] = _rate(steps, lambda i: world.step({rid: (0.0, 0.0)}, sense=False))
-    out["observe_s"] = _rate(steps, lambda i: env.episode.observe(rid))  # type: ignore[union-attr]
+    out["observe_s"] = _rate(steps, lambda i: env.episode.observe(rid))
     out["target_env_steps_s"] = TARGET_STEPS_S
     venv = iw_zenoh.learn.vector_env(BATCH)
     venv.reset(seed=1)
@@ -66,13 +68,46 @@ def measure(steps: int) -> dict[str, float]:
     return out
 
 
+IRSIM_WORLD = """\
+world: {height: 8, width: 10, step_time: 0.1, control_mode: auto}
+robot:
+  - kinematics: {name: diff}
+    shape: {name: rectangle, length: 1.04, width: 0.66}
+    state: [2, 2, 0]
+    goal: [8, 6, 0]
+    behavior: {name: dash}
+    sensors:
+      - {name: lidar2d, range_min: 0, range_max: 10, angle_range: 4.712, number: 64}
+"""
+
+
+def measure_irsim(steps: int) -> float | None:
+    """ir-sim's own ``env.step`` (one robot with a 64-beam lidar in a 10 x 8 m room), steps/s;
+    None when ir-sim (the dev extra) is not installed."""
+    try:
+        import irsim  # type: ignore[import-untyped]  # noqa: PLC0415 (optional: the dev extra)
+    except ImportError:
+        return None
+    with tempfile.TemporaryDirectory() as d:
+        world = Path(d) / "room.yaml"
+        world.write_text(IRSIM_WORLD)
+        env = irsim.make(str(world), display=False, disable_all_plot=True)
+        env.step()
+        rate = _rate(steps, lambda i: env.step())
+        env.end(0)
+    return rate
+
+
 def main() -> int:
     """Prints the figures (or JSON)."""
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--steps", type=int, default=2000, help="steps per measure (default 2000)")
     p.add_argument("--json", action="store_true", help="the figures as one JSON object")
     args = p.parse_args()
-    r = measure(args.steps)
+    r: dict[str, float | None] = dict(measure(args.steps))
+    r["irsim_steps_s"] = measure_irsim(args.steps)
+    if r["irsim_steps_s"]:
+        r["ratio_to_irsim"] = r["env_steps_s"] / r["irsim_steps_s"]  # type: ignore[operator]
     if args.json:
         print(json.dumps(r))
         return 0
@@ -80,6 +115,11 @@ def main() -> int:
     print(f"  LocalWorld tick with sensors:    {r['world_steps_s']:,.0f} steps/s")
     print(f"  LocalWorld tick without sensors: {r['world_unsensed_steps_s']:,.0f} steps/s")
     print(f"  observation vector alone:        {r['observe_s']:,.0f} /s")
+    if r["irsim_steps_s"]:
+        print(f"ir-sim env.step, same run (1 robot, 64-beam lidar): {r['irsim_steps_s']:,.0f} steps/s;", end=" ")
+        print(f"ChairNav / ir-sim = {r['ratio_to_irsim']:.2f} (target >= 10)")
+    else:
+        print("ir-sim not installed (the dev extra): no ratio")
     print(
         f"vector env, {BATCH} chairs in one world: {r['vector_chair_steps_s']:,.0f} chair-steps/s (target >= 100,000)"
     )
