@@ -1,6 +1,9 @@
 """``parallel_env(...)``: a PettingZoo ParallelEnv with one agent per chair, for multi-agent
 learning (convoys, passing in corridors, doorways).
 
+``parallel_env(scenario="maps/scenarios/convoy.toml")``: the robots of a scenario that have a goal
+(``[[criteria.reach]]``) are the agents, the others (doors too) run their own agents in-process.
+
 With no arguments, a default world: four chairs (``chair_1`` ... ``chair_4``), each to its own
 goal in a room drawn as ChairNav draws it. Each agent's observation, action and reward are
 ChairNav's (:mod:`iw_zenoh.learn.nav`); an agent whose chair reaches its goal or collides is done
@@ -12,19 +15,23 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from pettingzoo import ParallelEnv
 
+from iw_zenoh.config import load_scenario
 from iw_zenoh.core.lab import Lab
 from iw_zenoh.core.spec import RobotSpec
+from iw_zenoh.errors import IwError
 from iw_zenoh.learn.chairnav import SEEDS, default_chair
 from iw_zenoh.learn.episode import Episode
 from iw_zenoh.learn.nav import ACTIONS, Goal, Reward, Senses, clearance_m
 from iw_zenoh.learn.render import frame
 from iw_zenoh.learn.rooms import free_point, random_room
+from iw_zenoh.learn.scenario import build
 from iw_zenoh.sim.local import LocalWorld
 
 __all__ = ["ChairsEnv", "parallel_env"]
@@ -43,6 +50,11 @@ class ChairsEnv(ParallelEnv[str, np.ndarray, np.ndarray]):  # type: ignore[misc]
         max_steps: Steps before every agent is truncated.
         reward: The reward's terms.
         render_mode: ``None`` or ``"rgb_array"``.
+        scenario: A scenario file instead of a room: each robot with a ``[[criteria.reach]]`` is an
+            agent (``robot_ID``) with that goal, every other robot (doors included) is driven by its
+            own agent in-process; ``reset(seed=s)`` seeds the world with ``s`` (default the
+            scenario's) and an episode lasts its ``duration_s``. ``chairs``, ``maps``, ``chair`` and
+            ``max_steps`` do not apply.
     """
 
     metadata = {"name": "iw_zenoh_chairs_v0", "render_modes": ["rgb_array"], "render_fps": 10}  # noqa: RUF012
@@ -57,6 +69,7 @@ class ChairsEnv(ParallelEnv[str, np.ndarray, np.ndarray]):  # type: ignore[misc]
         max_steps: int = 600,
         reward: Reward | None = None,
         render_mode: str | None = None,
+        scenario: str | Path | None = None,
     ) -> None:
         if action not in ACTIONS:
             raise ValueError(f"action must be one of {ACTIONS}, got {action!r}")
@@ -70,6 +83,17 @@ class ChairsEnv(ParallelEnv[str, np.ndarray, np.ndarray]):  # type: ignore[misc]
         self._rid = {a: i for i, a in enumerate(self.possible_agents, start=1)}
         obs = Senses(self.chair, 0.1).space
         self._obs_space = dict.fromkeys(self.possible_agents, obs)
+        self.scenario = None if scenario is None else load_scenario(scenario)
+        self._seed: int | None = None
+        if self.scenario is not None:
+            self._goals = {r.robot: Goal(r.x, r.y, r.within) for r in self.scenario.criteria.reach}
+            if not self._goals:
+                raise IwError(f"{scenario}: no [[criteria.reach]]: no robot has a goal to learn")
+            world, _ = build(self.scenario, self.scenario.world.seed)
+            self.possible_agents = [f"robot_{rid}" for rid in self._goals]
+            self._rid = {f"robot_{rid}": rid for rid in self._goals}
+            period_s = world.cfg.period_ms / 1000
+            self._obs_space = {a: Senses(world.spec(rid), period_s).space for a, rid in self._rid.items()}
         self._act_space = {a: gym.spaces.Box(-1.0, 1.0, (2,), dtype=np.float32) for a in self.possible_agents}
         self.episode: Episode | None = None
         self.lab: Lab | None = None
@@ -106,11 +130,27 @@ class ChairsEnv(ParallelEnv[str, np.ndarray, np.ndarray]):  # type: ignore[misc]
     ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
         """Draws a room, starts and goals (from ``seed``, when given)."""
         if seed is not None:
-            self._g = np.random.default_rng(seed)
-        world, goals = self._world()
-        self.episode = Episode(
-            world, goals, max_steps=self.max_steps, action=self.action_mode, reward=self.reward_terms
-        )
+            self._g, self._seed = np.random.default_rng(seed), seed
+        if self.scenario is not None:
+            sc = self.scenario
+            world, agents = build(sc, sc.world.seed if self._seed is None else self._seed)
+            for rid in self._goals:
+                agents.pop(rid, None)
+            self.lab = world.world.scene.lab
+            self.episode = Episode(
+                world,
+                self._goals,
+                agents=agents,
+                max_steps=world.cfg.duration_ticks,
+                action=self.action_mode,
+                reward=self.reward_terms,
+            )
+        else:
+            world, goals = self._world()
+            self.episode = Episode(
+                world, goals, max_steps=self.max_steps, action=self.action_mode, reward=self.reward_terms
+            )
+        goals = self.episode.goals
         self.agents = list(self.possible_agents)
         obs = {a: self.episode.observe(self._rid[a]) for a in self.agents}
         infos = {a: {"goal": (goals[self._rid[a]].x, goals[self._rid[a]].y)} for a in self.agents}
