@@ -1,6 +1,7 @@
 """``iwz resim FILE [--from T] [--agent ID=PROGRAM ARGS] [-o OUT]``: re-run a lock-step recording.
 
-The world, collision check and sensors run again in this process, from the recording's world
+The world, collision check and sensors run again in this process
+(:class:`~iw_zenoh.sim.local.LocalWorld`, the tick in one process), from the recording's world
 description, registrations, seed and recorded actions; the re-simulated states are compared
 with the recorded ones, tick by tick, exactly. With ``--agent``, one robot's recorded actions
 are replaced from time T on by a new agent program fed with the re-computed sensors (seeded as
@@ -18,8 +19,7 @@ from typing import IO, Any
 
 from iw_zenoh import keys
 from iw_zenoh.agent_programs import add_spec_arguments, find_program, make_with_spec
-from iw_zenoh.convert import grid_from_msg, lab_from_msg, spec_from_msg
-from iw_zenoh.core.lab import Scene
+from iw_zenoh.convert import grid_from_msg, lab_from_msg
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import (
@@ -27,10 +27,7 @@ from iw_zenoh.messages import (
     Actions,
     Event,
     EventKind,
-    Proposed,
     RegisterReply,
-    RegisterRequest,
-    SensorReading,
     WorldInfo,
     WorldState,
     encode,
@@ -38,11 +35,7 @@ from iw_zenoh.messages import (
 from iw_zenoh.record.progress import Progress
 from iw_zenoh.record.reader import RecordingReader, file_error, open_recording, print_notes
 from iw_zenoh.record.recording import Recorder
-from iw_zenoh.sim.collision import CollisionNode
-from iw_zenoh.sim.config import WorldConfig
-from iw_zenoh.sim.sensors import SensorsNode
-from iw_zenoh.sim.view import WorldView
-from iw_zenoh.sim.world import WorldCore
+from iw_zenoh.sim.local import LocalWorld
 
 __all__ = ["Resim", "load_run", "main", "resimulate"]
 
@@ -128,22 +121,21 @@ def _make_agent(spec: str) -> tuple[int, Any]:
     return int(rid_text), agents[0]
 
 
-def _world(run: RecordedRun) -> tuple[WorldConfig, WorldCore]:
+def _world(run: RecordedRun) -> LocalWorld:
     """The recorded world at its start: its description and seed, its robots registered."""
     info = run.info
-    cfg = WorldConfig(
-        sim=info.sim,
-        period_ms=info.period_ns / 1e6,
-        mode=Mode.LOCKSTEP,
-        profile=info.profile,
+    world = LocalWorld(
+        lab_from_msg(info.lab),
+        grid_from_msg(info.grid),
         seed=info.seed,
-        action_timeout_ms=1e12,
+        profile=info.profile,
+        period_ms=info.period_ns / 1e6,
+        sim=info.sim,
     )
-    world = WorldCore(cfg, lab_from_msg(info.lab), grid_from_msg(info.grid))
     for r in run.specs:
         assert r.spec is not None
-        world.register(RegisterRequest(spec=r.spec), 0)
-    return cfg, world
+        world.add(r.spec)
+    return world
 
 
 def resimulate(
@@ -155,37 +147,32 @@ def resimulate(
     progress: Callable[[float, str], None] | None = None,
 ) -> Resim:
     """Re-runs a recorded lock-step run; see the module doc (``progress`` is told each tick done)."""
-    info = run.info
-    cfg, world = _world(run)
-    collide = CollisionNode()
-    sensors = SensorsNode(info.sim, info.seed)
-    view: WorldView | None = None
+    world = _world(run)
+    period_ns = world.cfg.period_ns
     result = Resim(recorded_collisions=[(e.sim_time_ns / 1e9, e.robot_id, e.reason) for e in run.collisions])
     swap_id, swap_agent = swap if swap else (None, None)
     last = max(run.states) if run.states else 0
     own_actions: dict[int, Actions] = {}
     for n in range(1, last + 1):
-        now = n * cfg.period_ns
-        for a in run.actions.get(n - 1, {}).values():
-            if a.robot_id == swap_id and (n - 1) * cfg.period_ns >= from_ns:
-                continue
-            world.on_actions(a, now)
-        if swap_id in own_actions:
-            world.on_actions(own_actions.pop(swap_id), now)
-        if view is None or view.info.revision != world.revision:
-            wi = world.info()
-            view = WorldView(wi, Scene(lab_from_msg(wi.lab)), {s.id: spec_from_msg(s) for s in wi.robots})
-        prop = next(m for _, m in world.begin_tick(now) if isinstance(m, Proposed))
-        verdict = collide.on_proposed(prop, view)
-        done = world.finish_tick(verdict)
-        state = next(m for _, m in done if isinstance(m, WorldState))
+        now = n * period_ns
+        commands: dict[int, Actions] = {
+            a.robot_id: a
+            for a in run.actions.get(n - 1, {}).values()
+            if not (a.robot_id == swap_id and (n - 1) * period_ns >= from_ns)
+        }
+        commands.update(own_actions)
+        own_actions.clear()
+        swapping = swap_agent is not None and n * period_ns >= from_ns
+        step = world.step(commands, sense=swapping)
+        state = step.state
         result.ticks = n
         if progress is not None:
             progress(n / last, f"tick {n} of {last}")
-        for k, m in done:
-            if isinstance(m, Event) and m.kind == EventKind.COLLISION:
-                result.collisions.append((m.sim_time_ns / 1e9, m.robot_id, m.reason))
-            if out is not None:
+        for e in step.events:
+            if e.kind == EventKind.COLLISION:
+                result.collisions.append((e.sim_time_ns / 1e9, e.robot_id, e.reason))
+        if out is not None:
+            for k, m in step.published:
                 out.add(k, encode(m), now)
         rec = run.states.get(n)
         same = rec is not None and (rec.ids, rec.x, rec.y, rec.heading) == (state.ids, state.x, state.y, state.heading)
@@ -193,13 +180,12 @@ def resimulate(
             result.identical_until = n
         elif result.diverged_at is None:
             result.diverged_at = n
-        if swap_agent is not None and swap_id in state.ids and n * cfg.period_ns >= from_ns:
-            for _, m in sensors.on_state(state, view):
-                if isinstance(m, SensorReading) and m.robot_id == swap_id:
-                    c = swap_agent.on_sensors(m, [])
-                    own_actions[swap_id] = Actions(
-                        tick=n, sim_time_ns=now, robot_id=swap_id, left=c.left, right=c.right
-                    )
+        reading = step.readings.get(swap_id) if swapping and swap_id is not None else None
+        if reading is not None and swap_agent is not None:
+            c = swap_agent.on_sensors(reading, step.heard.get(reading.robot_id, []))
+            own_actions[reading.robot_id] = Actions(
+                tick=n, sim_time_ns=now, robot_id=reading.robot_id, left=c.left, right=c.right
+            )
     return result
 
 

@@ -1,0 +1,130 @@
+"""Steps per second of the learning environments on one core (issue 36): ChairNav-v0 (one chair
+with eight 60-degree cones and a 64-beam laser, the whole tick as the distributed roles run it),
+and beside it the parts of a step: LocalWorld's tick with and without the sensors, and the
+observation; and the vector environment of 256 chairs in one world, in chair-steps per second.
+
+    python benchmarks/learn.py             # 2,000 steps each
+    python benchmarks/learn.py --steps 500 --json
+
+Targets (issue 36): a single environment >= 5,000 steps/s on one core; a batched vector env of 256
+chairs >= 100,000 chair-steps/s; ChairNav >= 10 times ir-sim's own ``env.step`` with one robot and
+a 64-beam lidar in a room of the same size, measured in the same run (ir-sim is in the dev extra).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import iw_zenoh.learn  # noqa: E402
+from iw_zenoh.learn.nav import to_powers  # noqa: E402
+
+TARGET_STEPS_S = 5000.0
+TARGET_CHAIR_STEPS_S = 100_000.0
+BATCH = 256  # chairs in the vector environment
+
+
+def _rate(steps: int, fn: object) -> float:
+    t = time.perf_counter()
+    for i in range(steps):
+        fn(i)  # type: ignore[operator]
+    return steps / (time.perf_counter() - t)
+
+
+def measure(steps: int) -> dict[str, float]:
+    """Steps per second: the environment, LocalWorld's tick sensed and not, on one seeded room."""
+    env = iw_zenoh.learn.ChairNavEnv(max_steps=10**9)
+    env.reset(seed=1)
+    g = np.random.default_rng(1)
+    acts = g.uniform(-0.3, 0.3, (steps, 2)).astype(np.float32)
+    acts[:, 0] = np.abs(acts[:, 0])
+
+    def env_step(i: int) -> None:
+        _, _, terminated, _, _ = env.step(acts[i])
+        if terminated:
+            env.reset(seed=int(i))
+
+    out = {"env_steps_s": _rate(steps, env_step)}
+    env.reset(seed=1)
+    assert env.episode is not None
+    world, rid, chair = env.episode.world, env.rid, env.chair
+    out["world_steps_s"] = _rate(steps, lambda i: world.step({rid: to_powers(acts[i], chair, "vw")}))
+    out["world_unsensed_steps_s"] = _rate(steps, lambda i: world.step({rid: (0.0, 0.0)}, sense=False))
+    out["observe_s"] = _rate(steps, lambda i: env.episode.observe(rid))
+    out["target_env_steps_s"] = TARGET_STEPS_S
+    venv = iw_zenoh.learn.vector_env(BATCH)
+    venv.reset(seed=1)
+    batch = g.uniform(-1, 1, (max(1, steps // 50), BATCH, 2)).astype(np.float32)
+    out["vector_chair_steps_s"] = BATCH * _rate(len(batch), lambda i: venv.step(batch[i]))
+    out["target_vector_chair_steps_s"] = TARGET_CHAIR_STEPS_S
+    return out
+
+
+IRSIM_WORLD = """\
+world: {height: 8, width: 10, step_time: 0.1, control_mode: auto}
+robot:
+  - kinematics: {name: diff}
+    shape: {name: rectangle, length: 1.04, width: 0.66}
+    state: [2, 2, 0]
+    goal: [8, 6, 0]
+    behavior: {name: dash}
+    sensors:
+      - {name: lidar2d, range_min: 0, range_max: 10, angle_range: 4.712, number: 64}
+"""
+
+
+def measure_irsim(steps: int) -> float | None:
+    """ir-sim's own ``env.step`` (one robot with a 64-beam lidar in a 10 x 8 m room), steps/s;
+    None when ir-sim (the dev extra) is not installed."""
+    try:
+        import irsim  # type: ignore[import-untyped]  # noqa: PLC0415 (optional: the dev extra)
+    except ImportError:
+        return None
+    with tempfile.TemporaryDirectory() as d:
+        world = Path(d) / "room.yaml"
+        world.write_text(IRSIM_WORLD)
+        env = irsim.make(str(world), display=False, disable_all_plot=True)
+        env.step()
+        rate = _rate(steps, lambda i: env.step())
+        env.end(0)
+    return rate
+
+
+def main() -> int:
+    """Prints the figures (or JSON)."""
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--steps", type=int, default=2000, help="steps per measure (default 2000)")
+    p.add_argument("--json", action="store_true", help="the figures as one JSON object")
+    args = p.parse_args()
+    r: dict[str, float | None] = dict(measure(args.steps))
+    r["irsim_steps_s"] = measure_irsim(args.steps)
+    if r["irsim_steps_s"]:
+        r["ratio_to_irsim"] = r["env_steps_s"] / r["irsim_steps_s"]  # type: ignore[operator]
+    if args.json:
+        print(json.dumps(r))
+        return 0
+    print(f"ChairNav-v0 (8 cones, 64-beam laser), one core: {r['env_steps_s']:,.0f} steps/s (target >= 5,000)")
+    print(f"  LocalWorld tick with sensors:    {r['world_steps_s']:,.0f} steps/s")
+    print(f"  LocalWorld tick without sensors: {r['world_unsensed_steps_s']:,.0f} steps/s")
+    print(f"  observation vector alone:        {r['observe_s']:,.0f} /s")
+    if r["irsim_steps_s"]:
+        print(f"ir-sim env.step, same run (1 robot, 64-beam lidar): {r['irsim_steps_s']:,.0f} steps/s;", end=" ")
+        print(f"ChairNav / ir-sim = {r['ratio_to_irsim']:.2f} (target >= 10)")
+    else:
+        print("ir-sim not installed (the dev extra): no ratio")
+    print(
+        f"vector env, {BATCH} chairs in one world: {r['vector_chair_steps_s']:,.0f} chair-steps/s (target >= 100,000)"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

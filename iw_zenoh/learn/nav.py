@@ -1,0 +1,137 @@
+"""What every learning environment shares: a chair's observation, its action turned into wheel
+powers through its own spec, and the reward.
+
+Observation (one flat ``float32`` vector, in this order):
+
+* ``proximity``: each proximity sensor's distance, m, in its spec's order (nothing in range: the
+  sensor's range), clipped to ``[0, range]``;
+* ``laser``: each laser beam's range, m, scanner by scanner, first beam first (nothing: the
+  scanner's range);
+* ``compass``: sine and cosine of the (noisy) compass heading;
+* ``goal``: distance to the goal, m (at most 1000), and sine and cosine of its bearing relative to the heading;
+* ``wheels``: each wheel's ground speed over the last tick, m/s (left, right), within three times
+  ``max_speed``.
+
+Action (``Box(-1, 1, (2,))``), by the keyword ``action``:
+
+* ``"vw"``: linear speed as a fraction of the chair's ``max_speed`` and turn rate as a fraction of
+  its fastest turn (``2 * max_speed / wheel base``), converted to wheel powers through its spec
+  (0.15 on both wheels is ``max_speed``: :mod:`iw_zenoh.core.motor`);
+* ``"wheels"``: left and right wheel powers as fractions of 0.15.
+
+Reward each step: ``10 * (distance before - distance after)`` (progress to the goal), ``-0.01``
+(time), ``+10`` on reaching the goal, ``-10`` on a collision. An episode terminates on the goal or
+a collision, and is truncated after its time limit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from gymnasium import spaces
+
+from iw_zenoh.core.motor import MAX_POWER
+from iw_zenoh.core.spec import RobotSpec, default_ir_sensors
+from iw_zenoh.messages import SensorReading, WorldState
+
+__all__ = ["ACTIONS", "Goal", "Reward", "Senses", "clearance_m", "goal_distance", "to_powers"]
+
+ACTIONS = ("vw", "wheels")
+FARTHEST_M = 1000.0  # the goal's distance is clipped to this (farther than any lab's diagonal)
+WHEEL_BOUND = 3.0  # wheel speeds are clipped to this many times max_speed (movement noise may pass it)
+
+
+@dataclass(frozen=True)
+class Goal:
+    """Where a chair must go: within ``within`` m of ``(x, y)``."""
+
+    x: float
+    y: float
+    within: float = 0.5
+
+
+@dataclass(frozen=True)
+class Reward:
+    """The reward's terms (see the module doc)."""
+
+    progress: float = 10.0
+    time: float = -0.01
+    goal: float = 10.0
+    collision: float = -10.0
+
+
+class Senses:
+    """One chair's observation vector, laid out from its accepted spec.
+
+    Args:
+        spec: The chair's spec as the world accepted it.
+        period_s: Simulated time a tick (wheel speeds are distance rolled over it).
+    """
+
+    def __init__(self, spec: RobotSpec, period_s: float) -> None:
+        irs = spec.ir_sensors or default_ir_sensors(spec.width_m, spec.height_m, spec.com)
+        self.ir_range = np.asarray([s.range_m for s in irs], dtype=np.float64)
+        self.laser_range = np.concatenate(
+            [np.full(las.beams, las.range_m) for las in spec.lasers] or [np.zeros(0)]
+        ).astype(np.float64)
+        self.period_s = period_s
+        k, b = len(self.ir_range), len(self.laser_range)
+        self.size = k + b + 2 + 3 + 2
+        self.wheel_max = WHEEL_BOUND * spec.max_speed_mps
+        lo = np.concatenate([np.zeros(k + b), [-1, -1, 0, -1, -1, -self.wheel_max, -self.wheel_max]])
+        hi = np.concatenate([self.ir_range, self.laser_range, [1, 1, FARTHEST_M, 1, 1, self.wheel_max, self.wheel_max]])
+        self.lo, self.hi = lo.astype(np.float32), hi.astype(np.float32)
+        self.space = spaces.Box(lo.astype(np.float32), hi.astype(np.float32), dtype=np.float32)
+
+    def observe(self, reading: SensorReading, state: WorldState, index: int, goal: Goal) -> np.ndarray:
+        """The observation of the chair at ``index`` of ``state`` from its reading."""
+        prox = np.asarray([np.nan if v is None else v for v in reading.proximity_m], dtype=np.float64)
+        prox = np.clip(np.where(np.isnan(prox), self.ir_range, prox), 0.0, self.ir_range)
+        beams = [np.nan if v is None else v for scan in reading.lasers or [] for v in scan.ranges]
+        laser = np.asarray(beams, dtype=np.float64)
+        laser = np.clip(np.where(np.isnan(laser), self.laser_range, laser), 0.0, self.laser_range)
+        c = math.radians(reading.compass_deg)
+        x, y, h = state.x[index], state.y[index], state.heading[index]
+        dist = math.hypot(goal.x - x, goal.y - y)
+        bearing = math.atan2(goal.y - y, goal.x - x) - h
+        tail = [
+            math.sin(c),
+            math.cos(c),
+            dist,
+            math.sin(bearing),
+            math.cos(bearing),
+            state.rolled_left[index] / self.period_s,
+            state.rolled_right[index] / self.period_s,
+        ]
+        return np.clip(np.concatenate([prox, laser, tail]).astype(np.float32), self.lo, self.hi)
+
+
+def to_powers(action: np.ndarray, spec: RobotSpec, mode: str) -> tuple[float, float]:
+    """Wheel powers (left, right) for an action in ``[-1, 1]^2`` (see the module doc).
+
+    Raises:
+        ValueError: An unknown ``mode``.
+    """
+    a = np.clip(np.asarray(action, dtype=np.float64).reshape(2), -1.0, 1.0)
+    if mode == "wheels":
+        return float(a[0] * MAX_POWER), float(a[1] * MAX_POWER)
+    if mode != "vw":
+        raise ValueError(f"action must be one of {ACTIONS}, got {mode!r}")
+    v = a[0] * spec.max_speed_mps
+    half_base = 0.5 * spec.height_m  # the wheel base is the body's width across the heading
+    w = a[1] * spec.max_speed_mps / half_base  # the fastest turn: wheels at +-max_speed
+    per_mps = MAX_POWER / spec.max_speed_mps
+    return float((v - w * half_base) * per_mps), float((v + w * half_base) * per_mps)
+
+
+def clearance_m(spec: RobotSpec) -> float:
+    """How far a start must be from any wall: the farthest corner of the body from its centre of
+    movement (where a start pose puts it), and 0.2 m more."""
+    return math.hypot(max(spec.com, 1.0 - spec.com) * spec.width_m, 0.5 * spec.height_m) + 0.2
+
+
+def goal_distance(state: WorldState, index: int, goal: Goal) -> float:
+    """How far the chair at ``index`` is from ``goal``, m."""
+    return math.hypot(goal.x - state.x[index], goal.y - state.y[index])

@@ -1,0 +1,160 @@
+"""``iw_zenoh.learn.vector_env(N)``: N ChairNav environments stepped in one call
+(``gymnasium.vector.VectorEnv``).
+
+The N rooms (drawn as ChairNav draws them) are laid side by side, each walled in, in one
+:class:`~iw_zenoh.sim.local.LocalWorld`: one step moves, checks and senses every chair in one
+pass of the core's vectorized (compiled) kernels, rather than N worlds one after the other. A chair
+cannot see or meet another room's chair (the walls between stop rays and bodies). Observation,
+action and reward are ChairNav's; a sub-environment that ends is reset at its next step
+(Gymnasium's ``NEXT_STEP`` autoreset: that step returns its first observation, reward 0): its
+chair is taken out and a new one placed at a new start, with a new goal, in the same room.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from iw_zenoh.core.lab import Lab, Wall
+from iw_zenoh.core.spec import RobotSpec
+from iw_zenoh.learn.chairnav import SEEDS, default_chair
+from iw_zenoh.learn.nav import ACTIONS, Goal, Reward, Senses, clearance_m, goal_distance, to_powers
+from iw_zenoh.learn.rooms import SIZES, free_point, random_room
+from iw_zenoh.sim.local import LocalWorld
+
+__all__ = ["ChairVectorEnv", "vector_env"]
+
+WALL_M = 0.2  # the walls between rooms
+CELL_W, CELL_H = max(w for w, _ in SIZES) + 2 * WALL_M + 0.5, max(h for _, h in SIZES) + 2 * WALL_M + 0.5
+
+
+def _walled(room: Lab, ox: float, oy: float) -> list[Wall]:
+    """The room's walls moved to ``(ox, oy)``, and four walls around it."""
+    w, h, t = room.width_m, room.height_m, WALL_M
+    out = [Wall(tuple((x + ox, y + oy) for x, y in wall.corners), wall.height_m) for wall in room.walls]
+    for x0, y0, x1, y1 in ((-t, -t, w + t, 0), (-t, h, w + t, h + t), (-t, 0, 0, h), (w, 0, w + t, h)):
+        out.append(Wall(((ox + x0, oy + y0), (ox + x1, oy + y0), (ox + x1, oy + y1), (ox + x0, oy + y1)), 2.0))
+    return out
+
+
+class ChairVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
+    """N chairs in N rooms, stepped together (see the module doc).
+
+    Args:
+        num_envs: How many environments (chairs, rooms).
+        action: ``"vw"`` or ``"wheels"``.
+        chair: Every chair's spec (default ChairNav's).
+        max_steps: Steps before a sub-environment is truncated.
+        reward: The reward's terms.
+    """
+
+    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP}  # noqa: RUF012 (gymnasium's convention)
+
+    def __init__(
+        self,
+        num_envs: int,
+        *,
+        action: str = "vw",
+        chair: RobotSpec | None = None,
+        max_steps: int = 600,
+        reward: Reward | None = None,
+    ) -> None:
+        if action not in ACTIONS:
+            raise ValueError(f"action must be one of {ACTIONS}, got {action!r}")
+        if num_envs < 1:
+            raise ValueError(f"num_envs must be at least 1, got {num_envs}")
+        self.num_envs, self.action_mode, self.max_steps = num_envs, action, max_steps
+        self.chair, self.reward_terms = chair or default_chair(), reward or Reward()
+        self.senses = Senses(self.chair, 0.1)
+        self.single_observation_space = self.senses.space
+        self.single_action_space = gym.spaces.Box(-1.0, 1.0, (2,), dtype=np.float32)
+        self.observation_space = batch_space(self.single_observation_space, num_envs)
+        self.action_space = batch_space(self.single_action_space, num_envs)
+        self._margin = clearance_m(self.chair)
+        self.world: LocalWorld | None = None
+
+    def _place(self, i: int) -> None:
+        """Sub-environment ``i``'s chair at a new start (a new robot id), with a new goal."""
+        assert self.world is not None
+        g, (room, ox, oy) = self.np_random, self.rooms[i]
+        x, y = free_point(g, room, self._margin)
+        gx, gy = free_point(g, room, self._margin, away=[(x, y)])
+        self._next_id += 1
+        heading = float(g.uniform(-180, 180))
+        rid = self.world.add(
+            replace(self.chair, name=f"env-{i}", id=self._next_id, x_m=x + ox, y_m=y + oy, dir_deg=heading)
+        )
+        self.rid[i], self.goal[i], self.steps[i] = rid, Goal(gx + ox, gy + oy), 0
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Draws every room, start and goal, and the world's seed."""
+        if seed is not None:
+            self._np_random, self._np_random_seed = gym.utils.seeding.np_random(seed)
+        g, n = self.np_random, self.num_envs
+        cols = math.ceil(math.sqrt(n))
+        self.rooms: list[tuple[Lab, float, float]] = []
+        walls: list[Wall] = []
+        for i in range(n):
+            room = random_room(g)
+            ox, oy = 0.5 + WALL_M + (i % cols) * CELL_W, 0.5 + WALL_M + (i // cols) * CELL_H
+            self.rooms.append((room, ox, oy))
+            walls += _walled(room, ox, oy)
+        rows = math.ceil(n / cols)
+        lab = Lab(f"{n} rooms", cols * CELL_W + 1.0, rows * CELL_H + 1.0, tuple(walls))
+        self.world = LocalWorld(lab, seed=int(g.integers(SEEDS)), sim="vector")
+        self._next_id = 0
+        self.rid, self.goal, self.steps = [0] * n, [Goal(0, 0)] * n, [0] * n
+        for i in range(n):
+            self._place(i)
+        s = self.world.step({})
+        self._dist = [goal_distance(s.state, s.state.ids.index(self.rid[i]), self.goal[i]) for i in range(n)]
+        self._ended = np.zeros(n, dtype=bool)
+        return self._observe(), {}
+
+    def _observe(self) -> np.ndarray:
+        assert self.world is not None
+        assert self.world.last is not None
+        s = self.world.last
+        at = {rid: k for k, rid in enumerate(s.state.ids)}
+        return np.stack(
+            [self.senses.observe(s.readings[r], s.state, at[r], g) for r, g in zip(self.rid, self.goal, strict=True)]
+        )
+
+    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """One tick of every chair; sub-environments that ended at the last step start again."""
+        assert self.world is not None, "call reset() before step()"
+        n, w = self.num_envs, self.world
+        restarted = np.flatnonzero(self._ended)
+        for k in restarted.tolist():
+            w.remove(self.rid[k])
+            self._place(k)
+        a = np.asarray(actions, dtype=np.float64).reshape(n, 2)
+        s = w.step({self.rid[i]: to_powers(a[i], self.chair, self.action_mode) for i in range(n) if not self._ended[i]})
+        at = {rid: k for k, rid in enumerate(s.state.ids)}
+        reward, term, trunc = np.zeros(n), np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
+        r = self.reward_terms
+        for i in range(n):
+            dist = goal_distance(s.state, at[self.rid[i]], self.goal[i])
+            if self._ended[i]:
+                self._dist[i] = dist
+                continue
+            self.steps[i] += 1
+            reached, collided = dist < self.goal[i].within, bool(s.readings[self.rid[i]].collision)
+            reward[i] = r.progress * (self._dist[i] - dist) + r.time + r.goal * reached + r.collision * collided
+            term[i], trunc[i] = reached or collided, self.steps[i] >= self.max_steps
+            self._dist[i] = dist
+        self._ended = term | trunc
+        return self._observe(), reward, term, trunc, {}
+
+
+def vector_env(num_envs: int = 8, **kwargs: Any) -> ChairVectorEnv:
+    """N ChairNav environments in one world, stepped in one call (keywords as :class:`ChairVectorEnv`'s)."""
+    return ChairVectorEnv(num_envs, **kwargs)

@@ -1,0 +1,241 @@
+"""The whole tick in one process: world, collision check, sensors and radio, with no Zenoh.
+
+:class:`LocalWorld` runs the same logic the distributed roles run (:class:`~iw_zenoh.sim.world.WorldCore`,
+:class:`~iw_zenoh.sim.collision.CollisionNode`, :class:`~iw_zenoh.sim.sensors.SensorsNode`,
+:class:`~iw_zenoh.sim.radio.RadioNode`) as one loop, in the order a lock-step ``iwz run`` runs
+them. With the same lab, robots, seed and commands it gives the states and readings of a lock-step
+run bit for bit: ``iwz resim`` re-runs recordings with it, and :mod:`iw_zenoh.learn` builds its
+learning environments on it.
+
+A step is one tick::
+
+    world = LocalWorld(lab, grid, seed=7)
+    rid = world.add(prototype_chair("me"))
+    s = world.step({})                      # tick 1: nothing commanded yet; the first readings
+    while not s.readings[rid].collision:
+        s = world.step({rid: (0.1, 0.1)})   # wheel powers answering the last readings
+
+Commands given to :meth:`LocalWorld.step` are the answers to the previous step's readings (as an
+agent's actions of sensors tick n are applied by the world at tick n + 1); a robot given no command
+keeps its last one (lock-step: every agent answers every tick). What a robot says with its
+commands (its answer to the last readings) is heard, by every robot within range, in the readings
+the same step returns, as the radio delivers what was said during tick n - 1 with state n.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Protocol
+
+from iw_zenoh.convert import lab_from_msg, spec_from_msg, spec_to_msg
+from iw_zenoh.core.lab import Grid, Lab, Scene
+from iw_zenoh.core.modes import Mode, Profile
+from iw_zenoh.core.spec import RobotSpec
+from iw_zenoh.errors import IwError
+from iw_zenoh.messages import (
+    Actions,
+    Event,
+    Hear,
+    Heard,
+    Outgoing,
+    PoseReport,
+    Proposed,
+    RegisterRequest,
+    RobotSpecMsg,
+    Say,
+    SensorReading,
+    WorldState,
+)
+from iw_zenoh.sim.collision import CollisionNode
+from iw_zenoh.sim.config import WorldConfig
+from iw_zenoh.sim.radio import RadioConfig, RadioNode
+from iw_zenoh.sim.sensors import SensorsNode
+from iw_zenoh.sim.view import WorldView
+from iw_zenoh.sim.world import WorldCore
+
+__all__ = ["LocalWorld", "Step", "WheelCommand"]
+
+NO_WATCHDOG_MS = 1e12  # lock-step: a robot's command stands until its agent answers again
+
+
+class WheelCommand(Protocol):
+    """Anything with wheel powers (an agent's ``Command``, an ``Actions`` message)."""
+
+    @property
+    def left(self) -> float: ...  # noqa: D102
+
+    @property
+    def right(self) -> float: ...  # noqa: D102
+
+
+@dataclass
+class Step:
+    """What one tick gave.
+
+    Attributes:
+        state: The committed state of the tick.
+        readings: Each robot's sensor reading of the tick, by robot id (empty when not sensed).
+        heard: What each robot heard over the radio with this tick's readings (said with its commands).
+        events: The world's events of the tick (collisions, stopped...).
+        published: Everything the world published committing the tick, ``(key, message)`` (what
+            a recording of the world holds).
+    """
+
+    state: WorldState
+    readings: dict[int, SensorReading] = field(default_factory=dict)
+    heard: dict[int, list[Heard]] = field(default_factory=dict)
+    events: list[Event] = field(default_factory=list)
+    published: list[Outgoing] = field(default_factory=list)
+
+
+class LocalWorld:
+    """A lock-step world stepped by its caller (see the module doc).
+
+    Args:
+        lab: The map.
+        grid: Start positions (robots with no start pose of their own take them, by id).
+        seed: The run's seed: movement noise and each robot's sensor noise derive from it, as in
+            ``iwz run --seed``.
+        profile: ``native`` or ``ciberrato``.
+        period_ms: Simulated time a tick.
+        sim: The simulation's name (in the messages' keys).
+        radio: Radio limits (default Ciber-Rato's).
+        duration_ticks: Stop after this many ticks (0: never); :attr:`stopped` says so.
+        motors_noise_pct: Ciber-Rato MotorsNoise (legacy profile).
+    """
+
+    def __init__(
+        self,
+        lab: Lab,
+        grid: Grid | None = None,
+        *,
+        seed: int = 0,
+        profile: Profile = Profile.NATIVE,
+        period_ms: float = 100.0,
+        sim: str = "local",
+        radio: RadioConfig | None = None,
+        duration_ticks: int = 0,
+        motors_noise_pct: float = 0.0,
+    ) -> None:
+        self.cfg = WorldConfig(
+            sim=sim,
+            period_ms=period_ms,
+            mode=Mode.LOCKSTEP,
+            profile=Profile(profile),
+            seed=seed,
+            action_timeout_ms=NO_WATCHDOG_MS,
+            duration_ticks=duration_ticks,
+            motors_noise_pct=motors_noise_pct,
+        )
+        self.world = WorldCore(self.cfg, lab, grid if grid is not None else Grid())
+        self.collide = CollisionNode()
+        self.sensors = SensorsNode(sim, seed)
+        self.radio = RadioNode(sim, radio)
+        self._view: WorldView | None = None
+        self.last: Step | None = None
+
+    # --- the roster ------------------------------------------------------------------------
+
+    def add(self, spec: RobotSpec | RobotSpecMsg) -> int:
+        """Registers a robot, as its agent would; returns its id.
+
+        Raises:
+            IwError: The world refused it (its reason: no free place, an id taken...).
+        """
+        msg = spec if isinstance(spec, RobotSpecMsg) else spec_to_msg(spec)
+        reply, _ = self.world.register(RegisterRequest(spec=msg), self.world.sim_time_ns())
+        if not reply.ok:
+            raise IwError(f"robot {msg.name!r} refused: {reply.reason}")
+        return reply.robot_id
+
+    def remove(self, robot_id: int, reason: str = "removed") -> None:
+        """Takes a robot out of the world (from the next tick)."""
+        self.world.remove(robot_id, reason)
+
+    @property
+    def ids(self) -> list[int]:
+        """The registered robots' ids."""
+        return sorted(self.world.registry.entries)
+
+    def spec(self, robot_id: int) -> RobotSpec:
+        """A registered robot's accepted spec (its id and start pose filled in)."""
+        return self.world.registry.entries[robot_id].spec
+
+    @property
+    def tick(self) -> int:
+        """Ticks stepped so far."""
+        return self.world.tick
+
+    @property
+    def stopped(self) -> bool:
+        """Whether ``duration_ticks`` is reached."""
+        return self.world.stopped
+
+    @property
+    def state(self) -> WorldState | None:
+        """The last committed state (None before the first step)."""
+        return None if self.last is None else self.last.state
+
+    def view(self) -> WorldView:
+        """The world as the other roles see it (rebuilt when the roster changes)."""
+        if self._view is None or self._view.info.revision != self.world.revision:
+            wi = self.world.info()
+            self._view = WorldView(wi, Scene(lab_from_msg(wi.lab)), {s.id: spec_from_msg(s) for s in wi.robots})
+        return self._view
+
+    # --- the tick --------------------------------------------------------------------------
+
+    def step(
+        self,
+        commands: Mapping[int, WheelCommand | tuple[float, float]] | None = None,
+        *,
+        say: Mapping[int, str] | None = None,
+        sense: bool = True,
+    ) -> Step:
+        """Applies the commands, moves, checks collisions, commits, and reads the sensors.
+
+        Args:
+            commands: Wheel powers by robot id, ``(left, right)`` or anything with ``left`` and
+                ``right`` (an agent's ``Command``, an ``Actions``); clamped to +-0.15 by the
+                motor model. A ``Command``'s ``say`` and ``pose`` (a door's, a real chair's) are
+                taken as its agent's process sends them. Unknown ids are ignored, as the world
+                ignores them.
+            say: Radio messages by robot id, with the commands (heard in this step's ``heard``).
+            sense: Compute the readings (False skips sensors and radio: only states).
+
+        Returns:
+            The tick's state, readings, what was heard, and events.
+        """
+        w = self.world
+        now = w.sim_time_ns(w.tick + 1)
+        said = dict(say or {})
+        for rid, c in (commands or {}).items():
+            if isinstance(c, tuple):
+                c = Actions(tick=w.tick, sim_time_ns=now, robot_id=rid, left=c[0], right=c[1])
+            if getattr(c, "say", None) is not None:  # an agent's Command: what it says, its pose
+                said[rid] = c.say  # type: ignore[attr-defined]
+            pose = getattr(c, "pose", None)
+            if pose is not None:
+                x, y, d = pose
+                w.on_pose_report(PoseReport(tick=w.tick, sim_time_ns=now, robot_id=rid, x=x, y=y, dir_deg=d), now)
+            if getattr(c, "actions", True):  # False: a pose alone, another agent commands it
+                w.on_actions(Actions(tick=w.tick, sim_time_ns=now, robot_id=rid, left=c.left, right=c.right), now)
+        for rid, text in said.items():
+            self.radio.on_say(Say(tick=w.tick, sim_time_ns=now, robot_id=rid, text=text))
+        view = self.view()
+        prop = next(m for _, m in w.begin_tick(now) if isinstance(m, Proposed))
+        done = w.finish_tick(self.collide.on_proposed(prop, view))
+        state = next(m for _, m in done if isinstance(m, WorldState))
+        step = Step(state, events=[m for _, m in done if isinstance(m, Event)], published=done)
+        if sense:
+            for _, m in self.sensors.on_state(state, view):
+                if isinstance(m, SensorReading):
+                    step.readings[m.robot_id] = m
+            for _, m in self.radio.on_state(state):
+                if isinstance(m, Hear):
+                    step.heard[m.robot_id] = list(m.messages)
+                elif isinstance(m, Event):
+                    step.events.append(m)
+        self.last = step
+        return step
