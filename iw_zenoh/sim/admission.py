@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 from iw_zenoh import keys
 from iw_zenoh.convert import spec_from_msg, spec_to_msg
+from iw_zenoh.core.modes import Profile
 from iw_zenoh.errors import SpecError
 from iw_zenoh.messages import EventKind, Outgoing, RefusedData, RegisteredData, RegisterReply, RegisterRequest
 from iw_zenoh.sim.registry import Refused, Registry
@@ -49,7 +50,8 @@ def admit(core: WorldCore, req: RegisterRequest, now_ns: int) -> tuple[RegisterR
         if isinstance(owned, str):
             return _refuse(core, req, owned)
         try:
-            placed = registry.place(replace(spec, id=owned), registry.poses(core.state))
+            legacy = Profile(core.cfg.profile) == Profile.CIBERRATO  # the legacy simulator's starts
+            placed = registry.place(replace(spec, id=owned), registry.poses(core.state), on_robots=legacy)
         except Refused as e:
             return _refuse(core, req, str(e))
         entry = registry.add(placed, req.agent, now_ns)

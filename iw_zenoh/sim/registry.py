@@ -83,12 +83,16 @@ class Registry:
             "give X and Y, or remove a robot"
         )
 
-    def place(self, spec: RobotSpec, pose: dict[int, tuple[float, float, float]]) -> RobotSpec:
+    def place(
+        self, spec: RobotSpec, pose: dict[int, tuple[float, float, float]], *, on_robots: bool = False
+    ) -> RobotSpec:
         """Chooses the id and start pose of a new robot, or refuses it.
 
         Args:
             spec: The requested spec.
             pose: Current poses of the registered robots (x, y, heading rad) by id.
+            on_robots: Accept a start on other robots' bodies, as the legacy simulator does (the
+                ciberrato profile: the Ciber2001 grid's starts are 1.0 apart, three touching discs).
 
         Returns:
             The spec with id and pose set.
@@ -124,7 +128,7 @@ class Registry:
             hit = self.scene.wall_tree.query(poly, predicate="intersects")
             if len(hit):
                 raise Refused(f"start ({x:g}, {y:g}) puts the body on wall {int(hit[0])}; choose a free place")
-        others = list(pose.items())
+        others = [] if on_robots else list(pose.items())
         if placed.type == RobotType.DOOR:  # the leaves of one revolving door share its hub
             others = [(i, q) for i, q in others if i not in self.entries or self.entries[i].spec.type != RobotType.DOOR]
         if others:

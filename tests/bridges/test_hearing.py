@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from iw_zenoh.bridges.ciberrato.hearing import LOCKSTEP_WAIT_NS, Hearing
 from iw_zenoh.bridges.ciberrato.robot import LegacyRobot
+
 from iw_zenoh.core.params import SimParameters
 from iw_zenoh.messages import Hear, Heard, RadioBatch, SensorBatch, SensorReading
 
