@@ -132,8 +132,9 @@ class LegacyRobot:
             tick = min(tick, finished_at)
             buttons = (False, False)
         r = self.reading
-        if r is None:
-            return Measures(time=tick, collision=False, ir=(0.0,) * 4, buttons=buttons)
+        heard = tuple(self.heard.get(tick, ()))
+        if r is None:  # no reading yet (stopped before the first step): what it heard all the same
+            return Measures(time=tick, collision=False, ir=(0.0,) * 4, messages=heard, buttons=buttons)
         # requests: at most NRequestsPerCycle honoured, in order, across the cycle's datagrams
         granted = set(self.requests[: p.n_requests_per_cycle])
         self.requests = []
@@ -162,7 +163,7 @@ class LegacyRobot:
             ir=ir,
             beacons=beacons,
             gps=(round(r.gps[0] + GPS_OFFSET[0], 1), round(r.gps[1] + GPS_OFFSET[1], 1)) if p.gps else None,
-            messages=tuple(self.heard.get(tick, ())),
+            messages=heard,
             leds=(
                 self.leds.get("EndLed", False),
                 self.leds.get("ReturningLed", False),

@@ -82,7 +82,6 @@ def test_says_of_a_stopped_cycle_reach_the_robots_strictly_within_8_speaker_incl
     assert robots[2].heard[0] == [(1, "a"), (2, "b")]
     assert robots[3].heard[0] == [(2, "b")]  # 8.0 from robot 1: not heard; 0.01 from robot 2
     assert h.stopped_says == {}
-    robots[1].reading = _batch(0).readings[0]
-    data = robots[1].next_measures(0, SimParameters(), running=False, force=True)
+    data = robots[1].next_measures(0, SimParameters(), running=False, force=True)  # no reading yet
     assert data is not None
     assert b'<Message From="1"><![CDATA[a]]></Message>\n\t\t<Message From="2"><![CDATA[b]]></Message>' in data

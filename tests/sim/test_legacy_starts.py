@@ -41,3 +41,24 @@ def test_the_native_profile_refuses_a_start_on_another_body() -> None:
     assert replies[0].ok
     assert not replies[1].ok
     assert "puts the body on robot 1" in replies[1].reason
+
+
+def _one_robot(profile: Profile) -> WorldCore:
+    lab = load_lab(MAPS / "ciberrato" / "C1-lab.xml")
+    core = WorldCore(WorldConfig(sim="t", profile=profile), lab, load_grid(MAPS / "ciberrato" / "C1-grid.xml", lab))
+    spec = registration_spec(parse_registration(b'<Robot Id="1" Name="r1"/>'))
+    assert core.register(RegisterRequest(spec=spec_to_msg(spec), agent="ciberrato"), 0)[0].ok
+    return core
+
+
+def test_a_legacy_run_takes_no_first_step_before_collision_and_sensors_are_alive() -> None:
+    core = _one_robot(Profile.CIBERRATO)
+    assert not core.due()  # it would hold its robot at the start: the legacy simulator never does
+    core.on_alive("collision", "collision", True, 0)
+    assert not core.due()
+    core.on_alive("sensors", "sensors-1-1", True, 0)
+    assert core.due()
+
+
+def test_a_native_real_time_run_steps_and_holds_as_before() -> None:
+    assert _one_robot(Profile.NATIVE).due()
