@@ -5,8 +5,9 @@ the ``Measures`` of that same cycle (``reference/ciberrato-protocol.md`` 4.3).
 The radio and the sensors publish tick n independently (the radio as soon as the collision
 verdict confirms the proposal, the sensors when the state comes), so either may reach the bridge
 first. Readings that came first are held until the hear lists of their tick are in, or until a
-deadline (half a period in real time); past it they go without, the robots' Measures are not held
-back for ever, and what the lists then bring is counted as missed (:meth:`LegacyRobot.next_measures`).
+deadline (a period in real time: at worst when the next tick begins); past it they go without (the
+robots' Measures are not held back for ever), and what the lists then bring is counted as missed
+(:meth:`LegacyRobot.next_measures`).
 
 While the simulator is stopped (before Start, as after a Stop) no tick runs, so no radio delivers:
 the legacy simulator still delivers a cycle's says in its stopped ``Measures`` (Time 0 before
@@ -110,10 +111,11 @@ class Hearing:
 
     @staticmethod
     def wait_ns(info: WorldInfo | None) -> int:
-        """How long a tick's readings may wait for its hear lists: half a period in real time."""
+        """How long a tick's readings may wait for its hear lists: a period in real time (late
+        Measures, as the legacy simulator's on a busy machine, rather than a message lost)."""
         if info is None or info.mode == Mode.LOCKSTEP:
             return LOCKSTEP_WAIT_NS
-        return info.period_ns // 2
+        return info.period_ns
 
     def ready(self, batches: Sequence[SensorBatch], info: WorldInfo | None, now_ns: int) -> list[SensorBatch]:
         """The batches that may go now, in arrival order: every one when no radio is alive, else
