@@ -87,8 +87,8 @@ class LegacyClient:
 
 
 def measures_of(data: bytes) -> etree._Element:
-    """A Measures datagram as XML (its trailing NUL dropped)."""
-    return etree.fromstring(data.rstrip(b"\x00"))
+    """A Measures datagram as XML (its trailing NUL dropped; Latin-1, as the legacy server sends it)."""
+    return etree.fromstring(data.rstrip(b"\x00"), etree.XMLParser(encoding="iso-8859-1"))
 
 
 def real_rows() -> list[Row]:

@@ -165,7 +165,7 @@ class Measures:
 
 def build_measures(m: Measures) -> bytes:
     """A ``<Measures>`` datagram, byte for byte as the legacy server prints it (at most 4096 bytes
-    for the Python and C clients): tab indents, ``<GPS ... />`` with its space, ``\\n\\0`` at
+    for the Python and C clients), in Latin-1: tab indents, ``<GPS ... />`` with its space, ``\\n\\0`` at
     the end. Formatted directly rather than through lxml: it is sent to every robot every cycle."""
     attrs = ""
     if m.collision is not None:
@@ -183,7 +183,7 @@ def build_measures(m: Measures) -> bytes:
     if m.gps is not None:
         out.append(f'\t\t<GPS X="{m.gps[0]:g}" Y="{m.gps[1]:g}" />\n')
     for sender, text in m.messages:
-        safe = text.encode("latin-1", "replace").decode("latin-1").replace("]]>", "]] >")  # CDATA cannot hold ]]>
+        safe = text.replace("]]>", "]] >")  # CDATA cannot hold ]]>
         out.append(f'\t\t<Message From="{sender:d}"><![CDATA[{safe}]]></Message>\n')
     if m.score is not None:
         sc = m.score
@@ -198,7 +198,9 @@ def build_measures(m: Measures) -> bytes:
         f'\t</Sensors>\n\t<Leds EndLed="{onoff(end)}" ReturningLed="{onoff(ret)}" VisitingLed="{onoff(vis)}"/>\n'
         f'\t<Buttons Start="{onoff(start)}" Stop="{onoff(stop)}"/>\n</Measures>\n\x00'
     )
-    return "".join(out).encode("utf-8")
+    # Latin-1, as the legacy server sends it: a heard "é" is the one byte E9, and what Latin-1
+    # cannot hold is "?" (everything else here is ASCII)
+    return "".join(out).encode("latin-1", "replace")
 
 
 def build_robot_state(

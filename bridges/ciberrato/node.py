@@ -17,6 +17,7 @@ when Measures go is the :class:`~.delivery.Delivery`'s, what it hears of the wor
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 
@@ -30,7 +31,9 @@ from iw_zenoh.messages import (
     Control,
     EventKind,
     LegacyRefusedData,
+    RadioDroppedData,
     RegisterReply,
+    Say,
     SensorReading,
 )
 from iw_zenoh.runtime import NodeIO
@@ -41,6 +44,7 @@ from .codec import parse_actions, parse_viewer_command
 from .delivery import Delivery
 from .feed import WorldFeed
 from .guard import Gate, Report
+from .hearing import Hearing
 from .referee import Referee
 from .registrar import Pending, Registrar
 from .registration import build_refusal, build_reply, parse_registration
@@ -110,6 +114,8 @@ class Bridge:
         self.gate = Gate(self._tell)  # the flood limits; refusals told once per address a second
         self._controls: list[Control] = []  # viewers' commands of a pass, sent after its actions
         self._swept = 0.0
+        self.hearing = Hearing()  # a tick's readings wait for its hear lists (while a radio is alive)
+        bus.watch_alive(keys.all_alive(sim), self._on_alive)
         self.io.alive()
         bus.token(keys.alive(sim, "bridge", name))
 
@@ -184,7 +190,7 @@ class Bridge:
         self.registrar.accepted(reply.robot_id, p.spec)
         placed = reply.spec
         if placed is not None and placed.x is not None and placed.y is not None:
-            robot.start = (placed.x, placed.y)
+            robot.start = robot.pose = (placed.x, placed.y)
         link = RobotLink(peer, t, robot, seen=time.monotonic())
         self.clients.add(link)
         self.robots[robot.robot_id] = robot
@@ -209,6 +215,9 @@ class Bridge:
             self._refuse(peer, str(e))
             return
         cmd = robot.on_actions(frame, sim_finished=self.referee.finished_at is not None)
+        if cmd.say is not None and not self.running:  # stopped: heard in the next stopped Measures
+            self.hearing.stopped_says[robot.robot_id] = cmd.say
+            cmd = dataclasses.replace(cmd, say=None)
         tick, sim_ns = robot.stamp()
         self.outbox.command(robot.robot_id, cmd, tick=tick, sim_time_ns=sim_ns)  # sent with the pass's
 
@@ -236,13 +245,13 @@ class Bridge:
         for verdict in self.feed.verdicts():
             self.referee.on_verdict(verdict)
         self._take_states()
+        self.hearing.take(self.feed.radio(), self.robots)  # before the readings: Measures carry their tick's
         self._take_readings()
-        for delivered in self.feed.radio():
-            for hear in delivered.hear:
-                robot = self.robots.get(hear.robot_id)
-                if robot is not None:
-                    robot.heard = [(h.sender, h.text) for h in hear.messages]
         self._take_ticks()
+        missed, why = self.hearing.missed(self.robots, time.monotonic())
+        if why:
+            logger.warning("%s", why)
+            self.io.event(EventKind.RADIO_DROPPED, why, RadioDroppedData(late=missed))
 
     def _take_states(self) -> None:
         states = self.feed.states()
@@ -259,7 +268,7 @@ class Bridge:
                     self.clients.send(v, data)
 
     def _take_readings(self) -> None:
-        batches = self.feed.sensor_batches()
+        batches = self.hearing.ready(self.feed.sensor_batches(), self.feed.info, time.monotonic_ns())
         now = time.time_ns()
         for robot, reading in self.delivery.arrived(batches, self.robots, self.feed.info, now):
             robot.reading = reading
@@ -273,11 +282,23 @@ class Bridge:
     def _take_ticks(self) -> None:
         for t in self.feed.ticks()[-1:]:
             self.running = t.running
-            if not t.running:  # stopped: Measures keep coming, as the legacy server sends them
+            if t.running:  # said as the run started: the radio delivers them with the next tick
+                says, self.hearing.stopped_says = self.hearing.stopped_says, {}
+                for rid, text in says.items():
+                    say = Say(tick=t.tick, sim_time_ns=t.sim_time_ns, robot_id=rid, text=text)
+                    self.io.send(keys.say(self.sim, rid), say)
+            else:  # stopped: Measures keep coming, as the legacy server sends them, with the says
+                self.hearing.stopped(t.tick, self.robots)
                 for robot in self.robots.values():
                     robot.pause(t.tick)
                 for robot in list(self.robots.values()):
                     self._send_measures(robot, t.tick, force=True)
+
+    def _on_alive(self, key: str, alive: bool) -> None:
+        """A liveliness token came or went: the radios' are kept (a set changed in one call)."""
+        parts = keys.alive_parts(key)
+        if parts is not None and parts[0] == "radio":
+            self.hearing.on_alive(parts[1], alive)
 
     def _check_finished(self, tick: int) -> None:
         """At SimTime the legacy simulation finishes: the world is paused for good."""

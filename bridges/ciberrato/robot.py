@@ -43,7 +43,8 @@ class LegacyRobot:
         right: Right motor power.
         leds: Its LEDs, as last set.
         reading: Its newest readings from the world.
-        heard: What it heard, delivered with its next Measures.
+        heard: What it heard, by tick: each tick's goes in that tick's Measures.
+        missed: Messages heard for a tick whose Measures had gone already (never sent a cycle late).
         sent_tick: The tick of the last Measures it was sent.
         requests: Sensor requests of this cycle, in order.
         finished: EndLed seen (or the game says Finished): the robot never moves again.
@@ -61,7 +62,8 @@ class LegacyRobot:
     right: float = 0.0
     leds: dict[str, bool] = field(default_factory=dict)
     reading: SensorReading | None = None
-    heard: list[tuple[int, str]] = field(default_factory=list)
+    heard: dict[int, list[tuple[int, str]]] = field(default_factory=dict)
+    missed: int = 0
     sent_tick: int = -1
     requests: list[str] = field(default_factory=list)
     finished: bool = False
@@ -130,8 +132,9 @@ class LegacyRobot:
             tick = min(tick, finished_at)
             buttons = (False, False)
         r = self.reading
-        if r is None:
-            return Measures(time=tick, collision=False, ir=(0.0,) * 4, buttons=buttons)
+        heard = tuple(self.heard.get(tick, ()))
+        if r is None:  # no reading yet (stopped before the first step): what it heard all the same
+            return Measures(time=tick, collision=False, ir=(0.0,) * 4, messages=heard, buttons=buttons)
         # requests: at most NRequestsPerCycle honoured, in order, across the cycle's datagrams
         granted = set(self.requests[: p.n_requests_per_cycle])
         self.requests = []
@@ -160,7 +163,7 @@ class LegacyRobot:
             ir=ir,
             beacons=beacons,
             gps=(round(r.gps[0] + GPS_OFFSET[0], 1), round(r.gps[1] + GPS_OFFSET[1], 1)) if p.gps else None,
-            messages=tuple(self.heard),
+            messages=heard,
             leds=(
                 self.leds.get("EndLed", False),
                 self.leds.get("ReturningLed", False),
@@ -179,8 +182,9 @@ class LegacyRobot:
         finished_at: int | None = None,
         force: bool = False,
     ) -> bytes | None:
-        """The Measures datagram of ``tick``, once a tick (unless forced); what it heard is then
-        delivered. Arguments as :meth:`measures`.
+        """The Measures datagram of ``tick``, once a tick (unless forced); what it heard in that
+        tick is then delivered (what it heard in an earlier tick is dropped, counted in
+        :attr:`missed`: a message is never heard a cycle late). Arguments as :meth:`measures`.
 
         Returns:
             The datagram, or None when this tick's was sent already.
@@ -189,7 +193,10 @@ class LegacyRobot:
             return None
         self.sent_tick = tick
         data = build_measures(self.measures(tick, p, running=running, finished_at=finished_at))
-        self.heard = []
+        for t in [t for t in self.heard if t <= tick]:
+            if t < tick:
+                self.missed += len(self.heard[t])
+            del self.heard[t]
         return bytes(data)
 
     def score(self) -> Score | None:

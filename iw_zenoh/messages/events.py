@@ -148,6 +148,7 @@ class RadioDroppedData(EventData, frozen=True, kw_only=True, omit_defaults=True)
     too_long: NonNeg = 0  # over the bytes a message may have
     unknown_sender: NonNeg = 0  # said by a robot the state does not list
     over_budget: NonNeg = 0  # past what a robot may hear a tick
+    late: NonNeg = 0  # heard after the Measures of their tick went (legacy bridge)
 
 
 class LegacyRefusedData(EventData, frozen=True, kw_only=True):

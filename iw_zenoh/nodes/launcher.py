@@ -156,15 +156,16 @@ class Launcher:
             rest = rest[1:]
         if self.stop_event.is_set():
             return  # stopped meanwhile (SIGTERM, SIGHUP): nothing more to start, and nothing failed
-        agents = [c for c in rest if c.role == "agent"]
+        agents = [c for c in rest if c.role in ("agent", "bridge")]  # a bridge's robots register too
         for c in rest:
-            if c.role != "agent":
+            if c not in agents:
                 c.start(self.env)
         if agents:
-            # agents last, once collision and every sensors shard are up: a chair registered
-            # before would get no readings for its first ticks (its motors zeroed by the
+            # agents last, once collision, every sensors shard and the radio are up: a chair
+            # registered before would get no readings for its first ticks (motors zeroed by the
             # watchdog) or be held still (a sensors process compiles its kernel on a first run)
             roles = {"collision": 1, "sensors": self.sc.roles.sensors_shards}
+            roles |= {"radio": 1} if any(c.role == "radio" for c in rest) else {}
             up = self._wait_roles(roles, timeout_s=60.0)
             if self.failed is not None or self.stop_event.is_set():
                 return  # supervise() ends the run at once

@@ -14,8 +14,9 @@ from collections.abc import Sequence
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus, Delivery, Inbox
-from iw_zenoh.errors import ProtocolError
-from iw_zenoh.messages import Proposed, Say, WorldState
+from iw_zenoh.core.modes import Profile
+from iw_zenoh.errors import IwError, ProtocolError
+from iw_zenoh.messages import Proposed, Say, WorldInfo, WorldState, decode
 from iw_zenoh.nodes.role_options import RadioOptions, add_radio_arguments
 from iw_zenoh.options import options_from_args
 from iw_zenoh.runtime import NodeIO, start_role
@@ -60,6 +61,11 @@ class _Loop:
         self.proposals = io.inbox(keys.proposed(sim), ordered=True) if early else Inbox()
         self.verdicts = io.inbox(keys.verdict(sim), ordered=True) if early else Inbox()
         self.node = RadioNode(sim, cfg)
+        # the world's profile (ciberrato: the legacy limits), from each description it publishes
+        # and, for a radio started after the world, asked once
+        self.infos = io.inbox(keys.info(sim))
+        for data in io.bus.query(keys.info(sim), timeout_s=2.0):
+            self._profile(data)
         self.window = TickWindow()  # a state too far ahead is refused (its hear lists would be too)
         self.proposal: WorldState | None = None  # the newest proposal, as the state it would commit
         self.said = Verdicts()  # the verdicts of the next ticks
@@ -69,6 +75,8 @@ class _Loop:
     def once(self) -> bool:
         """One pass; False when nothing came. What was said is taken after the states and
         verdicts: a tick's messages were said before its proposal, so they are all in."""
+        for _, data, _ in self.infos.drain()[-1:]:
+            self._profile(data)
         states, verdicts = self.states.drain(), self.verdicts.drain()
         props, says = self.proposals.drain(), self.says.drain()
         io = self.io
@@ -89,6 +97,13 @@ class _Loop:
             io.send_all(self.node.send_early(p))
             self.last_tick = p.tick
         return bool(states or verdicts or props or says)
+
+    def _profile(self, data: bytes) -> None:
+        """Takes the profile of a world's description (one that does not decode changes nothing)."""
+        try:
+            self.node.legacy = decode(data, WorldInfo).profile == Profile.CIBERRATO
+        except IwError:
+            return
 
     def _on_state(self, d: Delivery) -> None:
         """Delivers a state's tick (or checks the one delivered early), unless it is refused."""

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 from iw_zenoh import keys
 from iw_zenoh.convert import spec_from_msg, spec_to_msg
+from iw_zenoh.core.modes import Profile
 from iw_zenoh.errors import SpecError
 from iw_zenoh.messages import EventKind, Outgoing, RefusedData, RegisteredData, RegisterReply, RegisterRequest
 from iw_zenoh.sim import registry as roster
@@ -61,7 +62,10 @@ def admit(core: WorldCore, req: RegisterRequest, now_ns: int) -> tuple[RegisterR
             )
             return _refuse(core, req, why)
         try:
-            placed = registry.place(replace(spec, id=owned), registry.poses(core.state), skip=set(theirs))
+            legacy = Profile(core.cfg.profile) == Profile.CIBERRATO  # the legacy simulator's starts
+            placed = registry.place(
+                replace(spec, id=owned), registry.poses(core.state), skip=set(theirs), on_robots=legacy
+            )
         except Refused as e:
             return _refuse(core, req, str(e))
         entry = registry.add(placed, req.agent, now_ns)

@@ -104,12 +104,14 @@ class Presence:
         self.holding = ""
         return out
 
-    def complete(self) -> bool:
+    def complete(self, *, first: bool = False) -> bool:
         """Whether a tick may step as far as processes go: in lock-step, a robot needs a collision
         and a sensors process alive (a tick stepped without verdicts would hold every robot, and
         one without readings could not be answered; either would make a run depend on when those
-        processes joined)."""
-        return not (self.lockstep and self.registry.entries and not (self.sensors and self.collision))
+        processes joined); so does the ``first`` step of a legacy run in real time (the legacy
+        simulator never holds a robot at its start)."""
+        needed = self.lockstep or first
+        return not (needed and self.registry.entries and not (self.sensors and self.collision))
 
     def agent_registered(self, agent: str, now_ns: int) -> None:
         """An agent registered a robot: it is alive (it declares its token before it registers),

@@ -1,7 +1,9 @@
 """The radio's logic: robot-to-robot messages, delivered only within range.
 
 Defaults follow Ciber-Rato DCOSS: 8 m range, at most 100 bytes a message, at most 400 bytes
-heard per robot per tick; a message said during tick n is heard in tick n+1 by every robot
+heard per robot per tick (in a ciberrato-profile world, :attr:`RadioNode.legacy`, the legacy
+simulator's rules instead: at most 100 *characters* a message, no budget per tick); a message
+said during tick n is heard in tick n+1 by every robot
 (the speaker included) whose centre is closer than the range, in sender order. What is dropped
 (too long, over a robot's budget, from an unknown robot) is counted in a ``radio-dropped`` event.
 
@@ -51,10 +53,12 @@ class RadioNode:
         self._dropped: dict[str, int] = {}
         self._early: tuple[WorldState, dict[int, str]] | None = None  # delivered early: where, what
         self.corrections = 0  # ticks delivered early whose state proved the positions wrong
+        self.legacy = False  # the world's profile is ciberrato: characters, not bytes; no budget
 
     def on_say(self, msg: Say) -> None:
         """Keeps a robot's latest message of this tick (one per robot, the last wins)."""
-        if len(msg.text.encode("utf-8")) > self.cfg.max_message_bytes:
+        size = len(msg.text) if self.legacy else len(msg.text.encode("utf-8"))
+        if size > self.cfg.max_message_bytes:
             self._dropped["too_long"] = self._dropped.get("too_long", 0) + 1
             return
         self._said[msg.robot_id] = msg.text
@@ -108,7 +112,7 @@ class RadioNode:
             d = np.hypot(*(xy - xy[index[sender]]).T)
             for i in np.flatnonzero(d < self.cfg.range_m):
                 rid = msg.ids[int(i)]
-                if budget[rid] < size:
+                if budget[rid] < size and not self.legacy:
                     dropped["over_budget"] = dropped.get("over_budget", 0) + 1
                     continue
                 budget[rid] -= size

@@ -113,7 +113,12 @@ class Registry:
         return self._free_id(skip) if spec.x_m is None else self._next_id(skip)
 
     def place(
-        self, spec: RobotSpec, pose: dict[int, tuple[float, float, float]], *, skip: set[int] | None = None
+        self,
+        spec: RobotSpec,
+        pose: dict[int, tuple[float, float, float]],
+        *,
+        skip: set[int] | None = None,
+        on_robots: bool = False,
     ) -> RobotSpec:
         """Chooses the id and start pose of a new robot, or refuses it.
 
@@ -121,6 +126,8 @@ class Registry:
             spec: The requested spec.
             pose: Current poses of the registered robots (x, y, heading rad) by id.
             skip: Ids not given to a robot asking for any (0): the scenario's, for its agents.
+            on_robots: Accept a start on other robots' bodies, as the legacy simulator does (the
+                ciberrato profile: the Ciber2001 grid's starts are 1.0 apart, three touching discs).
 
         Returns:
             The spec with id and pose set.
@@ -155,8 +162,13 @@ class Registry:
             if len(hit):
                 raise Refused(f"start ({x:g}, {y:g}) puts the body on wall {int(hit[0])}; choose a free place")
         # only robots near enough to touch it (a body is within MAX_BODY_M of its pose): placing
-        # against every robot there made each registration of a flood slower than the last
-        others = [(i, q) for i, q in pose.items() if abs(q[0] - x) <= _REACH_M and abs(q[1] - y) <= _REACH_M]
+        # against every robot there made each registration of a flood slower than the last; none
+        # at all where starts may overlap (on_robots)
+        others = (
+            []
+            if on_robots
+            else [(i, q) for i, q in pose.items() if abs(q[0] - x) <= _REACH_M and abs(q[1] - y) <= _REACH_M]
+        )
         if placed.type == RobotType.DOOR:  # the leaves of one revolving door share its hub
             others = [(i, q) for i, q in others if i not in self.entries or self.entries[i].spec.type != RobotType.DOOR]
         if others:

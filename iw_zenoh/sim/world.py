@@ -244,7 +244,7 @@ class WorldCore:
         the processes a tick needs alive: :meth:`Presence.complete`)."""
         if self.stopped or len(self.registry.entries) < self.cfg.expect and self.tick == 0:
             return False
-        if not self.presence.complete():
+        if not self.presence.complete(first=self.tick == 0 and self._profile == Profile.CIBERRATO):
             return False
         return self.running or self.steps_left > 0
 

@@ -232,3 +232,20 @@ def test_fuzzed_xml_text_never_crashes_the_codec(text: str) -> None:
     data = f'<Actions LeftMotor="{text}"><Say>{text}</Say></Actions>'.encode()
     with contextlib.suppress(ProtocolError):
         parse_actions(data)
+
+
+def test_heard_text_goes_out_in_latin_1_with_a_question_mark_for_what_latin_1_cannot_hold() -> None:
+    text = "x" * 98 + "é€"  # 100 characters, 103 bytes of UTF-8
+    assert parse_actions(f"<Actions><Say><![CDATA[{text}]]></Say></Actions>".encode()).say == text
+    ours = build_measures(Measures(time=1, messages=((2, text),)))
+    assert b"<![CDATA[" + b"x" * 98 + b"\xe9?]]>" in ours  # e-acute is the one byte E9, the euro '?'
+    assert "é".encode() not in ours
+
+
+@given(st.text(st.characters(blacklist_categories=("Cc", "Cs")), max_size=100))
+def test_any_heard_text_makes_measures_that_parse_back_as_latin_1(text: str) -> None:
+    data = build_measures(Measures(time=1, messages=((2, text),)))
+    assert data.endswith(b"\n\x00")
+    root = etree.fromstring(data[:-1], etree.XMLParser(encoding="iso-8859-1"))
+    kept = text.encode("latin-1", "replace").decode("latin-1").replace("]]>", "]] >")
+    assert (root.find("Sensors/Message").text or "") == kept

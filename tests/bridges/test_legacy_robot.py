@@ -142,7 +142,7 @@ def test_measures_go_once_a_tick_unless_forced_and_deliver_what_was_heard() -> N
     p = SimParameters()
     robot = LegacyRobot(1)
     robot.reading = _reading_at(3, 1.0)
-    robot.heard = [(2, "hello")]
+    robot.heard = {3: [(2, "hello")]}
     first = robot.next_measures(3, p, running=True)
     assert first is not None
     assert b"hello" in first

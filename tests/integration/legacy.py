@@ -1,16 +1,20 @@
 """Our own legacy clients for the bridge's integration tests (what croblink.py and the Qt viewer do
 on the wire, :mod:`benchmarks.parity`, which ``benchmarks/c1_held.py`` shares) and a
-ciberrato-profile world to talk to."""
+ciberrato-profile world to talk to, and a busy process to run beside it."""
 
 from __future__ import annotations
 
+import contextlib
+import subprocess
+import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 from benchmarks.parity import LegacyClient, measures_of, udp_port
 from iw_zenoh import keys
 from tests.integration.harness import MAPS, Net, wait_alive
 
-__all__ = ["LegacyClient", "ciberrato_world", "measures_of", "udp_port"]
+__all__ = ["LegacyClient", "busy_cpu", "ciberrato_world", "measures_of", "udp_port"]
 
 
 def ciberrato_world(
@@ -41,6 +45,18 @@ def ciberrato_world(
         net.spawn("radio")
     net.spawn("bridge", "ciberrato", "--port", str(port), *(["--param", str(params)] if params else []), *bridge)
     bus = net.client()
-    for role, name in (("collision", "collision"), ("sensors", "sensors-1-1"), ("bridge", "ciberrato")):
+    alive = [("collision", "collision"), ("sensors", "sensors-1-1"), ("bridge", "ciberrato")]
+    for role, name in alive + ([("radio", "radio")] if radio else []):
         wait_alive(bus, keys.alive(net.sim, role, name))
     return port
+
+
+@contextlib.contextmanager
+def busy_cpu() -> Iterator[None]:
+    """A process spinning on a core beside the run (a loaded machine), stopped by its pid after."""
+    spin = subprocess.Popen([sys.executable, "-c", "while True: pass"], stdin=subprocess.DEVNULL)
+    try:
+        yield
+    finally:
+        spin.kill()
+        spin.wait(timeout=10)

@@ -72,3 +72,24 @@ def test_a_tick_delivered_early_is_checked_by_its_state_and_delivered_again_if_t
     assert all(isinstance(m, Hear | RadioBatch) for _, m in again)
     assert node.corrections == 1
     assert _heard(node.on_state(msgspec.structs.replace(held, tick=3))) == {}  # delivered once: not again
+
+
+def test_in_a_ciberrato_world_a_message_is_counted_in_characters_and_no_budget_drops_any() -> None:
+    node = RadioNode("s")
+    node.legacy = True
+    text = "a" * 99 + "é"  # 100 characters, 101 bytes: the legacy simulator keeps it
+    node.on_say(Say(robot_id=1, text=text))
+    for rid in (2, 3, 4, 5):
+        node.on_say(Say(robot_id=rid, text=str(rid) * 100))
+    node.on_say(Say(robot_id=6, text="b" * 101))  # 101 characters: dropped, as the legacy one does
+    out = node.on_state(_state([0.0, 1.0, 2.0, 3.0, 4.0, 5.0]))
+    assert _heard(out)[1] == [text] + [str(rid) * 100 for rid in (2, 3, 4, 5)]  # 500 bytes, all heard
+    ev = next(m for _, m in out if isinstance(m, Event))
+    assert ev.data == {"too_long": 1}
+
+
+def test_in_a_native_world_the_same_message_is_over_its_100_bytes() -> None:
+    node = RadioNode("s")
+    node.on_say(Say(robot_id=1, text="a" * 99 + "é"))
+    out = node.on_state(_state([0.0]))
+    assert _heard(out) == {}
