@@ -9,7 +9,13 @@ reply (a real viewer asks for the lab within 3 s) is let go; at most :data:`MAX_
 served (when all are taken, one silent past :data:`VIEWER_QUIET_S` gives its place to a new one,
 so a burst of ``<View/>`` keeps real viewers out for seconds at most); a second ``<View/>`` from a
 served viewer is answered from its own socket; a robot the world no longer holds for
-:data:`ROBOT_GONE_S` is let go.
+:data:`ROBOT_GONE_S` is let go. A legacy robot outlives its client (a silent one keeps its last
+command, as in the legacy simulator, and a client may say nothing while it waits for Start), so
+silence alone lets no robot go either; but at most :data:`MAX_ROBOTS` are served, each with its
+own socket, and when all are taken the robot whose client has been silent longest, past
+:data:`ROBOT_QUIET_S` (or that nothing listens for any more), gives its place and its socket to a
+new one: a flood of registrations that never speak costs a bounded number of descriptors and
+keeps no real client out.
 """
 
 from __future__ import annotations
@@ -22,12 +28,23 @@ from collections.abc import Collection
 
 from .transport import DatagramTransport, RobotLink, Viewer
 
-__all__ = ["MAX_VIEWERS", "ROBOT_GONE_S", "VIEWER_HANDSHAKE_S", "VIEWER_QUIET_S", "Client", "ClientTable"]
+__all__ = [
+    "MAX_ROBOTS",
+    "MAX_VIEWERS",
+    "ROBOT_GONE_S",
+    "ROBOT_QUIET_S",
+    "VIEWER_HANDSHAKE_S",
+    "VIEWER_QUIET_S",
+    "Client",
+    "ClientTable",
+]
 
 MAX_VIEWERS = 32  # viewers and panels served at once; more are refused with the reason
 VIEWER_HANDSHAKE_S = 10.0  # a viewer silent this long after its reply is let go (a real one: 3 s)
 VIEWER_QUIET_S = 5.0  # ... and one silent this long gives its place to a new viewer when all are taken
 ROBOT_GONE_S = 3.0  # a robot missing from the world's states this long is gone
+MAX_ROBOTS = 256  # legacy robots served at once, a socket each (a process has 1,024 descriptors by default)
+ROBOT_QUIET_S = 10.0  # ... and one whose client is silent this long gives its place when all are taken
 
 Peer = tuple[str, int]
 Client = Viewer | RobotLink
@@ -41,10 +58,14 @@ class ClientTable:
     Args:
         reception: The registration socket (watched too, with no client).
         max_viewers: Viewers and panels served at once.
+        max_robots: Legacy robots served at once.
     """
 
-    def __init__(self, reception: DatagramTransport, max_viewers: int = MAX_VIEWERS) -> None:
+    def __init__(
+        self, reception: DatagramTransport, max_viewers: int = MAX_VIEWERS, max_robots: int = MAX_ROBOTS
+    ) -> None:
         self.max_viewers = max_viewers
+        self.max_robots = max_robots
         self.sel = selectors.DefaultSelector()
         self.sel.register(reception, selectors.EVENT_READ, (reception, None))
         self.by_peer: dict[Peer, Client] = {}
@@ -151,6 +172,17 @@ class ClientTable:
     def silent_viewers(self, now: float, after_s: float = VIEWER_HANDSHAKE_S) -> list[Viewer]:
         """Viewers (not panels: they never speak) silent since their reply, ``after_s`` ago."""
         return [v for v in self.viewers("viewer") if not v.heard and now - v.since > after_s]
+
+    def robot_place(self, now: float) -> RobotLink | None | bool:
+        """Whether a new robot may be served: True while fewer than ``max_robots`` are; else the
+        robot to let go for it (its client silent longest, past ROBOT_QUIET_S, or unreachable);
+        else False (every client spoke within ROBOT_QUIET_S: the new one is refused)."""
+        if len(self.by_robot) < self.max_robots:
+            return True
+        quiet = [r for r in self.by_robot.values() if r.unreachable or now - r.heard > ROBOT_QUIET_S]
+        if not quiet:
+            return False
+        return min(quiet, key=lambda r: (not r.unreachable, r.heard))
 
     def gone_robots(self, held: Collection[int], now: float) -> list[RobotLink]:
         """Notes which robots a state of the world holds; those it has not held for ROBOT_GONE_S."""

@@ -39,7 +39,7 @@ from iw_zenoh.messages import (
 from iw_zenoh.runtime import NodeIO
 from iw_zenoh.ticks import TickWindow
 
-from .clients import ClientTable
+from .clients import ROBOT_QUIET_S, ClientTable
 from .codec import parse_actions, parse_viewer_command
 from .delivery import Delivery
 from .feed import WorldFeed
@@ -154,6 +154,8 @@ class Bridge:
         except ProtocolError as e:
             self._refuse(peer, str(e))  # the legacy server answers nothing to what does not parse
             return
+        if not self._robot_place(peer, time.monotonic()):
+            return
         info = self.feed.world_info()
         adm = self.registrar.admit(reg, peer, info, self.clients.by_robot, time.monotonic())
         if adm.refused:
@@ -162,6 +164,22 @@ class Bridge:
                 self._answer_alone(build_refusal(), peer)
         elif adm.viewer and adm.params is not None:
             self._viewer(adm.viewer, peer, build_reply(adm.params, n_beacons=adm.nb), known)
+
+    def _robot_place(self, peer: Peer, now: float) -> bool:
+        """Whether a new robot from ``peer`` may be served: room, or made by letting go the robot
+        whose client has been silent longest (it is removed from the world too: nobody drives it);
+        refused, answered with a refusal, when every served client spoke lately."""
+        place = self.clients.robot_place(now)
+        if place is False:
+            served = self.clients.max_robots
+            self._refuse(peer, f"{served} legacy robots are served, each heard within {ROBOT_QUIET_S:g} s")
+            self._answer_alone(build_refusal(), peer)
+            return False
+        if isinstance(place, RobotLink):
+            silent = "nothing listens for it" if place.unreachable else f"silent {now - place.heard:.0f} s"
+            self._let_go(place, f"{silent}: its place is given to a new robot")
+            self._controls.append(Control(command="remove", robot_id=place.robot.robot_id))
+        return True
 
     def _viewer(self, kind: str, peer: Peer, reply: bytes, known: Viewer | None) -> None:
         """Serves a viewer or panel from a socket of its own (its own again, if it is served)."""
@@ -191,7 +209,8 @@ class Bridge:
         placed = reply.spec
         if placed is not None and placed.x is not None and placed.y is not None:
             robot.start = robot.pose = (placed.x, placed.y)
-        link = RobotLink(peer, t, robot, seen=time.monotonic())
+        now = time.monotonic()
+        link = RobotLink(peer, t, robot, seen=now, heard=now)
         self.clients.add(link)
         self.robots[robot.robot_id] = robot
         self.referee.game(robot)  # its state machine and score, from its first step
@@ -203,6 +222,7 @@ class Bridge:
         if peer != c.addr:
             self._refuse(peer, f"a datagram on the socket of {c.addr[0]}:{c.addr[1]} from another address")
         elif isinstance(c, RobotLink):
+            c.heard = time.monotonic()
             self._on_actions(c.robot, data, peer)
         elif c.kind == "viewer":
             c.heard = True

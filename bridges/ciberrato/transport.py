@@ -199,6 +199,8 @@ class RobotLink:
         seen: When the world's state last held the robot (monotonic seconds; at first, when it
             was accepted).
         unreachable: Nothing listens at its address any more (told once).
+        heard: When its client last sent a datagram to its own socket (monotonic seconds; at
+            first, when it was accepted).
     """
 
     addr: Peer
@@ -206,3 +208,4 @@ class RobotLink:
     robot: LegacyRobot
     seen: float = 0.0
     unreachable: bool = False
+    heard: float = 0.0

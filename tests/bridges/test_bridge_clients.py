@@ -9,7 +9,7 @@ from iw_zenoh.bridges.ciberrato.guard import RECEPTION_PER_S
 from iw_zenoh.bridges.ciberrato.node import Bridge
 
 from iw_zenoh import keys
-from iw_zenoh.messages import Event, WorldState, decode, encode
+from iw_zenoh.messages import Control, Event, RegisterReply, RegisterRequest, RobotSpecMsg, WorldState, decode, encode
 from tests.bridges.fakes import FakeBus, FakeTransport, Rig
 
 PEER = ("127.0.0.1", 40001)
@@ -252,3 +252,65 @@ def test_failed_sends_are_logged_once_a_second_with_their_count(rig: Rig, caplog
     lines = [r for r in caplog.records if "cannot send" in r.getMessage()]
     assert len(lines) == 1
     assert not own.closed  # a full buffer is not a gone viewer
+
+
+def _controls(bus: FakeBus) -> list[Control]:
+    return [decode(d, Control) for k, d in bus.published if k == keys.control("s")]
+
+
+def _world_gives_asked_ids(bus: FakeBus) -> None:
+    """The fake world accepts every robot with the id it asked for."""
+
+    def accept(key: str, payload: bytes) -> list[bytes]:
+        spec = decode(payload, RegisterRequest).spec
+        return [encode(RegisterReply(ok=True, robot_id=spec.id, spec=RobotSpecMsg(name=spec.name, id=spec.id)))]
+
+    bus.answer = accept
+
+
+def test_robots_are_bounded_and_the_longest_silent_gives_its_place(rig: Rig, monkeypatch: pytest.MonkeyPatch) -> None:
+    bridge, bus, reception, made = rig
+    now = [100.0]
+    monkeypatch.setattr("iw_zenoh.bridges.ciberrato.node.time.monotonic", lambda: now[0])
+    bridge.clients.max_robots = 2
+    _world_gives_asked_ids(bus)
+    for i, peer in enumerate([("127.0.0.1", 41001), ("127.0.0.1", 41002)], start=1):
+        reception.deliver(f'<Robot Id="{i}" Name="bot{i}" />'.encode(), peer)
+        bridge.poll(0)
+    first, second = made.made
+    now[0] += clients.ROBOT_QUIET_S - 2
+    second.deliver(b'<Actions LeftMotor="0.05" RightMotor="0.05"/>', ("127.0.0.1", 41002))
+    bridge.poll(0)
+    reception.deliver(b'<Robot Id="3" Name="bot3" />', PEER)  # both clients heard lately: refused
+    bridge.poll(0)
+    refusal = made.made[-1]  # answered from a socket of its own, closed at once
+    assert b'Status="Refused"' in refusal.sent[0][0]
+    assert refusal.closed
+    assert "2 legacy robots are served" in _refusals(bus)[-1].reason
+    assert set(bridge.clients.by_robot) == {1, 2}
+    assert _controls(bus) == []
+
+    now[0] += 3  # robot 1's client silent past ROBOT_QUIET_S (a flood's registrations never speak)
+    reception.deliver(b'<Robot Id="3" Name="bot3" />', PEER)
+    bridge.poll(0)
+    assert first.closed  # its socket given back
+    assert not second.closed
+    assert set(bridge.clients.by_robot) == {2, 3}  # the new robot served in its place
+    assert [(c.command, c.robot_id) for c in _controls(bus)] == [("remove", 1)]  # nobody drives robot 1 now
+
+
+def test_a_robot_nobody_listens_for_gives_its_place_first(rig: Rig) -> None:
+    bridge, bus, reception, made = rig
+    bridge.clients.max_robots = 2
+    _world_gives_asked_ids(bus)
+    for i, peer in enumerate([("127.0.0.1", 41001), ("127.0.0.1", 41002)], start=1):
+        reception.deliver(f'<Robot Id="{i}" Name="bot{i}" />'.encode(), peer)
+        bridge.poll(0)
+    first, second = made.made
+    second.gone()
+    bridge.poll(0)
+    reception.deliver(b'<Robot Id="3" Name="bot3" />', PEER)
+    bridge.poll(0)
+    assert second.closed
+    assert not first.closed
+    assert set(bridge.clients.by_robot) == {1, 3}
