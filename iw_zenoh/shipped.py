@@ -113,6 +113,9 @@ def copy_scenario(name: str, dest: Path) -> list[Path]:
         raise ConfigError(name, f"not a shipped scenario (they are: {_names()})")
     text = source.read_text(encoding="utf-8")
     named = sorted({m.group(2) for m in _QUOTED_PATH.finditer(text)})
+    for rel in named:  # every file it names lies in the shipped folder, and its copy in dest
+        if ".." in Path(rel).parts or not (data_dir() / rel).is_file():
+            raise ConfigError(f"{name}: {rel}", "names no shipped file: nothing copied")
     targets = [dest / f"{name}.toml", *(dest / rel for rel in named)]
     taken = [t for t in targets if t.exists()]
     if taken:

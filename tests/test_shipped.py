@@ -74,3 +74,16 @@ def test_iwz_scenarios_lists_copies_and_names_the_sample(tmp_path: Path, capsys:
     assert sample.read_bytes()[:8] == b"\x89MCAP0\r\n"
     assert iwz(["scenarios", "copy", "nosuch", str(tmp_path)]) == 2
     assert "not a shipped scenario" in capsys.readouterr().err
+
+
+def test_a_scenario_naming_a_file_outside_the_shipped_folder_copies_nothing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    data = tmp_path / "data"
+    (data / "scenarios").mkdir(parents=True)
+    (tmp_path / "secret.xml").write_text("<Lab/>")
+    (data / "scenarios" / "sly.toml").write_text('[world]\nmap = "../../secret.xml"\n')
+    monkeypatch.setattr(shipped, "data_dir", lambda: data)
+    with pytest.raises(ConfigError, match="names no shipped file"):
+        shipped.copy_scenario("sly", tmp_path / "out")
+    assert not (tmp_path / "out").exists()

@@ -62,6 +62,10 @@ class Board:
                         if isinstance(f.msg, Motors):
                             self.motors.append((time.monotonic(), f.msg))
 
+    def frames_since(self, t: float) -> int:
+        """How many motor frames came since ``t``."""
+        return sum(1 for s, _ in list(self.motors) if s >= t)
+
     def driven_since(self, t: float) -> set[tuple[int, int]]:
         """The powers sent since ``t``."""
         return {(m.left, m.right) for s, m in list(self.motors) if s >= t}
@@ -119,7 +123,8 @@ def test_wrapping_encoders_and_a_dead_battery_are_refused_hold_the_chair_and_nev
             assert ev.robot_id == 1, ev
             _until(lambda t=t0: (0, 0) in board.driven_since(t + 1.0), 10, f"{mode}: the chair was not held")
             held = time.monotonic()
-            time.sleep(1.0)  # a second of frames watched while held (a window, not synchronisation)
+            # 20 frames watched while held (a second at the bridge's 20 Hz): every one at zero powers
+            _until(lambda h=held: board.frames_since(h) >= 20, 10, f"{mode}: the bridge sent no frames")
             assert board.driven_since(held) == {(0, 0)}, f"{mode}: driven while held"
             assert bridge.popen.poll() is None, bridge.output()
             board.mode = "good"

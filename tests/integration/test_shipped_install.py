@@ -55,7 +55,9 @@ def test_an_installed_package_lists_its_scenarios_and_runs_the_demo_by_name(tmp_
     names = {line.split()[0] for line in listed.stdout.splitlines() if line and not line.startswith("run one")}
     assert names == {p.stem for p in (ROOT / "maps" / "scenarios").glob("*.toml")}
     assert str(tmp_path / "site") in listed.stdout
-    sample = subprocess.run([*iwz, "scenarios", "sample"], cwd=here, env=env, capture_output=True, text=True)
+    sample = subprocess.run(
+        [*iwz, "scenarios", "sample"], cwd=here, env=env, capture_output=True, text=True, timeout=60
+    )
     assert Path(sample.stdout.strip()).is_file()
 
     # lock-step, so the verdict does not hang on how loaded the machine is; recorded where a user's

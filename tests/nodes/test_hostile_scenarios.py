@@ -11,7 +11,6 @@ from __future__ import annotations
 import argparse
 import os
 import subprocess
-import time
 from pathlib import Path
 
 import msgspec
@@ -68,9 +67,8 @@ def _scenario(tmp: Path, case: str, body: str) -> Path:
     return scenario_in(tmp, "hostile", text)
 
 
-def _refused(scenario: Path, tmp: Path) -> tuple[int, str, float]:
-    """``iwz run SCENARIO``'s exit code, what it said, and how long it took (stopped if it started)."""
-    t0 = time.monotonic()
+def _refused(scenario: Path, tmp: Path) -> tuple[int, str]:
+    """``iwz run SCENARIO``'s exit code and what it said (stopped if it started)."""
     p = subprocess.Popen(
         iwz_run_argv(scenario, tmp / "logs", "hostile"), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
     )
@@ -78,18 +76,18 @@ def _refused(scenario: Path, tmp: Path) -> tuple[int, str, float]:
         out, err = p.communicate(timeout=20)
     except subprocess.TimeoutExpired:  # it started a run: stop it and everything it started
         out, err = stop_run(p)
-    return p.returncode, (out + err).strip(), time.monotonic() - t0
+    return p.returncode, (out + err).strip()
 
 
 def _assert_refused(scenario: Path, tmp: Path, field: str, word: str) -> None:
-    code, said, took = _refused(scenario, tmp)
+    code, said = _refused(scenario, tmp)
     assert code == 2, said
     assert len(said.splitlines()) == 1, said
     assert f": {field}: " in said or f": {field}[" in said, said
     assert word in said, said
     assert "Traceback" not in said, said
     assert "Error:" not in said, said
-    assert took < 10, f"{took:.1f} s"  # under a second unloaded: the interpreter's start is most of it
+    assert not (tmp / "logs").exists() or not any((tmp / "logs").iterdir()), "a role was started"
 
 
 @pytest.mark.parametrize(("case", "body", "field", "word"), CASES, ids=[c[0] for c in CASES])
