@@ -20,6 +20,7 @@ from iw_zenoh.sim import registry as roster
 from iw_zenoh.sim.registry import Refused, Registry
 
 if TYPE_CHECKING:
+    from iw_zenoh.core.spec import RobotSpec
     from iw_zenoh.sim.world import WorldCore
 
 __all__ = ["admit", "owned_id"]
@@ -47,27 +48,10 @@ def admit(core: WorldCore, req: RegisterRequest, now_ns: int) -> tuple[RegisterR
     if again is not None:  # its agent restarted: the same robot, answered with where it is now
         entry, placed = registry.reclaim(again, core.state, now_ns)
     else:
-        if req.agent and registry.per_agent[req.agent] >= roster.MAX_ROBOTS_PER_AGENT:
-            why = f"agent {req.agent!r} has {roster.MAX_ROBOTS_PER_AGENT} robots, the most one agent may register"
-            return _refuse(core, req, why)
-        owned = owned_id(core.cfg.owners, registry, req.agent, spec.id)
-        if isinstance(owned, str):
-            return _refuse(core, req, owned)
-        reserved = core.cfg.reserved or {}
-        mine = set(reserved.get(req.agent, ()))  # shared too (the chair's bridge and its agent)
-        theirs = {r: a for a, rs in reserved.items() if a != req.agent for r in rs if r not in mine}
-        if owned in theirs:
-            why = (
-                f"robot {owned} is the scenario's, for agent {theirs[owned]!r}; ask for another id, or 0 for a free one"
-            )
-            return _refuse(core, req, why)
-        try:
-            legacy = Profile(core.cfg.profile) == Profile.CIBERRATO  # the legacy simulator's starts
-            placed = registry.place(
-                replace(spec, id=owned), registry.poses(core.state), skip=set(theirs), on_robots=legacy
-            )
-        except Refused as e:
-            return _refuse(core, req, str(e))
+        placed_or_why = _place_new(core, req, spec)
+        if isinstance(placed_or_why, str):
+            return _refuse(core, req, placed_or_why)
+        placed = placed_or_why
         entry = registry.add(placed, req.agent, now_ns)
         core.roster_changed()
     entry.instance = instance
@@ -88,6 +72,28 @@ def admit(core: WorldCore, req: RegisterRequest, now_ns: int) -> tuple[RegisterR
         ),
     ]
     return reply, out
+
+
+def _place_new(core: WorldCore, req: RegisterRequest, spec: RobotSpec) -> RobotSpec | str:
+    """A new robot's id and start pose, or why it is refused: the agent's bound, the ids it may
+    ask for (its owners' and the scenario's reserved ids), a free place (on other robots too in
+    the ciberrato profile, as the legacy simulator's starts)."""
+    registry = core.registry
+    if req.agent and registry.per_agent[req.agent] >= roster.MAX_ROBOTS_PER_AGENT:
+        return f"agent {req.agent!r} has {roster.MAX_ROBOTS_PER_AGENT} robots, the most one agent may register"
+    owned = owned_id(core.cfg.owners, registry, req.agent, spec.id)
+    if isinstance(owned, str):
+        return owned
+    reserved = core.cfg.reserved or {}
+    mine = set(reserved.get(req.agent, ()))  # shared too (the chair's bridge and its agent)
+    theirs = {r: a for a, rs in reserved.items() if a != req.agent for r in rs if r not in mine}
+    if owned in theirs:
+        return f"robot {owned} is the scenario's, for agent {theirs[owned]!r}; ask for another id, or 0 for a free one"
+    legacy = Profile(core.cfg.profile) == Profile.CIBERRATO
+    try:
+        return registry.place(replace(spec, id=owned), registry.poses(core.state), skip=set(theirs), on_robots=legacy)
+    except Refused as e:
+        return str(e)
 
 
 def owned_id(

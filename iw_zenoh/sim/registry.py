@@ -161,24 +161,31 @@ class Registry:
             hit = self.scene.wall_tree.query(poly, predicate="intersects")
             if len(hit):
                 raise Refused(f"start ({x:g}, {y:g}) puts the body on wall {int(hit[0])}; choose a free place")
-        # only robots near enough to touch it (a body is within MAX_BODY_M of its pose): placing
-        # against every robot there made each registration of a flood slower than the last; none
-        # at all where starts may overlap (on_robots)
-        others = (
-            []
-            if on_robots
-            else [(i, q) for i, q in pose.items() if abs(q[0] - x) <= _REACH_M and abs(q[1] - y) <= _REACH_M]
-        )
-        if placed.type == RobotType.DOOR:  # the leaves of one revolving door share its hub
-            others = [(i, q) for i, q in others if i not in self.entries or self.entries[i].spec.type != RobotType.DOOR]
-        if others:
-            ob = Bodies.from_specs([self.entries[i].spec for i, _ in others])
-            polys = shapely.polygons(ob.world_outline(np.array([p for _, p in others])))
-            touching = np.flatnonzero(shapely.intersects(polys, poly))
-            if len(touching):
-                other = others[int(touching[0])][0]
-                raise Refused(f"start ({x:g}, {y:g}) puts the body on robot {other}; choose a free place")
+        other = None if on_robots else self._robot_under(placed, poly, (x, y), pose)
+        if other is not None:
+            raise Refused(f"start ({x:g}, {y:g}) puts the body on robot {other}; choose a free place")
         return placed
+
+    def _robot_under(
+        self,
+        placed: RobotSpec,
+        poly: shapely.Polygon,
+        at: tuple[float, float],
+        pose: dict[int, tuple[float, float, float]],
+    ) -> int | None:
+        """The robot a new body at ``poly`` would lie on, if any. Only robots near enough to touch
+        it are checked (a body is within MAX_BODY_M of its pose): checking every robot made each
+        registration of a flood slower than the last; a revolving door's leaves share its hub."""
+        x, y = at
+        others = [(i, q) for i, q in pose.items() if abs(q[0] - x) <= _REACH_M and abs(q[1] - y) <= _REACH_M]
+        if placed.type == RobotType.DOOR:
+            others = [(i, q) for i, q in others if i not in self.entries or self.entries[i].spec.type != RobotType.DOOR]
+        if not others:
+            return None
+        ob = Bodies.from_specs([self.entries[i].spec for i, _ in others])
+        polys = shapely.polygons(ob.world_outline(np.array([q for _, q in others])))
+        touching = np.flatnonzero(shapely.intersects(polys, poly))
+        return others[int(touching[0])][0] if len(touching) else None
 
     def add(self, spec: RobotSpec, agent: str, now_ns: int, *, pose: tuple[float, float, float] | None = None) -> Entry:
         """Adds an accepted robot (placed: its id and start pose set).
