@@ -233,8 +233,10 @@ def test_any_attachment_reads_or_is_refused_with_a_reason(data: bytes) -> None:
 def test_any_finite_twist_gives_finite_powers_within_reach(v: float, w: float, vmax: float, base: float) -> None:
     # a hostile cmd_vel of 1e308 m/s overflowed to inf, and inf/inf made the powers NaN
     left, right = powers_for_twist(v, w, vmax, base)
-    assert math.isfinite(left) and math.isfinite(right)
+    assert math.isfinite(left)
+    assert math.isfinite(right)
     assert abs(left) <= MAX_POWER + 1e-12
     assert abs(right) <= MAX_POWER + 1e-12
     if v > 1e150 and abs(w) < 1.0:  # straight on at full power, not stopped
-        assert math.isclose(left, MAX_POWER) and math.isclose(right, MAX_POWER)
+        assert math.isclose(left, MAX_POWER)
+        assert math.isclose(right, MAX_POWER)
