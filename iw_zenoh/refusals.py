@@ -5,11 +5,13 @@ A buggy or hostile sender flooding one key with bad messages used to cost one ev
 line per message (a hundred thousand events in seconds on the bus, every other process reading
 them). :class:`RefusalLimiter` decides which refusals are reported: the first of a (source,
 reason) in a period at once, the rest counted into the next report (or :meth:`RefusalLimiter.due`'s
-once the period is over and nothing more came). Pure: the caller gives the time.
+once the period is over and nothing more came). The caller gives the time; a lock lets several
+threads of one process (a serial thread, Zenoh's callbacks, the main loop) share one limiter.
 """
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 __all__ = ["PERIOD_NS", "Pending", "RefusalLimiter", "counted"]
@@ -46,6 +48,7 @@ class RefusalLimiter:
         self.reports_per_period = reports_per_period
         self._pending: dict[tuple[str, str], Pending] = {}
         self._window = (0, 0)  # (period start, reports in it)
+        self._lock = threading.Lock()  # admit and due from several threads: one at a time
         self.refused = 0  # every refusal seen
         self.reported = 0  # reports made
 
@@ -62,6 +65,10 @@ class RefusalLimiter:
             0 when it is only counted; else how many refusals the report made now stands for
             (this one and those counted since the last report).
         """
+        with self._lock:
+            return self._admit(source, reason, now_ns, text)
+
+    def _admit(self, source: str, reason: str, now_ns: int, text: str) -> int:
         self.refused += 1
         start, n = self._window
         if now_ns - start >= self.period_ns:
@@ -95,8 +102,15 @@ class RefusalLimiter:
 
     def _remember(self, pair: tuple[str, str], p: Pending) -> None:
         if pair not in self._pending and len(self._pending) >= self.kept:
-            for old in list(self._pending)[: self.kept // 2]:  # oldest first (insertion order)
-                del self._pending[old]
+            olds = [pair for pair in self._pending if pair[0] != "*"]  # ("*", reason) stay: one per reason
+            for old in olds[: self.kept // 2]:  # oldest first (insertion order)
+                gone = self._pending.pop(old)
+                if gone.counted:  # counted, not reported: said under ("*", reason), not lost
+                    star = self._pending.get(("*", old[1]))
+                    if star is None:
+                        star = self._pending[("*", old[1])] = Pending(gone.reported_ns)
+                    star.counted += gone.counted
+                    star.example = gone.example
         self._pending.pop(pair, None)
         self._pending[pair] = p
 
@@ -104,11 +118,12 @@ class RefusalLimiter:
         """The refusals counted and not yet reported whose period is over: ``(source, reason,
         count, example)`` each, to report now (a flood that stopped still has its count said)."""
         out = []
-        for pair, p in self._pending.items():
-            if p.counted and now_ns - p.reported_ns >= self.period_ns:
-                out.append((*pair, p.counted, p.example))
-                p.counted, p.reported_ns = 0, now_ns
-                self.reported += 1
+        with self._lock:
+            for pair, p in list(self._pending.items()):  # a copy: nothing changes it under us
+                if p.counted and now_ns - p.reported_ns >= self.period_ns:
+                    out.append((*pair, p.counted, p.example))
+                    p.counted, p.reported_ns = 0, now_ns
+                    self.reported += 1
         return out
 
 

@@ -48,6 +48,7 @@ SUPERVISOR_POLL_S = 0.5  # how often a started process looks whether its ``iwz r
 # then stopped, how long it has before it kills itself, as iwz run would have killed it: longer
 # than iwz run gives a recorder to finish its file (nodes.child.RECORDER_STOP_S, 45 s)
 SUPERVISOR_GRACE_S = 60.0
+REFUSALS_FLUSH_S = 1.0  # how often every role reports the refusals it counted (refusals.PERIOD_NS)
 PID_MAX = 4_194_304  # the largest pid Linux gives (its pid_max at most)
 
 M = TypeVar("M", bound=Message)
@@ -156,10 +157,38 @@ class NodeIO:
         if n:
             self._report_refusal(key, text, n, robot_id, tick)
 
-    def flush_refusals(self) -> None:
-        """Reports the refusals counted and not reported once their second is over (a loop calls it)."""
-        for key, _, n, text in self.refusals.due(time.monotonic_ns()):
+    def flush_refusals(self, *, last: bool = False) -> None:
+        """Reports the refusals counted and not reported once their second is over (``last``: all
+        of them, the process stopping); :meth:`report_refusals`' thread calls it once a second."""
+        now = time.monotonic_ns() + (self.refusals.period_ns if last else 0)
+        for key, _, n, text in self.refusals.due(now):
             self._report_refusal(key, text, n, -1, 0)
+
+    def report_refusals(self, every_s: float = REFUSALS_FLUSH_S) -> Callable[[], None]:
+        """Starts a thread that reports every role's counted refusals (:meth:`flush_refusals`) each
+        ``every_s``, so a flood that stopped has its count said whatever the role's loop does;
+        returns what stops it, after a last report of what is still counted."""
+        done = threading.Event()
+
+        def loop() -> None:
+            while not done.wait(every_s):
+                self._flush_safely(last=False)
+
+        thread = threading.Thread(target=loop, name="refusals", daemon=True)
+        thread.start()
+
+        def stop() -> None:
+            done.set()
+            thread.join()
+            self._flush_safely(last=True)
+
+        return stop
+
+    def _flush_safely(self, *, last: bool) -> None:
+        try:
+            self.flush_refusals(last=last)
+        except Exception as e:  # the bus closing under it: said, the role is not killed for it
+            logger.warning("could not report counted refusals: %s", e)
 
     def _report_refusal(self, key: str, text: str, n: int, robot_id: int, tick: int) -> None:
         logger.warning("refused a message on %s: %s", key, counted(text, n))
@@ -379,9 +408,11 @@ def start_role(
     proc_name = args.name or (name(args) if name is not None else role)
     proc = Process(args, bus, NodeIO(bus, sim, role, proc_name), sim, proc_name, prog)
     install_stop_signals(proc.io.stop, proc._stop)
+    stop_reports = proc.io.report_refusals()
     try:
         code = run(proc, prepared) if prepare is not None else run(proc)
     finally:
+        stop_reports()
         bus.close()
     return code or 0
 

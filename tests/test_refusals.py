@@ -58,3 +58,50 @@ def test_every_refusal_is_reported_once_in_a_count_and_each_pair_at_most_once_a_
 def test_a_report_says_how_many_it_stands_for() -> None:
     assert counted("bad", 1) == "bad"
     assert counted("bad", 3) == "bad (and 2 more like it on this key since the last report)"
+
+
+def test_pairs_forgotten_to_bound_memory_keep_their_counts_not_reported() -> None:
+    lim = RefusalLimiter(kept=4)
+    reported = sum(lim.admit(f"k{i}", "malformed", 0) + lim.admit(f"k{i}", "malformed", 1) for i in range(10))
+    assert len(lim._pending) <= 4 + 1  # the pairs kept, and ("*", reason) the forgotten counts went to
+    assert reported + sum(n for *_, n, _ in lim.due(2 * S)) == 20
+
+
+def test_threads_sharing_a_limiter_lose_no_count_and_raise_nothing() -> None:
+    # the serial bridge's thread refuses while the main thread's host does and flushes: due()
+    # iterated the dict another thread grew (RuntimeError, killing the serial thread)
+    import sys
+    import threading
+
+    lim = RefusalLimiter(kept=64, reports_per_period=1_000_000)
+    threads, per = 4, 5_000
+    go, errors, totals = threading.Barrier(threads + 1), list[BaseException](), [0] * (threads + 1)
+
+    def refuse(t: int) -> None:
+        go.wait()
+        try:
+            totals[t] = sum(lim.admit(f"k{t}-{i % 300}", "malformed", i) for i in range(per))
+        except BaseException as e:  # noqa: BLE001 - the test reports any
+            errors.append(e)
+
+    def flush() -> None:
+        go.wait()
+        try:
+            while any(th.is_alive() for th in workers):
+                totals[threads] += sum(n for *_, n, _ in lim.due(10 * S))
+        except BaseException as e:  # noqa: BLE001
+            errors.append(e)
+
+    old = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)  # threads switch as often as they can: the interleavings come
+    try:
+        workers = [threading.Thread(target=refuse, args=(t,)) for t in range(threads)]
+        flusher = threading.Thread(target=flush)
+        for th in [*workers, flusher]:
+            th.start()
+        for th in [*workers, flusher]:
+            th.join(60)
+    finally:
+        sys.setswitchinterval(old)
+    assert errors == []
+    assert sum(totals) + sum(n for *_, n, _ in lim.due(100 * S)) == threads * per

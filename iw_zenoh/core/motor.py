@@ -141,6 +141,11 @@ def powers_for_twist(v_mps: float, w_radps: float, max_speed_mps: float, wheel_b
     """
     if not (math.isfinite(v_mps) and math.isfinite(w_radps)):
         return 0.0, 0.0
+    # a huge finite command (1e308) would overflow to inf and then inf/inf = NaN: scaled down as a
+    # whole first (the same curvature), so every finite command gives finite powers
+    big = max(abs(v_mps), abs(w_radps))
+    if big > 1e6:  # still far beyond any chair's reach (so at full power), far from overflowing
+        v_mps, w_radps = v_mps / big * 1e6, w_radps / big * 1e6
     half = 0.5 * w_radps * wheel_base_m
     left, right = (v_mps - half) * MAX_POWER / max_speed_mps, (v_mps + half) * MAX_POWER / max_speed_mps
     over = max(abs(left), abs(right)) / MAX_POWER

@@ -34,7 +34,7 @@ from iw_zenoh.nodes.run_plan import RunPlan
 from iw_zenoh.nodes.run_signals import stop_on_signals
 from iw_zenoh.nodes.run_summary import print_summary
 from iw_zenoh.nodes.run_waits import wait_listening, wait_roles
-from iw_zenoh.nodes.secure_run import LAUNCHER
+from iw_zenoh.nodes.secure_run import LAUNCHER, refuse_ros2
 from iw_zenoh.nodes.tally import Tally
 from iw_zenoh.nodes.world_options import world_options
 from iw_zenoh.nodes.world_seal import SEAL_ENV, new_key, sealed
@@ -76,6 +76,8 @@ class Launcher:
         connect: str = "",
         listen: str = "",
     ) -> None:
+        if secure:
+            refuse_ros2(scenario)  # its ROS 2 keys are refused by the router: it could do nothing
         self.sc = scenario
         self.sim = keys.chunk(sim)
         if listen:

@@ -44,6 +44,25 @@ _ROLES = {
 }
 
 
+def refuse_ros2(sc: Scenario) -> None:
+    """A secured run cannot have ``iwz ros2`` (an ``[[agents]]`` program ``ros2``): the policy
+    grants our roles only, so its odom, /tf, /clock and rmw_zenoh tokens, and every cmd_vel to it,
+    would be dropped by the router without a word (docs/ros2.md). Refused before anything starts.
+
+    Raises:
+        ConfigError: The scenario has a ros2 agent.
+    """
+    for i, a in enumerate(sc.agents):
+        if a.program == "ros2":
+            raise ConfigError(
+                "--secure",
+                f"scenario {sc.name!r}: agent {agent_name(i, a)} is `iwz ros2`, which a secured run cannot serve: "
+                "the router's policy grants no ROS 2 keys (odom, /tf, /clock, cmd_vel, rmw_zenoh's tokens), so "
+                "the chair would never be driven; run it without --secure (and without [security] enabled), "
+                "or drop the ros2 agent (docs/ros2.md)",
+            )
+
+
 def bridge_robots(sc: Scenario) -> dict[str, list[int] | None]:
     """The scenario's bridges (their names, their identities) and the robots the world registers
     for each: any for the legacy one (its UDP clients choose their ids), the chair's for the

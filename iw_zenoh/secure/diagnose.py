@@ -80,8 +80,20 @@ def _probe(cert_path: Path, key_path: Path, ca_path: Path, endpoint: str) -> str
         return ""
     host, port = where
     ctx = ssl.SSLContext(ssl.PROTOCOL_TLS_CLIENT)
-    ctx.load_verify_locations(cafile=str(ca_path))
-    ctx.load_cert_chain(str(cert_path), str(key_path))
+    try:
+        ctx.load_verify_locations(cafile=str(ca_path))
+    except (ssl.SSLError, OSError) as e:
+        return f"cannot read the authority's certificate {ca_path}: {e}"
+    try:
+        ctx.load_cert_chain(str(cert_path), str(key_path))
+    except ssl.SSLError as e:
+        return (
+            f"the key {key_path} does not match the certificate {cert_path} ({e.reason or e}): an old key "
+            f"beside a certificate issued again? issue both again: `iwz secure issue {cert_path.stem} --role ROLE "
+            f"--dir {cert_path.parent}`"
+        )
+    except OSError as e:
+        return f"cannot read the key {key_path}: {e.strerror or e}"
     try:
         raw = socket.create_connection((host, port), timeout=PROBE_S)
     except OSError as e:

@@ -10,11 +10,11 @@ import msgspec
 import pytest
 
 from iw_zenoh.config import Ros2Section, load_scenario
+from iw_zenoh.errors import ConfigError
 from iw_zenoh.nodes import ros2
 from iw_zenoh.nodes.launcher import Launcher
+from iw_zenoh.nodes.launcher import main as run_main
 from iw_zenoh.nodes.secure_run import agent_robots
-from iw_zenoh.nodes.world_options import WorldOptions
-from iw_zenoh.secure.policy import load_policy
 
 MAPS = Path(__file__).resolve().parents[2] / "maps"
 
@@ -64,18 +64,16 @@ def test_the_scenario_refuses_a_bad_domain(tmp_path: Path) -> None:
         load_scenario(bad)
 
 
-def test_a_secured_demo_gives_iwz_ros2_an_identity_of_its_own_that_drives_only_its_chair(tmp_path: Path) -> None:
-    sc = load_scenario(MAPS / "scenarios" / "ros2-demo.toml")
-    launcher = Launcher(sc, port=7447, log_dir=tmp_path, status=False, secure=True)
-    launcher.plan()
-    (c,) = [c for c in launcher.children if c.name == "agent-1-ros2"]
-    assert c.argv[c.argv.index("iw_zenoh.cli") + 1] == "ros2"
-    assert c.argv[c.argv.index("--identity") + 1] == str(tmp_path / "ids" / "agent-1-ros2")
-    assert (tmp_path / "ids" / "agent-1-ros2.crt").is_file()
-    policy = load_policy(tmp_path / "ids" / "policy.toml")
-    assert list(policy.identities["agent-1-ros2"].roles) == ["agent"]
-    assert policy.identities["agent-1-ros2"].robots == [1]
-    world = next(w for w in launcher.children if w.role == "world")
-    assert isinstance(world.options, WorldOptions)
-    assert world.options.owners is not None
-    assert world.options.owners["agent-1-ros2"] == [1]  # the world registers no other chair for it
+def test_a_secured_run_with_iwz_ros2_is_refused_before_anything_starts_saying_why(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the policy grants our roles only: its odom, /tf, /clock, tokens and cmd_vel would all be
+    # dropped by the router without a word, the chair never driven
+    demo = str(MAPS / "scenarios" / "ros2-demo.toml")
+    assert run_main([demo, "--secure", "--no-status", "--no-record", "--log-dir", str(tmp_path)]) == 2
+    out = capsys.readouterr().out
+    assert "agent-1-ros2 is `iwz ros2`, which a secured run cannot serve" in out
+    assert "grants no ROS 2 keys" in out
+    assert not (tmp_path / "ids").exists()  # nothing issued, nothing started
+    with pytest.raises(ConfigError, match="without --secure"):
+        Launcher(load_scenario(demo), port=7447, log_dir=tmp_path, status=False, secure=True)

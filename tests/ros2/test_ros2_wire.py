@@ -12,7 +12,7 @@ import struct
 import pytest
 import zenoh
 import zenoh.ext
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 
 from iw_zenoh import keys
@@ -220,3 +220,23 @@ def test_any_attachment_reads_or_is_refused_with_a_reason(data: bytes) -> None:
     else:
         with pytest.raises(DecodeError, match="33 bytes"):
             graph.Attachment.decode(data)
+
+
+@given(
+    st.floats(allow_nan=False, allow_infinity=False),
+    st.floats(allow_nan=False, allow_infinity=False),
+    st.floats(0.1, 5),
+    st.floats(0.2, 2),
+)
+@example(1e308, 0.0, 0.1, 0.5)
+@example(-1.7976931348623157e308, 1.7976931348623157e308, 1.0, 0.6)
+def test_any_finite_twist_gives_finite_powers_within_reach(v: float, w: float, vmax: float, base: float) -> None:
+    # a hostile cmd_vel of 1e308 m/s overflowed to inf, and inf/inf made the powers NaN
+    left, right = powers_for_twist(v, w, vmax, base)
+    assert math.isfinite(left)
+    assert math.isfinite(right)
+    assert abs(left) <= MAX_POWER + 1e-12
+    assert abs(right) <= MAX_POWER + 1e-12
+    if v > 1e7 and abs(w) < 1.0:  # straight on at full power, not stopped
+        assert math.isclose(left, MAX_POWER)
+        assert math.isclose(right, MAX_POWER)

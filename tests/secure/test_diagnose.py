@@ -63,3 +63,15 @@ def test_nothing_listening_is_said_and_a_plain_endpoint_is_not_dialled(tmp_path:
     ids = _lab(tmp_path)
     assert "nothing answers at 127.0.0.1" in join_refused(str(ids / "boss"), [f"tls/127.0.0.1:{free_port()}"])
     assert join_refused(str(ids / "boss"), ["tcp/127.0.0.1:1", "tls/no-port"]) == ""
+
+
+def test_a_key_that_does_not_match_its_certificate_is_said_not_raised(tmp_path: Path) -> None:
+    from iw_zenoh.net import free_port
+
+    ids = _lab(tmp_path)
+    shutil.copy2(ids / "alice.key", ids / "boss.key")  # an old key beside a certificate issued again
+    why = join_refused(str(ids / "boss"), [f"tls/127.0.0.1:{free_port()}"])
+    assert "does not match the certificate" in why
+    assert str(ids / "boss.key") in why
+    (ids / "boss.key").write_text("")  # unreadable as a key
+    assert "does not match the certificate" in join_refused(str(ids / "boss"), [f"tls/127.0.0.1:{free_port()}"])
