@@ -98,7 +98,7 @@ class FoxgloveLive:
         host: The address it listens on.
     """
 
-    def __init__(self, io: NodeIO, host: str, port: int) -> None:
+    def __init__(self, io: NodeIO, host: str, port: int, allow_origins: Sequence[str] = ()) -> None:
         self.io = io
         self.host = host
         self._ctx = foxglove.Context()
@@ -109,7 +109,7 @@ class FoxgloveLive:
             name=f"iw-zenoh {io.sim}", host="127.0.0.1", port=0, context=self._ctx, server_listener=self._listener
         )
         try:
-            self._gate = FoxgloveGate(host, port, self._server.port)
+            self._gate = FoxgloveGate(host, port, self._server.port, allow_origins)
         except OSError as e:
             self._server.stop()
             raise RuntimeError(e.strerror or str(e)) from None
@@ -234,13 +234,17 @@ class FoxgloveLive:
         self._server.stop()
 
 
-def start_foxglove_live(io: NodeIO, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT) -> FoxgloveLive:
+def start_foxglove_live(
+    io: NodeIO, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, allow_origins: Sequence[str] = ()
+) -> FoxgloveLive:
     """Serves the simulation ``io`` belongs to over the Foxglove WebSocket protocol.
 
     Args:
         io: The process's handle on the bus (its simulation is the one served).
         host: The address to listen on (default loopback only; ``0.0.0.0`` for every interface).
         port: The TCP port (0: any free one, then read ``.port``).
+        allow_origins: Web pages' origins let in beside Foxglove's and Lichtblick's apps and
+            loopback pages (:mod:`iw_zenoh.nodes.foxglove_gate`).
 
     Returns:
         The running server; ``close()`` stops it.
@@ -248,7 +252,7 @@ def start_foxglove_live(io: NodeIO, host: str = DEFAULT_HOST, port: int = DEFAUL
     Raises:
         RuntimeError: The port cannot be bound (foxglove-sdk's error, with its reason).
     """
-    return FoxgloveLive(io, host, port)
+    return FoxgloveLive(io, host, port, allow_origins)
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
@@ -256,6 +260,14 @@ def _arguments(p: argparse.ArgumentParser) -> None:
         "--host", default=DEFAULT_HOST, help=f"address to listen on (default {DEFAULT_HOST}: this machine only)"
     )
     p.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"TCP port (default {DEFAULT_PORT}; 0: any free)")
+    p.add_argument(
+        "--allow-origin",
+        action="append",
+        default=[],
+        metavar="ORIGIN",
+        help="also let web pages of ORIGIN read the run (e.g. https://studio.example; repeatable); "
+        "Foxglove's and Lichtblick's apps and pages on this machine's loopback names get in without it",
+    )
 
 
 def _check(args: argparse.Namespace) -> argparse.Namespace:
@@ -267,7 +279,7 @@ def _check(args: argparse.Namespace) -> argparse.Namespace:
 def _run(proc: Process, _args: argparse.Namespace) -> int:
     args = proc.args
     try:
-        live = start_foxglove_live(proc.io, args.host, args.port)
+        live = start_foxglove_live(proc.io, args.host, args.port, args.allow_origin)
     except RuntimeError as e:
         print(f"iwz foxglove: cannot listen on {args.host}:{args.port}: {e}. Is the port taken? Try --port", flush=True)
         return 2
@@ -302,7 +314,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             "Examples (then open ws://127.0.0.1:8765 in Foxglove: Open connection, Foxglove WebSocket):\n"
             "  iwz foxglove\n"
             "  iwz foxglove --sim demo --port 8766\n"
-            "  iwz foxglove --host 0.0.0.0 --connect tcp/10.0.0.5:7447    (a viewer on another machine)"
+            "  iwz foxglove --host 0.0.0.0 --connect tcp/10.0.0.5:7447    (a viewer on another machine)\n"
+            "  iwz foxglove --allow-origin https://lichtblick.example     (a self-hosted web app's pages)"
         ),
         arguments=_arguments,
         prepare=_check,  # before joining the bus
