@@ -6,8 +6,10 @@ behind :mod:`iw_zenoh.nodes.foxglove_gate`, which serves both names on the port 
 and this module offers it the same channels a recording has (:mod:`iw_zenoh.record.channels`: one
 per Zenoh key with its JSON Schema, and the derived ``/foxglove/scene``, ``/foxglove/tf`` and laser
 scans in Foxglove's own protobuf types), each declared when its first message arrives. The world's
-description (``world/info`` and the walls it draws) is sent once per revision, and again to a
-client when it subscribes to it. Foxglove or Lichtblick, connected to ``ws://HOST:PORT``, sees the scene and the
+description (``world/info`` and the walls it draws) is sent once (:class:`InfoLatch`: the same
+bytes again are not resent, another description replaces it, so a forged one cannot block the
+world's own; with the run's seal key only the world's sealed ones), and again to a client when it
+subscribes to it. Foxglove or Lichtblick, connected to ``ws://HOST:PORT``, sees the scene and the
 state and gets a scene update every tick. Loopback only unless another host is given.
 
 :func:`start_foxglove_live` is self-contained (a process that has a bus starts it: ``iwz
@@ -29,14 +31,16 @@ from foxglove.websocket import ChannelView, Client, ServerListener
 from iw_zenoh import keys
 from iw_zenoh.bus import Asked, Delivery, Handle, Inbox
 from iw_zenoh.errors import IwError
+from iw_zenoh.messages import WorldInfo, decode
 from iw_zenoh.nodes.foxglove_gate import FoxgloveGate
+from iw_zenoh.nodes.world_seal import seal_key, sealed
 from iw_zenoh.publishers import Publishers
 from iw_zenoh.record.channels import ChannelSpec, Derivation, key_channel
 from iw_zenoh.record.foxglove import SCENE_TOPIC, TF_TOPIC
 from iw_zenoh.runtime import NodeIO, Process, start_role
 from iw_zenoh.viewer.guard import is_loopback
 
-__all__ = ["DEFAULT_PORT", "FoxgloveLive", "main", "start_foxglove_live"]
+__all__ = ["DEFAULT_PORT", "FoxgloveLive", "InfoLatch", "main", "start_foxglove_live"]
 
 logger = logging.getLogger(__name__)
 
@@ -53,6 +57,40 @@ class _Revision(msgspec.Struct):
 
 
 _REVISION = msgspec.json.Decoder(_Revision)  # a state's revision alone, without decoding its arrays
+
+
+class InfoLatch:
+    """Which of the world's descriptions (``world/info``, published or answered) are served.
+
+    With the key ``iwz run`` gave its world (:mod:`iw_zenoh.nodes.world_seal`; a process that holds
+    it), only descriptions sealed under it: the world's own. Without it (the usual case: only the
+    world is given the key), any description unless it is the one served last, byte for byte (the
+    world's publication and its answer to the query are the same bytes): so the newest is served,
+    and a forged one carrying the current revision is replaced by the world's own when that comes,
+    instead of shutting it out for the whole revision.
+    """
+
+    def __init__(self, key: bytes | None) -> None:
+        self._key = key
+        self._last: bytes | None = None
+        self.refused = 0  # descriptions not sealed by the world (with a key only)
+
+    def take(self, data: bytes) -> bool:
+        """Whether ``data`` (a ``world/info`` payload) is served and becomes the latched one."""
+        if data == self._last:
+            return False
+        if self._key is not None:
+            try:
+                ok = sealed(decode(data, WorldInfo), self._key)
+            except IwError:
+                ok = False
+            if not ok:
+                self.refused += 1
+                if self.refused == 1:
+                    logger.warning("a world description not sealed by this run's world was not served")
+                return False
+        self._last = data
+        return True
 
 
 class _Listener(ServerListener):
@@ -121,7 +159,7 @@ class FoxgloveLive:
         # topic -> what a late subscriber needs (info, walls): its channel's spec and last message
         self._latched: dict[str, tuple[ChannelSpec, bytes]] = {}
         self._info_revision = -1
-        self._latched_revision: int | None = None  # the revision of the description latched
+        self._info = InfoLatch(seal_key())  # which world descriptions are served
         self._asked: Asked | None = None
         self._taken = 0  # answers to it served so far
         self._stop = threading.Event()
@@ -159,10 +197,8 @@ class FoxgloveLive:
         key, data, t = delivery
         kind = keys.topic_kind(key)
         if kind == "info":
-            rev = self._revision_of(data)
-            if rev is not None and rev == self._latched_revision:
-                return  # the same description again (published and asked for): sent once per revision
-            self._latched_revision = rev
+            if not self._info.take(data):
+                return  # the same description again (published and asked for), or not the world's
             self._latched[key] = (key_channel(key), data)
         self._channels.get(key).channel.log(data, log_time=t)  # declared from key_channel(key)
         if kind == "info" or (kind in ("state", "sensors") and self._drawing()):
@@ -172,13 +208,6 @@ class FoxgloveLive:
                     self._latched[spec.topic] = (spec, payload)  # the walls, drawn once per revision
         if kind == "state":
             self._want_info(data)
-
-    @staticmethod
-    def _revision_of(data: bytes) -> int | None:
-        try:
-            return _REVISION.decode(data).revision
-        except msgspec.DecodeError:
-            return None
 
     def _want_info(self, data: bytes) -> None:
         """Asks the world for its description when a state's revision is newer than the last one
