@@ -7,7 +7,7 @@ and this module offers it the same channels a recording has (:mod:`iw_zenoh.reco
 per Zenoh key with its JSON Schema, and the derived ``/foxglove/scene``, ``/foxglove/tf`` and laser
 scans in Foxglove's own protobuf types), each declared when its first message arrives. The world's
 description (``world/info`` and the walls it draws) is sent once (:class:`InfoLatch`: the same
-bytes again are not resent, another description replaces it, so a forged one cannot block the
+description again is not resent, another description replaces it, so a forged one cannot block the
 world's own; with the run's seal key only the world's sealed ones), and again to a client when it
 subscribes to it. Foxglove or Lichtblick, connected to ``ws://HOST:PORT``, sees the scene and the
 state and gets a scene update every tick. Loopback only unless another host is given.
@@ -64,32 +64,34 @@ class InfoLatch:
 
     With the key ``iwz run`` gave its world (:mod:`iw_zenoh.nodes.world_seal`; a process that holds
     it), only descriptions sealed under it: the world's own. Without it (the usual case: only the
-    world is given the key), any description unless it is the one served last, byte for byte (the
-    world's publication and its answer to the query are the same bytes): so the newest is served,
-    and a forged one carrying the current revision is replaced by the world's own when that comes,
-    instead of shutting it out for the whole revision.
+    world is given the key), any description unless it is the one served last but for its tick
+    and seal (the world's publication and its answer to the query differ only there): so the newest
+    is served, and a forged one carrying the current revision is replaced by the world's own when
+    that comes, instead of shutting it out for the whole revision.
     """
 
     def __init__(self, key: bytes | None) -> None:
         self._key = key
-        self._last: bytes | None = None
+        self._last: WorldInfo | bytes | None = None
         self.refused = 0  # descriptions not sealed by the world (with a key only)
 
     def take(self, data: bytes) -> bool:
         """Whether ``data`` (a ``world/info`` payload) is served and becomes the latched one."""
-        if data == self._last:
+        try:
+            info: WorldInfo | None = decode(data, WorldInfo)
+        except IwError:
+            info = None
+        if self._key is not None and (info is None or not sealed(info, self._key)):
+            self.refused += 1
+            if self.refused == 1:
+                logger.warning("a world description not sealed by this run's world was not served")
             return False
-        if self._key is not None:
-            try:
-                ok = sealed(decode(data, WorldInfo), self._key)
-            except IwError:
-                ok = False
-            if not ok:
-                self.refused += 1
-                if self.refused == 1:
-                    logger.warning("a world description not sealed by this run's world was not served")
-                return False
-        self._last = data
+        same: WorldInfo | bytes = (
+            data if info is None else msgspec.structs.replace(info, tick=0, sim_time_ns=0, seal=msgspec.UNSET)
+        )
+        if same == self._last:
+            return False
+        self._last = same
         return True
 
 

@@ -15,7 +15,7 @@ import msgspec
 import pytest
 from websockets.exceptions import InvalidStatus
 from websockets.sync.client import ClientConnection, connect
-from websockets.typing import Subprotocol
+from websockets.typing import Origin, Subprotocol
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Inbox
@@ -51,7 +51,9 @@ def _live_run(net: Net) -> int:
     net.spawn("sensors")
     net.spawn("agent", "wanderer", "--count", "2", "--seed", "5", "--name", "herd")
     port = free_port()
-    fox = net.spawn("view", "--port", "0", "--foxglove-port", str(port))  # iwz view serves Foxglove live too
+    fox = net.spawn(  # iwz view serves Foxglove live too
+        "view", "--port", "0", "--foxglove-port", str(port), "--foxglove-allow-origin", "https://lichtblick.example"
+    )
     deadline = time.monotonic() + 60
     while not port_in_use(port):
         assert fox.popen.poll() is None, f"iwz view died:\n{fox.output()}"
@@ -103,6 +105,14 @@ def _scene(channel: dict[str, Any], payload: bytes) -> Any:  # noqa: ANN401 (a g
 
 def test_a_foxglove_client_is_offered_the_scene_and_state_and_sees_every_tick_drawn(net: Net) -> None:
     port = _live_run(net)
+    with pytest.raises(InvalidStatus) as foreign:  # any site's page the user visits may not read it
+        connect(f"ws://127.0.0.1:{port}", subprotocols=[Subprotocol(SDK)], origin=Origin("https://evil.example"))
+    assert foreign.value.response.status_code == 403
+    assert "--foxglove-allow-origin" in foreign.value.response.body.decode()
+    with connect(
+        f"ws://127.0.0.1:{port}", subprotocols=[Subprotocol(SDK)], origin=Origin("https://lichtblick.example")
+    ):
+        pass  # the origin added with --foxglove-allow-origin may
     assert _listens_on_loopback_only(port)
     state_key = keys.state(net.sim)
     with connect(f"ws://127.0.0.1:{port}", subprotocols=SUBPROTOCOLS, open_timeout=30) as ws:  # type: ignore[arg-type]
@@ -199,7 +209,7 @@ def test_iwz_foxglove_serves_both_subprotocols_and_tells_a_refused_client_which(
     net.spawn("sensors")
     net.spawn("agent", "wanderer", "--count", "2", "--seed", "5", "--name", "herd")
     port = free_port()
-    fox = net.spawn("foxglove", "--port", str(port))
+    fox = net.spawn("foxglove", "--port", str(port), "--allow-origin", "https://lichtblick.example")
     deadline = time.monotonic() + 60
     while not port_in_use(port):
         assert fox.popen.poll() is None, f"iwz foxglove died:\n{fox.output()}"
@@ -217,6 +227,15 @@ def test_iwz_foxglove_serves_both_subprotocols_and_tells_a_refused_client_which(
     assert "offered foxglove.websocket.v2" in why
     assert fox.popen.poll() is None  # the refusal cost the server nothing
     _one_client(port, net.sim, "foxglove.sdk.v1")
+    # another site's page may not read the run; the origin added with --allow-origin may
+    with pytest.raises(InvalidStatus) as foreign:
+        connect(f"ws://127.0.0.1:{port}", subprotocols=[Subprotocol(SDK)], origin=Origin("https://evil.example"))
+    assert foreign.value.response.status_code == 403
+    assert "--allow-origin" in foreign.value.response.body.decode()
+    with connect(
+        f"ws://127.0.0.1:{port}", subprotocols=[Subprotocol(SDK)], origin=Origin("https://lichtblick.example")
+    ) as ws:
+        assert json.loads(ws.recv(timeout=30))["op"] == "serverInfo"
 
 
 def _described(live_port: int, sim: str, want: bytes, put: Callable[[], None]) -> list[bytes]:
