@@ -13,6 +13,14 @@ sdk's server listens on a loopback port of its own, and this gate listens where 
 * one offering neither (or no WebSocket at all) is refused with ``400`` and a body that says which
   subprotocols are served and which were offered.
 
+A handshake that carries an ``Origin`` (every browser's page sends one) is served only from the
+origins of Foxglove's and Lichtblick's own apps (:data:`APP_ORIGINS`), from pages served on this
+machine's loopback names (``http://127.0.0.1:*``, ``http://localhost:*``, ``http://[::1]:*``: a
+Lichtblick or Foxglove served locally) and from the origins the user adds (``--allow-origin``);
+any other is refused with ``403`` and a reason naming the flag: otherwise any web page the user
+visits could open ``ws://127.0.0.1:8765`` and read the live run. A handshake without ``Origin``
+(a desktop app, a script) passes: it is not a web page acting for another site.
+
 A request head larger than :data:`HEAD_MAX` or slower than :data:`HEAD_TIMEOUT_S` is refused, and
 at most :data:`CLIENTS_MAX` clients are served at once (more get ``503``): a flood costs a bounded
 amount, and other clients are unaffected.
@@ -24,8 +32,22 @@ import asyncio
 import contextlib
 import logging
 import threading
+from collections.abc import Iterable
+from urllib.parse import urlsplit
 
-__all__ = ["CLIENTS_MAX", "SDK", "SUBPROTOCOLS", "WEBSOCKET", "FoxgloveGate", "refusal", "rewrite_head"]
+from iw_zenoh.viewer.guard import is_loopback
+
+__all__ = [
+    "APP_ORIGINS",
+    "CLIENTS_MAX",
+    "SDK",
+    "SUBPROTOCOLS",
+    "WEBSOCKET",
+    "FoxgloveGate",
+    "origin_refusal",
+    "refusal",
+    "rewrite_head",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -36,6 +58,51 @@ HEAD_MAX = 16 * 1024  # a handshake is a few hundred bytes
 HEAD_TIMEOUT_S = 10.0  # a client that has not sent its handshake by then is dropped
 CLIENTS_MAX = 64  # clients served at once
 CHUNK = 64 * 1024
+# the origins the apps' own pages send: Foxglove's web app; the desktop apps of Foxglove and
+# Lichtblick (Electron, their page a file: URL) send none or "file://"
+APP_ORIGINS = ("https://app.foxglove.dev", "file://")
+ALLOW_FLAG = "--allow-origin (iwz foxglove) or --foxglove-allow-origin (iwz view)"
+
+
+def _norm(origin: str) -> str:
+    return origin.strip().lower().rstrip("/") if origin.strip().lower() != "file://" else "file://"
+
+
+def _origin(head: bytes) -> str | None:
+    """The request head's ``Origin`` header (``None``: it has none)."""
+    for line in head.split(b"\r\n")[1:]:
+        name, _, value = line.partition(b":")
+        if name.strip().lower() == b"origin":
+            return value.decode("latin-1").strip()
+    return None
+
+
+def origin_refusal(head: bytes, allowed: Iterable[str] = ()) -> bytes:
+    """The ``403`` for a request head whose ``Origin`` may not read the run (``b""``: it may).
+
+    Args:
+        head: The request head.
+        allowed: Origins the user added (``https://studio.example``), beside :data:`APP_ORIGINS`
+            and the loopback pages.
+    """
+    origin = _origin(head)
+    if origin is None:
+        return b""
+    norm = _norm(origin)
+    if norm in {_norm(o) for o in (*APP_ORIGINS, *allowed)}:
+        return b""
+    try:
+        o = urlsplit(norm)
+        if o.scheme in ("http", "https") and o.hostname and is_loopback(o.hostname):
+            return b""
+    except ValueError:
+        pass
+    why = (
+        f"Origin {origin[:100]!r} may not read this run: this Foxglove server (iw-zenoh) serves pages of "
+        f"{', '.join(APP_ORIGINS)} and of this machine's loopback names, so that another site's page cannot "
+        f"read it; to let that page in, add its origin with {ALLOW_FLAG}"
+    )
+    return refusal("403 Forbidden", why)
 
 
 def _offered(head: bytes) -> list[str]:
@@ -57,16 +124,19 @@ def refusal(status: str, why: str) -> bytes:
     ).encode() + body
 
 
-def rewrite_head(head: bytes) -> tuple[bytes, str | None, bytes]:
+def rewrite_head(head: bytes, allowed: Iterable[str] = ()) -> tuple[bytes, str | None, bytes]:
     """What to send the server for a client's request head, and how to answer the client.
 
     Args:
         head: The request head, up to and with its blank line.
+        allowed: Origins let in beside the apps' and loopback's (see :func:`origin_refusal`).
 
     Returns:
         ``(head to forward, name to give back, refusal)``: the name is ``None`` when the server's
         answer passes as it is; a non-empty refusal means: send it and close (nothing forwarded).
     """
+    if refused := origin_refusal(head, allowed):
+        return b"", None, refused
     offered = _offered(head)
     if SDK in offered:
         return head, None, b""
@@ -90,16 +160,22 @@ class FoxgloveGate:
         host: Where clients connect.
         port: Its port (0: any free one, then read ``.port``).
         upstream: The loopback port of foxglove-sdk's server.
+        allow_origins: Web pages' origins let in beside the apps' and loopback's.
 
     Raises:
-        OSError: The address cannot be bound (its reason).
+        OSError: The address cannot be bound (its reason; nothing is left open).
     """
 
-    def __init__(self, host: str, port: int, upstream: int) -> None:
+    def __init__(self, host: str, port: int, upstream: int, allow_origins: Iterable[str] = ()) -> None:
         self._upstream = upstream
+        self._allowed = tuple(allow_origins)
         self._clients = 0
         self._loop = asyncio.new_event_loop()
-        self._server = self._loop.run_until_complete(asyncio.start_server(self._serve, host, port, limit=HEAD_MAX))
+        try:
+            self._server = self._loop.run_until_complete(asyncio.start_server(self._serve, host, port, limit=HEAD_MAX))
+        except BaseException:
+            self._loop.close()
+            raise
         self.port: int = self._server.sockets[0].getsockname()[1]
         self._thread = threading.Thread(target=self._loop.run_forever, name="foxglove-gate", daemon=True)
         self._thread.start()
@@ -117,7 +193,7 @@ class FoxgloveGate:
                 return
             except (asyncio.IncompleteReadError, TimeoutError, ConnectionError):
                 return
-            forward, name, refused = rewrite_head(head)
+            forward, name, refused = rewrite_head(head, self._allowed)
             if refused:
                 writer.write(refused)
                 return

@@ -6,8 +6,10 @@ behind :mod:`iw_zenoh.nodes.foxglove_gate`, which serves both names on the port 
 and this module offers it the same channels a recording has (:mod:`iw_zenoh.record.channels`: one
 per Zenoh key with its JSON Schema, and the derived ``/foxglove/scene``, ``/foxglove/tf`` and laser
 scans in Foxglove's own protobuf types), each declared when its first message arrives. The world's
-description (``world/info`` and the walls it draws) is sent once per revision, and again to a
-client when it subscribes to it. Foxglove or Lichtblick, connected to ``ws://HOST:PORT``, sees the scene and the
+description (``world/info`` and the walls it draws) is sent once (:class:`InfoLatch`: the same
+description again is not resent, another description replaces it, so a forged one cannot block the
+world's own; with the run's seal key only the world's sealed ones), and again to a client when it
+subscribes to it. Foxglove or Lichtblick, connected to ``ws://HOST:PORT``, sees the scene and the
 state and gets a scene update every tick. Loopback only unless another host is given.
 
 :func:`start_foxglove_live` is self-contained (a process that has a bus starts it: ``iwz
@@ -29,14 +31,16 @@ from foxglove.websocket import ChannelView, Client, ServerListener
 from iw_zenoh import keys
 from iw_zenoh.bus import Asked, Delivery, Handle, Inbox
 from iw_zenoh.errors import IwError
+from iw_zenoh.messages import WorldInfo, decode
 from iw_zenoh.nodes.foxglove_gate import FoxgloveGate
+from iw_zenoh.nodes.world_seal import seal_key, sealed
 from iw_zenoh.publishers import Publishers
 from iw_zenoh.record.channels import ChannelSpec, Derivation, key_channel
 from iw_zenoh.record.foxglove import SCENE_TOPIC, TF_TOPIC
 from iw_zenoh.runtime import NodeIO, Process, start_role
 from iw_zenoh.viewer.guard import is_loopback
 
-__all__ = ["DEFAULT_PORT", "FoxgloveLive", "main", "start_foxglove_live"]
+__all__ = ["DEFAULT_PORT", "FoxgloveLive", "InfoLatch", "main", "start_foxglove_live"]
 
 logger = logging.getLogger(__name__)
 
@@ -53,6 +57,42 @@ class _Revision(msgspec.Struct):
 
 
 _REVISION = msgspec.json.Decoder(_Revision)  # a state's revision alone, without decoding its arrays
+
+
+class InfoLatch:
+    """Which of the world's descriptions (``world/info``, published or answered) are served.
+
+    With the key ``iwz run`` gave its world (:mod:`iw_zenoh.nodes.world_seal`; a process that holds
+    it), only descriptions sealed under it: the world's own. Without it (the usual case: only the
+    world is given the key), any description unless it is the one served last but for its tick
+    and seal (the world's publication and its answer to the query differ only there): so the newest
+    is served, and a forged one carrying the current revision is replaced by the world's own when
+    that comes, instead of shutting it out for the whole revision.
+    """
+
+    def __init__(self, key: bytes | None) -> None:
+        self._key = key
+        self._last: WorldInfo | bytes | None = None
+        self.refused = 0  # descriptions not sealed by the world (with a key only)
+
+    def take(self, data: bytes) -> bool:
+        """Whether ``data`` (a ``world/info`` payload) is served and becomes the latched one."""
+        try:
+            info: WorldInfo | None = decode(data, WorldInfo)
+        except IwError:
+            info = None
+        if self._key is not None and (info is None or not sealed(info, self._key)):
+            self.refused += 1
+            if self.refused == 1:
+                logger.warning("a world description not sealed by this run's world was not served")
+            return False
+        same: WorldInfo | bytes = (
+            data if info is None else msgspec.structs.replace(info, tick=0, sim_time_ns=0, seal=msgspec.UNSET)
+        )
+        if same == self._last:
+            return False
+        self._last = same
+        return True
 
 
 class _Listener(ServerListener):
@@ -98,7 +138,7 @@ class FoxgloveLive:
         host: The address it listens on.
     """
 
-    def __init__(self, io: NodeIO, host: str, port: int) -> None:
+    def __init__(self, io: NodeIO, host: str, port: int, allow_origins: Sequence[str] = ()) -> None:
         self.io = io
         self.host = host
         self._ctx = foxglove.Context()
@@ -109,7 +149,7 @@ class FoxgloveLive:
             name=f"iw-zenoh {io.sim}", host="127.0.0.1", port=0, context=self._ctx, server_listener=self._listener
         )
         try:
-            self._gate = FoxgloveGate(host, port, self._server.port)
+            self._gate = FoxgloveGate(host, port, self._server.port, allow_origins)
         except OSError as e:
             self._server.stop()
             raise RuntimeError(e.strerror or str(e)) from None
@@ -121,7 +161,7 @@ class FoxgloveLive:
         # topic -> what a late subscriber needs (info, walls): its channel's spec and last message
         self._latched: dict[str, tuple[ChannelSpec, bytes]] = {}
         self._info_revision = -1
-        self._latched_revision: int | None = None  # the revision of the description latched
+        self._info = InfoLatch(seal_key())  # which world descriptions are served
         self._asked: Asked | None = None
         self._taken = 0  # answers to it served so far
         self._stop = threading.Event()
@@ -159,10 +199,8 @@ class FoxgloveLive:
         key, data, t = delivery
         kind = keys.topic_kind(key)
         if kind == "info":
-            rev = self._revision_of(data)
-            if rev is not None and rev == self._latched_revision:
-                return  # the same description again (published and asked for): sent once per revision
-            self._latched_revision = rev
+            if not self._info.take(data):
+                return  # the same description again (published and asked for), or not the world's
             self._latched[key] = (key_channel(key), data)
         self._channels.get(key).channel.log(data, log_time=t)  # declared from key_channel(key)
         if kind == "info" or (kind in ("state", "sensors") and self._drawing()):
@@ -172,13 +210,6 @@ class FoxgloveLive:
                     self._latched[spec.topic] = (spec, payload)  # the walls, drawn once per revision
         if kind == "state":
             self._want_info(data)
-
-    @staticmethod
-    def _revision_of(data: bytes) -> int | None:
-        try:
-            return _REVISION.decode(data).revision
-        except msgspec.DecodeError:
-            return None
 
     def _want_info(self, data: bytes) -> None:
         """Asks the world for its description when a state's revision is newer than the last one
@@ -234,13 +265,17 @@ class FoxgloveLive:
         self._server.stop()
 
 
-def start_foxglove_live(io: NodeIO, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT) -> FoxgloveLive:
+def start_foxglove_live(
+    io: NodeIO, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, allow_origins: Sequence[str] = ()
+) -> FoxgloveLive:
     """Serves the simulation ``io`` belongs to over the Foxglove WebSocket protocol.
 
     Args:
         io: The process's handle on the bus (its simulation is the one served).
         host: The address to listen on (default loopback only; ``0.0.0.0`` for every interface).
         port: The TCP port (0: any free one, then read ``.port``).
+        allow_origins: Web pages' origins let in beside Foxglove's and Lichtblick's apps and
+            loopback pages (:mod:`iw_zenoh.nodes.foxglove_gate`).
 
     Returns:
         The running server; ``close()`` stops it.
@@ -248,7 +283,7 @@ def start_foxglove_live(io: NodeIO, host: str = DEFAULT_HOST, port: int = DEFAUL
     Raises:
         RuntimeError: The port cannot be bound (foxglove-sdk's error, with its reason).
     """
-    return FoxgloveLive(io, host, port)
+    return FoxgloveLive(io, host, port, allow_origins)
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
@@ -256,6 +291,14 @@ def _arguments(p: argparse.ArgumentParser) -> None:
         "--host", default=DEFAULT_HOST, help=f"address to listen on (default {DEFAULT_HOST}: this machine only)"
     )
     p.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"TCP port (default {DEFAULT_PORT}; 0: any free)")
+    p.add_argument(
+        "--allow-origin",
+        action="append",
+        default=[],
+        metavar="ORIGIN",
+        help="also let web pages of ORIGIN read the run (e.g. https://studio.example; repeatable); "
+        "Foxglove's and Lichtblick's apps and pages on this machine's loopback names get in without it",
+    )
 
 
 def _check(args: argparse.Namespace) -> argparse.Namespace:
@@ -267,7 +310,7 @@ def _check(args: argparse.Namespace) -> argparse.Namespace:
 def _run(proc: Process, _args: argparse.Namespace) -> int:
     args = proc.args
     try:
-        live = start_foxglove_live(proc.io, args.host, args.port)
+        live = start_foxglove_live(proc.io, args.host, args.port, args.allow_origin)
     except RuntimeError as e:
         print(f"iwz foxglove: cannot listen on {args.host}:{args.port}: {e}. Is the port taken? Try --port", flush=True)
         return 2
@@ -302,7 +345,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             "Examples (then open ws://127.0.0.1:8765 in Foxglove: Open connection, Foxglove WebSocket):\n"
             "  iwz foxglove\n"
             "  iwz foxglove --sim demo --port 8766\n"
-            "  iwz foxglove --host 0.0.0.0 --connect tcp/10.0.0.5:7447    (a viewer on another machine)"
+            "  iwz foxglove --host 0.0.0.0 --connect tcp/10.0.0.5:7447    (a viewer on another machine)\n"
+            "  iwz foxglove --allow-origin https://lichtblick.example     (a self-hosted web app's pages)"
         ),
         arguments=_arguments,
         prepare=_check,  # before joining the bus

@@ -89,6 +89,13 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--no-foxglove", action="store_true", help="live: do not serve the Foxglove WebSocket protocol")
     p.add_argument(
+        "--foxglove-allow-origin",
+        action="append",
+        default=[],
+        metavar="ORIGIN",
+        help="live: also let web pages of ORIGIN read Foxglove live (repeatable; docs/foxglove.md)",
+    )
+    p.add_argument(
         "--max-pages",
         type=int,
         default=MAX_PAGES,
@@ -138,7 +145,7 @@ def _foxglove(proc: Process) -> FoxgloveLive | bool:
     """Starts Foxglove live beside the page; False (and why, printed) when its port is taken."""
     host, port = proc.args.host, proc.args.foxglove_port
     try:
-        live = start_foxglove_live(proc.io, host, port)
+        live = start_foxglove_live(proc.io, host, port, proc.args.foxglove_allow_origin)
     except RuntimeError as e:
         print(
             f"iwz view: cannot serve Foxglove on {host}:{port}: {e}; "

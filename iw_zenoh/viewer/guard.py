@@ -1,7 +1,8 @@
 """Who may use the viewer's page and what a page may ask (pure: no sockets, no clock of its own).
 
 A request is let in by its origin or by a key. ``Origin`` (sent by every browser on a WebSocket)
-must be the page's own (``http://`` + the request's ``Host``): a page of another site is refused.
+must be the page's own (``http://`` + the request's ``Host``): a page of another site is refused;
+``Origin: null`` (a sandboxed frame, a ``data:`` or ``file:`` page, on any site) gets in only with a key.
 A viewer served on loopback (the default) lets in, without a key, the loopback names of its own
 port (``127.0.0.1``, ``localhost``, ``[::1]``), with the right to steer; any other ``Host`` (DNS
 rebinding: a foreign name resolved to 127.0.0.1) needs a key. A viewer served on any other
@@ -79,10 +80,16 @@ class Access:
 
         Args:
             host: Its ``Host`` header.
-            origin: Its ``Origin`` header (``None``: not a browser's page, or the same origin).
+            origin: Its ``Origin`` header (``None``: not a browser's page, or the same origin;
+                ``"null"``: an opaque origin, any site's sandboxed frame, needs the key).
             key: The ``key`` in its address.
         """
         host = host or ""
+        if origin == "null" and not key:  # a sandboxed iframe, a data: or file: page: anyone's
+            return "", (
+                "Origin 'null' (a sandboxed frame, a data: or file: page) may be any site's page: it may not "
+                "watch or steer this viewer without the key; open the address iwz view printed"
+            )
         if origin is not None and origin != "null":
             o = urlsplit(origin)
             if o.scheme not in ("http", "https") or o.netloc.lower() != host.lower():

@@ -3,21 +3,31 @@
 from __future__ import annotations
 
 import base64
+import contextlib
 import json
 import struct
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import msgspec
 import pytest
 from websockets.exceptions import InvalidStatus
 from websockets.sync.client import ClientConnection, connect
+from websockets.typing import Origin, Subprotocol
 
 from iw_zenoh import keys
-from iw_zenoh.messages import WorldState, decode
+from iw_zenoh.bus import Inbox
+from iw_zenoh.messages import LabMsg, WorldInfo, WorldState, decode, encode
 from iw_zenoh.net import free_port, port_in_use
+from iw_zenoh.nodes.foxglove_gate import SDK
+from iw_zenoh.nodes.foxglove_live import start_foxglove_live
+from iw_zenoh.nodes.world_seal import SEAL_ENV, seal
 from iw_zenoh.record.channels import key_channel
 from iw_zenoh.record.foxglove import SCENE_TOPIC, TF_TOPIC
+from iw_zenoh.runtime import NodeIO
+from iw_zenoh.viewer.sources import LocalBus
 from tests.integration.harness import Net
 from tests.record.consumer import proto_message
 
@@ -41,7 +51,9 @@ def _live_run(net: Net) -> int:
     net.spawn("sensors")
     net.spawn("agent", "wanderer", "--count", "2", "--seed", "5", "--name", "herd")
     port = free_port()
-    fox = net.spawn("view", "--port", "0", "--foxglove-port", str(port))  # iwz view serves Foxglove live too
+    fox = net.spawn(  # iwz view serves Foxglove live too
+        "view", "--port", "0", "--foxglove-port", str(port), "--foxglove-allow-origin", "https://lichtblick.example"
+    )
     deadline = time.monotonic() + 60
     while not port_in_use(port):
         assert fox.popen.poll() is None, f"iwz view died:\n{fox.output()}"
@@ -93,6 +105,14 @@ def _scene(channel: dict[str, Any], payload: bytes) -> Any:  # noqa: ANN401 (a g
 
 def test_a_foxglove_client_is_offered_the_scene_and_state_and_sees_every_tick_drawn(net: Net) -> None:
     port = _live_run(net)
+    with pytest.raises(InvalidStatus) as foreign:  # any site's page the user visits may not read it
+        connect(f"ws://127.0.0.1:{port}", subprotocols=[Subprotocol(SDK)], origin=Origin("https://evil.example"))
+    assert foreign.value.response.status_code == 403
+    assert "--foxglove-allow-origin" in foreign.value.response.body.decode()
+    with connect(
+        f"ws://127.0.0.1:{port}", subprotocols=[Subprotocol(SDK)], origin=Origin("https://lichtblick.example")
+    ):
+        pass  # the origin added with --foxglove-allow-origin may
     assert _listens_on_loopback_only(port)
     state_key = keys.state(net.sim)
     with connect(f"ws://127.0.0.1:{port}", subprotocols=SUBPROTOCOLS, open_timeout=30) as ws:  # type: ignore[arg-type]
@@ -189,7 +209,7 @@ def test_iwz_foxglove_serves_both_subprotocols_and_tells_a_refused_client_which(
     net.spawn("sensors")
     net.spawn("agent", "wanderer", "--count", "2", "--seed", "5", "--name", "herd")
     port = free_port()
-    fox = net.spawn("foxglove", "--port", str(port))
+    fox = net.spawn("foxglove", "--port", str(port), "--allow-origin", "https://lichtblick.example")
     deadline = time.monotonic() + 60
     while not port_in_use(port):
         assert fox.popen.poll() is None, f"iwz foxglove died:\n{fox.output()}"
@@ -207,3 +227,59 @@ def test_iwz_foxglove_serves_both_subprotocols_and_tells_a_refused_client_which(
     assert "offered foxglove.websocket.v2" in why
     assert fox.popen.poll() is None  # the refusal cost the server nothing
     _one_client(port, net.sim, "foxglove.sdk.v1")
+    # another site's page may not read the run; the origin added with --allow-origin may
+    with pytest.raises(InvalidStatus) as foreign:
+        connect(f"ws://127.0.0.1:{port}", subprotocols=[Subprotocol(SDK)], origin=Origin("https://evil.example"))
+    assert foreign.value.response.status_code == 403
+    assert "--allow-origin" in foreign.value.response.body.decode()
+    with connect(
+        f"ws://127.0.0.1:{port}", subprotocols=[Subprotocol(SDK)], origin=Origin("https://lichtblick.example")
+    ) as ws:
+        assert json.loads(ws.recv(timeout=30))["op"] == "serverInfo"
+
+
+def _described(live_port: int, sim: str, want: bytes, put: Callable[[], None]) -> list[bytes]:
+    """The descriptions a client subscribed to ``world/info`` gets until ``want`` (or 15 s), the
+    client connected before ``put`` feeds the server (its channels are then advertised to it)."""
+    got: list[bytes] = []
+    with connect(f"ws://127.0.0.1:{live_port}", subprotocols=[Subprotocol(SDK)], open_timeout=30) as ws:
+        assert json.loads(ws.recv(timeout=30))["op"] == "serverInfo"
+        put()
+        # the walls' scene is advertised after the description's channel: that one is known by then
+        _subscribe(ws, 1, _advertised(ws, {keys.info(sim), SCENE_TOPIC})[keys.info(sim)])
+        deadline = time.monotonic() + 15
+        while want not in got and time.monotonic() < deadline:
+            with contextlib.suppress(TimeoutError):
+                got.append(_message(ws, timeout_s=max(deadline - time.monotonic(), 0.01))[1])
+    return got
+
+
+@pytest.mark.parametrize("key", [None, bytes(range(32))], ids=["no-key", "sealed"])
+def test_a_forged_description_of_the_current_revision_does_not_shut_out_the_worlds(
+    key: bytes | None, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    if key is None:
+        monkeypatch.delenv(SEAL_ENV, raising=False)
+    else:  # a process iwz run gave the seal key: only the world's sealed descriptions are served
+        monkeypatch.setenv(SEAL_ENV, key.hex())
+    bus = LocalBus(Inbox())
+    live = start_foxglove_live(NodeIO(bus, "s", "viewer", "foxglove"), "127.0.0.1", 0)
+    try:
+        inbox = bus._subs[keys.everything("s")]
+        info = WorldInfo(revision=3, lab=LabMsg(name="lab", width=20.0, height=10.0), period_ns=1, sim="s")
+        forged = encode(msgspec.structs.replace(info, lab=LabMsg(name="forged", width=1.0, height=1.0)))
+        real = encode(seal(info, key))
+
+        def put() -> None:
+            inbox.put((keys.info("s"), forged, time.time_ns()))  # first, with the revision the world has
+            inbox.put((keys.info("s"), real, time.time_ns()))
+
+        got = _described(live.port, "s", real, put)
+        assert real in got, f"the world's description was not served: {got}"
+        if key is not None:
+            assert forged not in got
+        inbox.put((keys.info("s"), real, time.time_ns()))  # the same again (published, then answered)
+        inbox.put((keys.info("s"), b'{"revision": 4', time.time_ns()))  # junk: one bad message
+        assert live._thread.is_alive()
+    finally:
+        live.close()

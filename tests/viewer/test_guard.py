@@ -44,6 +44,12 @@ def _access(host: str = "127.0.0.1") -> Access:
         ("tunnel.example:8080", "http://tunnel.example:8080", "s" * 24, "steer"),  # another name, with the key
         ("tunnel.example:8080", None, "w" * 24, "watch"),
         ("127.0.0.1:8080", None, "guessed", ""),
+        ("127.0.0.1:8080", "null", None, ""),  # a sandboxed iframe, a data: or file: page of any site
+        ("localhost:8080", "null", None, ""),
+        ("127.0.0.1:8080", "null", "guessed", ""),
+        ("127.0.0.1:8080", "null", "w" * 24, "watch"),  # ... with the key it printed
+        ("127.0.0.1:8080", "file://", None, ""),  # a file: page, in a browser that names it
+        ("127.0.0.1:8080", "file:///home/u/evil.html", "s" * 24, ""),
     ],
 )
 def test_a_loopback_viewer_lets_in_its_own_origin_or_a_key(
