@@ -11,7 +11,7 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
@@ -55,6 +55,7 @@ class Secured:
     world: Proc
     observer: ZenohBus
     rogue: ZenohBus
+    bystander: list[ZenohBus] = field(default_factory=list)  # the bystander's session, once it registered
 
     def session(self, identity: str | None, endpoint: str | None = None) -> ZenohBus:
         """A client session of the test as ``identity`` (None: without any certificate)."""
@@ -160,17 +161,23 @@ def test_a_rogue_agent_cannot_drive_another_agents_chair(secured: Secured) -> No
 
 
 def _bystander(secured: Secured, states: Inbox) -> tuple[float, float, float]:
-    """Robot 3, registered by the test for agent bystander (once) and never commanded by it, so
-    that any command which reaches the world shows; its pose."""
-    if 3 not in wait_msg(states, WorldState).ids:
+    """Robot 3, registered by the test for agent bystander (once: the bystander's session declares
+    the agent's liveliness token, as an agent host does, so the world keeps the robot) and never
+    commanded by it, so that any command which reaches the world shows; its pose. A robot 3 gone
+    since fails the test rather than being registered again at its start pose (where "it did not
+    move" would hold whether the grant did or not)."""
+    if not secured.bystander:
+        bystander = secured.session("bystander")
+        bystander.token(keys.alive("sec", "agent", "bystander"))
         spec = RobotSpecMsg(name="bystander-chair", id=3, x=10.0, y=5.0, dir=0.0)
         req = encode(RegisterRequest(spec=spec, agent="bystander"))
-        reply = decode(
-            secured.session("bystander").query(keys.register("sec", "bystander"), req, timeout_s=10)[0], RegisterReply
-        )
+        reply = decode(bystander.query(keys.register("sec", "bystander"), req, timeout_s=10)[0], RegisterReply)
         assert reply.ok, reply.reason
+        secured.bystander.append(bystander)
     now = wait_msg(states, WorldState).tick  # a state of 10 ticks later: every command sent before applied
-    x, y, h, _ = state_of(wait_msg(states, WorldState, lambda m: 3 in m.ids and m.tick > now + 10), 3)
+    later = wait_msg(states, WorldState, lambda m: m.tick > now + 10)
+    assert 3 in later.ids, "the bystander's robot 3 was removed from the world"
+    x, y, h, _ = state_of(later, 3)
     return x, y, h
 
 
