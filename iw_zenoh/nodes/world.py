@@ -130,7 +130,8 @@ class _World:
         """Handles every input waiting now (not verdicts: the tick takes those)."""
         now = self.clock.now_ns()
         core, io = self.core, self.io
-        self._take_alive(now)  # an agent whose token never came is lost at the next tick (begin_tick)
+        self._take_alive(now)
+        io.send_all(core.overdue(now))  # once a pass (not in begin_tick): a paused world's too
         self._registrations.extend(self.register_q.poll())
         answered = 0
         while len(self._registrations) > REGISTRATIONS_KEPT:  # the newest are told to ask again
