@@ -103,6 +103,7 @@ class Launcher:
         self.bus: ZenohBus | None = None  # the launcher's own session, from the router's start
         self._inboxes: tuple[Inbox, Inbox, Inbox] | None = None
         self.forged_infos = 0  # world descriptions ignored: not sealed by the world started
+        self.stale_infos = 0  # ... sealed by it, but older than the one kept (a replayed recording)
         self.stop_event = threading.Event()
         # each child stops by itself if this launcher is ever gone without stopping it (a kill)
         self.env = dict(os.environ, PYTHONUNBUFFERED="1", **{SUPERVISOR_ENV: str(os.getpid())})
@@ -218,12 +219,20 @@ class Launcher:
                 info = decode(data, WorldInfo)
             except IwError:
                 continue
-            if sealed(info, bytes.fromhex(self.seal)):
-                self.tally.info = info
-            else:  # not its world's: a restarted world resumes from the last description it sent
-                self.forged_infos += 1
+            if not sealed(info, bytes.fromhex(self.seal)):  # not its world's: a restarted world
+                self.forged_infos += 1  # resumes from the last description it sent
                 if self.forged_infos == 1:
                     logger.warning("a world description not from the world iwz run started was ignored")
+            elif self.tally.info is not None and info.revision < self.tally.info.revision:
+                self.stale_infos += 1  # its world's, but older than one kept: a replay (or late)
+                if self.stale_infos == 1:
+                    logger.warning(
+                        "a world description of revision %d, older than the %d kept, was ignored (a replay?)",
+                        info.revision,
+                        self.tally.info.revision,
+                    )
+            else:
+                self.tally.info = info
         for _, data, _ in events.drain():
             try:
                 self.tally.on_event(decode(data, Event))

@@ -134,7 +134,10 @@ class RunPlan:
                 c = self.child("agent", name, a.program, *a.argv, *spec, "--name", name)
             c.cwd, c.token = sc.base.resolve(), keys.chunk(name)
         if self.ids is not None:
-            identities(self.ids, self.sim, self.children, robots, [self.listen.rsplit(":", 1)[0].split("/")[-1]])
+            chair = {n: tuple(r) for n, r in bridge_robots(sc).items() if r is not None}  # the serial bridge's
+            identities(
+                self.ids, self.sim, self.children, robots | chair, [self.listen.rsplit(":", 1)[0].split("/")[-1]]
+            )
         hosts = sc.security.hosts if sc.security is not None else {}
         return [c for c in on_host(self.children, hosts, host) if not (remote_router and c.role == "router")]
 

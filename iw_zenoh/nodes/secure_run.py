@@ -111,7 +111,7 @@ def identities(
         ids: The folder.
         sim: The simulation the policy guards.
         children: The processes (the chair emulator, on no bus, gets none).
-        robots: Each agent's robots (:func:`agent_robots`).
+        robots: Each agent's robots (:func:`agent_robots`), and the serial bridge's (its chair's).
         hosts: Names or addresses the router is reached at, beside loopback.
 
     Returns:
@@ -139,7 +139,8 @@ def identities(
             issue(ids, name, server=name == ROUTER, hosts=tuple(hosts) if name == ROUTER else ())
         shard = "{}/{}".format(*shards[name]) if name in shards else ""
         if roles:
-            add_identity(policy, name, roles, robots=robots.get(name, ()) if "agent" in roles else (), shard=shard)
+            mine = robots.get(name, ()) if "agent" in roles or "serial" in roles else ()
+            add_identity(policy, name, roles, robots=mine, shard=shard)
     return policy
 
 

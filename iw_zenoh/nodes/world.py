@@ -39,6 +39,7 @@ from iw_zenoh.nodes.world_options import WorldOptions, add_arguments, parse_obst
 from iw_zenoh.nodes.world_seal import seal, seal_key
 from iw_zenoh.runtime import NodeIO, Process, options_from_args, start_role
 from iw_zenoh.sim.config import MS, WorldConfig
+from iw_zenoh.sim.registry import MAX_ROBOTS
 from iw_zenoh.sim.resume import resume
 from iw_zenoh.sim.world import WorldCore
 from iw_zenoh.ticks import too_far_ahead
@@ -74,10 +75,20 @@ class _World:
         # each robot's key and each agent's batch key keeps its newest 16 waiting (each robot's
         # newest command is what applies): a sender flooding its own key costs the loop 16
         # messages a pass and never pushes another's out (a host's batch holds every robot's
-        # command of a tick, a thousand chairs: ~15 kB; 4,096 agents' keys at most)
-        self.actions = FairInbox(PER_KEY_KEPT, wake=self.actions_wake)
+        # command of a tick, a thousand chairs: ~15 kB; 4,096 agents' keys at most); every robot
+        # the world may hold has its place, and keys of robots it does not hold (a forger's
+        # invented ids) take a few places of their own, never a held robot's
+        self.actions = FairInbox(
+            PER_KEY_KEPT,
+            wake=self.actions_wake,
+            keys_kept=MAX_ROBOTS,
+            known=self._holds,
+            name="the world's actions inbox",
+        )
         bus.subscribe(keys.all_actions(sim), self.actions)
-        self.batches = FairInbox(PER_KEY_KEPT, wake=self.io.wake, keys_kept=BATCHES_KEPT)
+        self.batches = FairInbox(
+            PER_KEY_KEPT, wake=self.io.wake, keys_kept=BATCHES_KEPT, name="the world's action batches inbox"
+        )
         bus.subscribe(keys.all_agent_actions(sim), self.batches)
         self.reports = self.io.inbox(keys.all_pose_reports(sim))
         self.control = self.io.inbox(keys.control(sim))
@@ -106,6 +117,11 @@ class _World:
             self._info_revision = self.core.revision
             self.io.send(keys.info(self.core.cfg.sim), seal(self.core.info(), self.seal_key))
 
+    def _holds(self, key: str) -> bool:
+        """Whether a robot's key is one of a robot the world holds (asked on the bus's thread: a
+        look-up in the roster the loop keeps)."""
+        return keys.robot_id_of(key) in self.core.registry.entries
+
     def _on_alive(self, key: str, alive: bool) -> None:
         self.alive_changes.append((key, alive))  # list.append is atomic; drained by the loop
         self.io.wake.set()
@@ -115,7 +131,7 @@ class _World:
         now = self.clock.now_ns()
         core, io = self.core, self.io
         self._take_alive(now)
-        io.send_all(core.overdue(now))
+        io.send_all(core.overdue(now))  # once a pass (not in begin_tick): a paused world's too
         self._registrations.extend(self.register_q.poll())
         answered = 0
         while len(self._registrations) > REGISTRATIONS_KEPT:  # the newest are told to ask again

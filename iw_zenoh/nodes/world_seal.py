@@ -2,7 +2,11 @@
 world a random key (in the world's environment only, never on the bus) and the world adds to
 every ``WorldInfo`` it publishes or answers an HMAC-SHA256 of it under that key. The launcher
 keeps a description for a restarted world only when its seal holds, so a forged one published
-on ``world/info`` cannot become the restarted world's roster (it emptied the world)."""
+on ``world/info`` cannot become the restarted world's roster (it emptied the world). The key is
+drawn anew by every ``iwz run``, so a description sealed in another run never holds; within the
+run, the launcher adopts no description whose revision is older than the one it keeps (a genuine
+one recorded off the bus and replayed before a crash would bring back an old roster), and a
+resumed world's revisions go on from the description it resumed (``sim/resume.py``)."""
 
 from __future__ import annotations
 

@@ -73,9 +73,10 @@ def _role_puts(role: str, sim: str, name: str, robots: tuple[int, ...], shard: t
             *(k(sim) for k in (keys.all_say, keys.all_pose_reports, keys.all_chairs)),
         ]
         + [keys.all_events(sim)],
-        # the serial bridge answers ticks with its chair's pose and publishes the chair's readings:
-        # no actions at all (an agent commands the chair)
-        "serial": [keys.all_pose_reports(sim), keys.all_chairs(sim), keys.all_events(sim)],
+        # the serial bridge answers ticks with its chair's pose and publishes the chair's readings,
+        # for its chair only (its ``robots``: a serial certificate moves no other Real robot or
+        # door); no actions at all (an agent commands the chair)
+        "serial": [k(sim, r) for r in robots for k in (keys.pose_report, keys.chair)] + [keys.all_events(sim)],
         "agent": [keys.agent_actions(sim, name), *own, keys.event(sim, "bad-message")],
         "viewer": [keys.event(sim, "bad-message")],
         "operator": [keys.control(sim), keys.event(sim, "bad-message")],
@@ -98,7 +99,7 @@ def grants(
         roles: Some of :data:`POLICY_ROLES`.
         sim: The simulation.
         name: The identity (certificate common name; its liveliness and agent name).
-        robots: The robots it drives (agents).
+        robots: The robots it drives (agents), or whose pose it reports (a serial bridge's chair).
         shard: The sensors shard ``(K, N)`` it computes (``None``: any).
 
     Raises:

@@ -119,9 +119,11 @@ def parse_policy(text: str, name: str = "policy") -> Policy:
             grants(entry.roles, policy.sim, name=ident, robots=tuple(entry.robots), shard=entry.shard_pair)
         except ValueError as e:
             raise ConfigError(f"{where}.shard", str(e)) from None
-        if entry.robots and "agent" not in entry.roles:
-            raise ConfigError(f"{where}.robots", "only an agent drives robots of its own")
-        for r in entry.robots:
+        if entry.robots and "agent" not in entry.roles and "serial" not in entry.roles:
+            raise ConfigError(
+                f"{where}.robots", "only an agent drives robots of its own (and a serial bridge reports its chair)"
+            )
+        for r in entry.robots if "agent" in entry.roles else ():  # a serial bridge's chair is an agent's too
             if r in owner:
                 who = "listed twice" if owner[r] == ident else f"driven by {owner[r]!r} already"
                 raise ConfigError(f"{where}.robots", f"robot {r} is {who}")
@@ -151,13 +153,13 @@ def load_policy(path: str | Path) -> Policy:
 
 def owners(policy: Policy) -> dict[str, tuple[int, ...] | None]:
     """Every identity that registers robots, and the robots the world registers for it: an
-    agent's own, any for a bridge or a serial bridge (trusted registrars of legacy robots and
-    of a chair: the world refuses them an agent's robot)."""
+    agent's own, a serial bridge's chair (its ``robots``), any for a bridge (a trusted registrar
+    of legacy robots, whose clients choose their ids: the world refuses it an agent's robot)."""
     out: dict[str, tuple[int, ...] | None] = {}
     for n, e in policy.identities.items():
-        if "agent" in e.roles:
+        if "agent" in e.roles or "serial" in e.roles:
             out[n] = tuple(e.robots)
-        elif "bridge" in e.roles or "serial" in e.roles:
+        elif "bridge" in e.roles:
             out[n] = None
     return out
 

@@ -234,7 +234,8 @@ class WorldCore:
 
     def overdue(self, now_ns: int) -> list[Outgoing]:
         """Agents whose liveliness never appeared within the grace period after they registered
-        are lost (:meth:`Presence.overdue`)."""
+        are lost (:meth:`Presence.overdue`). The world's loop asks once a pass (a paused world's
+        too); :meth:`begin_tick` removes their robots once the grace after that is over."""
         return self.presence.overdue(now_ns, int(self.cfg.grace_ms * MS))
 
     # --- the tick --------------------------------------------------------------------------
@@ -277,7 +278,6 @@ class WorldCore:
             self._paused = False
         self._last_tick_ns = now_ns
         grace_ns = self.cfg.grace_ms * MS
-        out += self.overdue(now_ns)
         gone = [
             (rid, e.agent)
             for rid, e in self.registry.entries.items()

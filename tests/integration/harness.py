@@ -231,8 +231,16 @@ def wait_alive(bus: ZenohBus, key: str, timeout_s: float = 30.0) -> None:
     assert up.wait(timeout_s), f"{key} did not come alive within {timeout_s} s"
 
 
+_TOKENS: set[tuple[ZenohBus, str]] = set()  # the agents' tokens the tests' buses declared
+
+
 def register(bus: ZenohBus, sim: str, spec: RobotSpecMsg, agent: str = "", timeout_s: float = 20.0) -> RegisterReply:
-    """Registers a robot from the test, retrying until a world answers."""
+    """Registers a robot from the test, retrying until a world answers. For a named ``agent``
+    the test's bus first declares that agent's liveliness token, as a real agent host does (the
+    world removes the robots of an agent whose token never appears within its grace period)."""
+    if agent and (bus, agent) not in _TOKENS:
+        _TOKENS.add((bus, agent))
+        bus.token(keys.alive(sim, "agent", agent))  # lives as long as the bus
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
         got = bus.query(keys.register(sim), encode(RegisterRequest(spec=spec, agent=agent)), timeout_s=1.0)

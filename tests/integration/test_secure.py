@@ -11,7 +11,7 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
@@ -23,6 +23,7 @@ from iw_zenoh.messages import (
     ActionBatch,
     Actions,
     Control,
+    PoseReport,
     RegisterReply,
     RegisterRequest,
     RobotSpecMsg,
@@ -55,6 +56,7 @@ class Secured:
     world: Proc
     observer: ZenohBus
     rogue: ZenohBus
+    bystander: list[ZenohBus] = field(default_factory=list)  # the bystander's session, once it registered
 
     def session(self, identity: str | None, endpoint: str | None = None) -> ZenohBus:
         """A client session of the test as ``identity`` (None: without any certificate)."""
@@ -74,12 +76,15 @@ def _identities(ids: Path) -> None:
     for name, role in ROLES.items():
         issue(ids, name)
         add_identity(ids / "policy.toml", name, [role])
-    for name, robot in (("victim", 1), ("rogue", 2), ("bystander", 3)):
+    for name, robots in (("victim", [1]), ("rogue", [2]), ("bystander", [3, 5])):
         issue(ids, name)
-        add_identity(ids / "policy.toml", name, ["agent"], robots=[robot])
-    for name, role in (("bridger", "bridge"), ("serialer", "serial")):  # a bridge's and a serial bridge's
+        add_identity(ids / "policy.toml", name, ["agent"], robots=robots)
+    for name, role, chair in (
+        ("bridger", "bridge", []),
+        ("serialer", "serial", [4]),
+    ):  # a bridge's and a serial bridge's
         issue(ids, name)
-        add_identity(ids / "policy.toml", name, [role])
+        add_identity(ids / "policy.toml", name, [role], robots=chair)
     issue(ids, "stranger")  # of the authority, but no identity of the policy
     text = (ids / "policy.toml").read_text().replace('sim = "default"', 'sim = "sec"')
     (ids / "policy.toml").write_text(text)
@@ -159,18 +164,32 @@ def test_a_rogue_agent_cannot_drive_another_agents_chair(secured: Secured) -> No
     assert after == pytest.approx(before, abs=1e-9), "the victim's chair moved under the rogue's actions"
 
 
+def _register_for_bystander(secured: Secured, spec: RobotSpecMsg) -> ZenohBus:
+    """Registers a robot for agent bystander from its session, which declares the agent's
+    liveliness token first (as an agent host does: the world keeps the robot); the session."""
+    if not secured.bystander:
+        bystander = secured.session("bystander")
+        bystander.token(keys.alive("sec", "agent", "bystander"))
+        secured.bystander.append(bystander)
+    req = encode(RegisterRequest(spec=spec, agent="bystander"))
+    answer = secured.bystander[0].query(keys.register("sec", "bystander"), req, timeout_s=10)
+    reply = decode(answer[0], RegisterReply)
+    assert reply.ok, reply.reason
+    return secured.bystander[0]
+
+
 def _bystander(secured: Secured, states: Inbox) -> tuple[float, float, float]:
-    """Robot 3, registered by the test for agent bystander (once) and never commanded by it, so
-    that any command which reaches the world shows; its pose."""
-    if 3 not in wait_msg(states, WorldState).ids:
-        spec = RobotSpecMsg(name="bystander-chair", id=3, x=10.0, y=5.0, dir=0.0)
-        req = encode(RegisterRequest(spec=spec, agent="bystander"))
-        reply = decode(
-            secured.session("bystander").query(keys.register("sec", "bystander"), req, timeout_s=10)[0], RegisterReply
-        )
-        assert reply.ok, reply.reason
+    """Robot 3, registered by the test for agent bystander (once: the bystander's session declares
+    the agent's liveliness token, as an agent host does, so the world keeps the robot) and never
+    commanded by it, so that any command which reaches the world shows; its pose. A robot 3 gone
+    since fails the test rather than being registered again at its start pose (where "it did not
+    move" would hold whether the grant did or not)."""
+    if not secured.bystander:
+        _register_for_bystander(secured, RobotSpecMsg(name="bystander-chair", id=3, x=10.0, y=5.0, dir=0.0))
     now = wait_msg(states, WorldState).tick  # a state of 10 ticks later: every command sent before applied
-    x, y, h, _ = state_of(wait_msg(states, WorldState, lambda m: 3 in m.ids and m.tick > now + 10), 3)
+    later = wait_msg(states, WorldState, lambda m: m.tick > now + 10)
+    assert 3 in later.ids, "the bystander's robot 3 was removed from the world"
+    x, y, h, _ = state_of(later, 3)
     return x, y, h
 
 
@@ -193,6 +212,28 @@ def test_a_bridge_identity_cannot_drive_an_agents_chair(secured: Secured, identi
     )
     after = _bystander(secured, states)
     assert after == pytest.approx(before, abs=1e-9), f"agent bystander's chair moved under {identity}'s actions"
+
+
+def test_a_serial_bridge_certificate_moves_no_real_robot_but_its_chair(secured: Secured) -> None:
+    """A serial bridge's certificate (a stolen one, a buggy bridge) reporting the pose of a Real
+    robot of another agent never moves it: it is granted pose reports for its chair only; the
+    robot's own agent's reports do move it (so the reports do reach the world)."""
+    states = Inbox(maxlen=1)
+    secured.observer.subscribe(keys.state("sec"), states)
+    _bystander(secured, states)  # the bystander's session, its token declared
+    owner = _register_for_bystander(secured, RobotSpecMsg(name="real", id=5, x=15.0, y=8.0, dir=0.0, type="Real"))
+    tick = wait_msg(states, WorldState, lambda m: 5 in m.ids).tick
+    report = encode(PoseReport(tick=tick, robot_id=5, x=2.0, y=2.0, dir_deg=90.0))
+    _flood(2.0, (secured.session("serialer"), keys.pose_report("sec", 5), report))
+    now = wait_msg(states, WorldState).tick
+    x, y, _, _ = state_of(wait_msg(states, WorldState, lambda m: m.tick > now + 10), 5)
+    assert (x, y) == pytest.approx((15.0, 8.0), abs=1e-6), "the serial certificate moved another agent's Real robot"
+    _flood(2.0, (owner, keys.pose_report("sec", 5), report))
+    now = wait_msg(states, WorldState).tick
+    x, y, _, _ = state_of(wait_msg(states, WorldState, lambda m: m.tick > now + 10), 5)
+    assert (x, y) == pytest.approx((2.0, 2.0), abs=1e-6), (
+        "its own agent's report did not move it: the test proves nothing"
+    )
 
 
 def test_the_rogue_drives_its_own_chair_so_its_messages_do_arrive(secured: Secured) -> None:

@@ -75,11 +75,11 @@ def test_a_secured_runs_bridge_is_an_identity_named_as_it_registers(
     [child] = [c for c in launcher.children if c.role == "bridge"]
     assert child.argv[child.argv.index("--identity") + 1] == str(tmp_path / "ids" / bridge)
     assert (tmp_path / "ids" / f"{bridge}.crt").is_file()
-    assert owners(policy)[bridge] is None  # it registers whatever ids its clients choose
+    mine = None if bridge == "ciberrato" else [1]  # a legacy client chooses its id; the chair is robot 1
+    assert owners(policy)[bridge] == (None if mine is None else tuple(mine))  # the serial bridge: its chair only
     world = next(c for c in launcher.children if c.role == "world")
     assert isinstance(world.options, WorldOptions)
     assert world.options.owners is not None
-    mine = None if bridge == "ciberrato" else [1]  # a legacy client chooses its id; the chair is robot 1
     assert world.options.owners[bridge] == mine  # the world registers under the name it asks with
     if bridge == "bridge-serial":
         assert child.argv[child.argv.index("--name") + 1] == bridge  # its own default is serial-PID
