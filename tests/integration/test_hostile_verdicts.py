@@ -87,15 +87,21 @@ def test_the_sensors_and_the_radio_refuse_forged_verdicts_and_proposals_saying_w
             "--spec-json", '{"noise": false}',
         )  # fmt: skip
     before = wait_msg(states, WorldState, lambda m: len(m.ids) == 2 and min(m.speed) > 0.05 and not m.held, 60)
+    # what the start said is not the forgeries' doing: a waypoint chair's first actions can come
+    # after its 500 ms watchdog (seen at tick 6-7, on the code of 774c441 too)
+    events.drain()
 
     seen: dict[tuple[str, str], list[str]] = {}
     deadline = time.monotonic() + ROUNDS_S
+    rounds = 0
     while True:
         st = wait_msg(states, WorldState, timeout_s=20)
         forged = _forgeries(net.sim, st)
+        # one forgery a key a round, in turn: a role reports one refusal per key and kind of
+        # reason a second (the rest are counted), so a round of all of them would show only the first
         for key, items in forged.items():
-            for data, _ in items:
-                bus.publish(key, data)
+            bus.publish(key, items[rounds % len(items)][0])
+        rounds += 1
         end = time.monotonic() + 1.0
         while time.monotonic() < end:
             for k, reasons in _refusals(events, net.sim).items():
