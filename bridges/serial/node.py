@@ -180,6 +180,10 @@ class SerialBridge:
             self._publish(now)
 
     def _publish(self, now: float) -> None:
+        if (
+            not self.robot_id
+        ):  # not registered yet: no robot's key to report on (a secured router grants only its chair's)
+            return
         self.ticked, self._published = False, now
         snap = self.core.snapshot(now)
         st = snap.status
