@@ -9,7 +9,10 @@ An agent is any object with ``spec()`` and ``on_sensors(reading, heard)``::
             return Command(0.1, 0.1)
 
 It may also have ``on_registered(robot_id, spec)``, called once the world has accepted its robot
-(with the id and the spec the world accepted). ``iwz agent ./my_agent.py:Name`` runs one from the
+(with the id and the spec the world accepted), and ``on_state(state)``: the world's committed
+state of the tick, handed to it just before that tick's ``on_sensors`` (in lock-step the host then
+also waits for the state before answering; an agent that judges itself by where it truly is, as a
+learned policy does: ``iwz agent policy``). ``iwz agent ./my_agent.py:Name`` runs one from the
 user's own file (``docs/first-agent.md``), and ``--spec chair.toml`` lays a spec file's fields
 over its robot (``docs/spec.md``).
 
@@ -49,6 +52,7 @@ from iw_zenoh.messages import (
     RegisterRequest,
     SensorReading,
     WorldInfo,
+    WorldState,
     decode,
     readings_of,
 )
@@ -138,6 +142,8 @@ class AgentHost:
         self._retry_at = 0.0  # when to try the orphans again
         self.chairs: Inbox | None = None  # real chairs' own readings, for agents that drive one (attach)
         self._chair_keys: set[int] = set()  # the robots whose chair readings are subscribed
+        self.states: Inbox | None = None  # the world's states, once an agent with on_state is hosted
+        self.state: WorldState | None = None  # the newest state taken
         bus.watch_alive(keys.all_alive(sim), self._on_alive)
         self.io.alive()
 
@@ -154,6 +160,7 @@ class AgentHost:
         """
         self._requests += 1
         asked = agent.spec()
+        self._want_states(agent)
         req = RegisterRequest(spec=spec_to_msg(asked), agent=self.name, request_id=f"{os.getpid()}-{self._requests}")
         # listen before asking when the id is known: in lock-step the world waits for this robot
         # from the first tick after it is accepted, and readings published before a subscription
@@ -197,6 +204,12 @@ class AgentHost:
         if callable(on_reg):
             on_reg(reply.robot_id, spec)
         return reply.robot_id
+
+    def _want_states(self, agent: Agent) -> None:
+        """Subscribes the world's states (before the robot is asked for: its first tick's state
+        is not missed) when the agent has ``on_state``."""
+        if self.states is None and callable(getattr(agent, "on_state", None)):
+            self.states = self.io.inbox(keys.state(self.sim), wake=self.inline)
 
     def _subscribe_sensors(self, robot_id: int) -> Handle:
         """Subscribes a robot's own sensors key into :attr:`readings`."""
@@ -298,6 +311,7 @@ class AgentHost:
         Raises:
             RegistrationRefused: The world did not list the robot within ``timeout_s``.
         """
+        self._want_states(agent)
         if robot_id not in self._subscribed:
             self._subscribed[robot_id] = self._subscribe_sensors(robot_id)
         deadline = time.monotonic() + timeout_s
@@ -327,6 +341,10 @@ class AgentHost:
             h = self.hosted.get(c.robot_id) if c is not None else None
             if c is not None and h is not None:
                 h.agent.on_chair(c)  # type: ignore[attr-defined]
+        for d in self.states.drain() if self.states is not None else []:
+            st = self.io.decode(d, WorldState)
+            if st is not None and self._in_window(d[0], st.tick) and (self.state is None or st.tick > self.state.tick):
+                self.state = st
         for d in self.radio.drain():
             b = self.io.decode(d, RadioBatch)
             if b is not None and self._in_window(d[0], b.tick):
@@ -379,6 +397,8 @@ class AgentHost:
                 return None  # wait for every robot's readings of tick n
             if self.radio_alive and n not in self._heard:
                 return None  # and for the radio's batch, so heard messages are the same every run
+            if self.states is not None and (self.state is None or self.state.tick < n):
+                return None  # and for the tick's state, when an agent is handed it
         return n
 
     def step(self, timeout_s: float = 0.2) -> bool:
@@ -402,6 +422,8 @@ class AgentHost:
             r = h.reading
             if r is None or r.tick <= h.answered:
                 continue
+            if self.state is not None and callable(on_state := getattr(h.agent, "on_state", None)):
+                on_state(self.state)
             cmd = h.agent.on_sensors(r, heard_now.get(h.robot_id, []))
             self.outbox.command(h.robot_id, cmd, tick=r.tick, sim_time_ns=r.sim_time_ns)
             h.answered = r.tick

@@ -44,6 +44,7 @@ COMMANDS: dict[str, tuple[str, str] | tuple[str, str, str]] = {
     "replay": ("iw_zenoh.nodes.replay", "play a recording back into Zenoh (rate, window, loop, seek)"),
     "incidents": ("iw_zenoh.record.incidents", "list a recording's collisions, near misses, stops and losses"),
     "report": ("iw_zenoh.record.report", "what a study measures of a run (or two side by side): table, JSON, HTML"),
+    "study": ("iw_zenoh.study.cli", "many lock-step runs (seeds x conditions) measured and compared: JSON, HTML"),
     "render": ("iw_zenoh.record.render", "draw a moment of a recording to PNG (map, bodies, cones, plots)"),
     "resim": ("iw_zenoh.record.resim", "re-run a lock-step recording exactly; swap one robot's agent"),
     "calibrate": ("iw_zenoh.record.calibrate", "fit MaxSpeed and AccelerationCurve to a real chair's log"),

@@ -16,6 +16,7 @@ import os
 import re
 import stat
 import tomllib
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -27,6 +28,7 @@ from iw_zenoh.maps import load_grid, load_lab
 from iw_zenoh.messages import Obstacle
 from iw_zenoh.sim.obstacles import Obstacles
 from iw_zenoh.specfile import SPEC_TABLE, check_spec, load_spec_file
+from iw_zenoh.study.fields import apply_sets
 
 __all__ = [
     "AgentEntry",
@@ -338,18 +340,22 @@ def _check_map(world: WorldSection, obstacles: tuple[Obstacle, ...]) -> None:
             raise ConfigError(f"obstacles[{i}]", why)
 
 
-def parse_scenario(text: str, base: Path, name: str = "scenario") -> Scenario:
+def parse_scenario(text: str, base: Path, name: str = "scenario", sets: Sequence[tuple[str, Any]] = ()) -> Scenario:
     """Reads a scenario from TOML text.
 
     Args:
         text: The TOML.
         base: Folder that relative paths are taken from.
         name: The scenario's name (its file name), unless the file names it.
+        sets: Fields changed from the command line, ``(path, value)`` (``--set``,
+            :mod:`iw_zenoh.study.fields`), before the scenario is checked.
 
     Raises:
         ConfigError: Naming the field and the reason.
     """
     doc = _toml(text, name)
+    if sets:
+        _numbers(apply_sets(doc, sets))
     try:
         sc = msgspec.convert(doc, ScenarioFile, dec_hook=_dec_path)
     except msgspec.ValidationError as e:
@@ -402,8 +408,8 @@ def _with_spec(agent: AgentEntry, i: int, base: Path) -> AgentEntry:
     return msgspec.structs.replace(agent, spec=table)
 
 
-def load_scenario(path: str | Path) -> Scenario:
-    """Reads a scenario file.
+def load_scenario(path: str | Path, sets: Sequence[tuple[str, Any]] = ()) -> Scenario:
+    """Reads a scenario file (``sets``: fields changed, as :func:`parse_scenario` takes them).
 
     Raises:
         ConfigError: Naming the file, the field and the reason, when it cannot be read or is refused.
@@ -416,6 +422,6 @@ def load_scenario(path: str | Path) -> Scenario:
     except UnicodeDecodeError as e:
         raise ConfigError(str(p), f"not a text file (UTF-8 TOML): {e.reason} at byte {e.start}") from None
     try:
-        return parse_scenario(text, p.parent, p.stem)
+        return parse_scenario(text, p.parent, p.stem, sets)
     except ConfigError as e:
         raise ConfigError(f"{p}: {e.field}", e.reason) from None

@@ -21,7 +21,7 @@ import gymnasium as gym
 from iw_zenoh.learn.chairnav import ChairNavEnv, default_chair
 from iw_zenoh.learn.nav import Goal, Reward
 from iw_zenoh.learn.parallel import ChairsEnv, parallel_env
-from iw_zenoh.learn.scenario import SCENARIO_ID, ScenarioEnv, make_env
+from iw_zenoh.learn.scenario import DISTRIBUTED_ID, SCENARIO_ID, ScenarioEnv, make_env
 from iw_zenoh.learn.vector import ChairVectorEnv, vector_env
 
 __all__ = [
@@ -43,3 +43,5 @@ if ENV_ID not in gym.registry:
     gym.register(id=ENV_ID, entry_point="iw_zenoh.learn.chairnav:ChairNavEnv")
 if SCENARIO_ID not in gym.registry:  # make_env's: any scenario, one robot the learner's
     gym.register(id=SCENARIO_ID, entry_point="iw_zenoh.learn.scenario:ScenarioEnv")
+if DISTRIBUTED_ID not in gym.registry:  # make_env(..., distributed=True)'s: over the real system
+    gym.register(id=DISTRIBUTED_ID, entry_point="iw_zenoh.learn.distributed:DistributedEnv")

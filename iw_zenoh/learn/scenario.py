@@ -33,6 +33,7 @@ from iw_zenoh.sim.local import LocalWorld
 __all__ = ["SCENARIO_ID", "ScenarioEnv", "build", "make_env"]
 
 SCENARIO_ID = "iw_zenoh/Scenario-v0"
+DISTRIBUTED_ID = "iw_zenoh/DistributedScenario-v0"  # make_env(..., distributed=True)'s
 
 
 def _agents(sc: Scenario) -> list[Any]:
@@ -153,8 +154,14 @@ class ScenarioEnv(gym.Env[np.ndarray, np.ndarray]):
         return frame(ep.world.world.scene.lab, ep.last.state, {r: ep.world.spec(r) for r in ep.world.ids}, ep.goals)
 
 
-def make_env(path: str | Path, robot: int, **kwargs: Any) -> gym.Env[np.ndarray, np.ndarray]:
+def make_env(
+    path: str | Path, robot: int, *, distributed: bool = False, **kwargs: Any
+) -> gym.Env[np.ndarray, np.ndarray]:
     """A scenario as an environment, made by Gymnasium (``iw_zenoh/Scenario-v0``, wrapped as
     ``gym.make`` wraps): ``make_env("maps/scenarios/convoy.toml", robot=1)``; keywords as
-    :class:`ScenarioEnv`'s. Its :class:`ScenarioEnv` is ``env.unwrapped``."""
-    return gym.make(SCENARIO_ID, path=path, robot=robot, **kwargs)
+    :class:`ScenarioEnv`'s. Its :class:`ScenarioEnv` is ``env.unwrapped``.
+
+    With ``distributed=True`` the same environment runs over the real system, every role a
+    process (``iw_zenoh/DistributedScenario-v0``, :class:`~iw_zenoh.learn.distributed.DistributedEnv`,
+    which also takes ``record=`` and ``log_dir=``); call ``close()`` to stop its processes."""
+    return gym.make(DISTRIBUTED_ID if distributed else SCENARIO_ID, path=path, robot=robot, **kwargs)

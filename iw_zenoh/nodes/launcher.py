@@ -29,7 +29,7 @@ from iw_zenoh.net import DEFAULT_PORT, NetConfig, free_port, port_in_use
 from iw_zenoh.nodes.child import Child, stop_in_order
 from iw_zenoh.nodes.recorder import CANNOT_WRITE
 from iw_zenoh.nodes.restarts import MAX_RESTARTS, Restarts
-from iw_zenoh.nodes.run_args import build_parser, default_recording, scenario_from_args
+from iw_zenoh.nodes.run_args import build_parser, default_recording, scenario_from_args, scenario_sets
 from iw_zenoh.nodes.run_plan import RunPlan
 from iw_zenoh.nodes.run_signals import stop_on_signals
 from iw_zenoh.nodes.run_summary import print_summary
@@ -383,7 +383,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     setup_logging(args.verbose, "run")
     try:
-        sc = scenario_from_args(load_scenario(resolve_scenario(args.scenario)), args)
+        sc = scenario_from_args(load_scenario(resolve_scenario(args.scenario), scenario_sets(args)), args)
         launcher = Launcher(
             sc,
             port=args.port,

@@ -5,14 +5,16 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
+from typing import Any
 
 import msgspec
 
 from iw_zenoh.config import Scenario, SecuritySection
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.errors import ConfigError
+from iw_zenoh.study.fields import parse_set
 
-__all__ = ["build_parser", "default_recording", "scenario_from_args"]
+__all__ = ["build_parser", "default_recording", "scenario_from_args", "scenario_sets"]
 
 
 def default_recording(name: str) -> Path:
@@ -31,6 +33,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=(
             "Examples:\n"
             "  iwz run demo                        (Ctrl-C stops everything cleanly)\n"
+            "  iwz run demo --lockstep --seed 7 --set world.duration_s=20   (one run of an iwz study)\n"
             "  iwz run demo --secure     (every process its certificate; the router enforces the roles)\n"
             "  iwz run demo --secure --no-audit   (enforced all the same, refusals not logged)\n"
             "  iwz run lab.toml --listen tls/10.0.0.1:7447 --ids ids          (host with the router)\n"
@@ -58,6 +61,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--record", metavar="FILE", help="record the run here (default recordings/SCENARIO-DATE-TIME.mcap)")
     p.add_argument("--no-record", action="store_true", help="do not record the run")
     p.add_argument("--lockstep", action="store_true", help="run in lock-step whatever the scenario says (reproducible)")
+    p.add_argument("--seed", type=int, metavar="N", help="the world's seed (the scenario's world.seed otherwise)")
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        type=_set_arg,
+        metavar="FIELD=VALUE",
+        help='change a scenario field, e.g. --set world.duration_s=30 --set \'agents[0].args=["--id", "1"]\' '
+        "(repeatable; VALUE as in the file; docs/study.md)",
+    )
     g = p.add_argument_group("security and several hosts (docs/security.md)")
     g.add_argument(
         "--secure",
@@ -80,6 +93,18 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--listen", default="", metavar="ENDPOINT", help="where the router listens (default loopback)")
     p.add_argument("-v", "--verbose", action="count", default=0, help="log more")
     return p
+
+
+def _set_arg(text: str) -> tuple[str, Any]:
+    try:
+        return parse_set(text)
+    except ConfigError as e:
+        raise argparse.ArgumentTypeError(e.reason) from None
+
+
+def scenario_sets(args: argparse.Namespace) -> list[tuple[str, Any]]:
+    """The fields ``--set`` and ``--seed`` change, in order (``--seed`` last: it wins)."""
+    return [*args.set, *([("world.seed", args.seed)] if args.seed is not None else [])]
 
 
 def scenario_from_args(sc: Scenario, args: argparse.Namespace) -> Scenario:

@@ -21,7 +21,7 @@ from iw_zenoh.record.incidents import clearance_arg
 from iw_zenoh.record.metrics import Goal, RunMeter, RunReport, parse_goals
 from iw_zenoh.record.reader import discard_cut_off, file_error, open_recording, print_notes
 
-__all__ = ["GOALS_META", "ROWS", "main", "report_of", "table"]
+__all__ = ["GOALS_META", "ROWS", "as_json", "main", "report_of", "table"]
 
 GOALS_META = ("iw.user", "goals")  # where the launcher writes the scenario's [[criteria.reach]]
 
@@ -170,7 +170,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
             return 2
     if args.json:
-        print(json.dumps({"runs": [{"file": f, **_as_json(r)} for f, r in reports]}))
+        print(json.dumps({"runs": [{"file": f, **as_json(r)} for f, r in reports]}))
     else:
         print(table(reports))
         if args.html:
@@ -178,7 +178,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-def _as_json(r: RunReport) -> dict[str, object]:
+def as_json(r: RunReport) -> dict[str, object]:
+    """A run's report as ``--json`` prints it (without its file's name): what ``iwz study`` keeps of each run."""
     return {
         "duration_s": r.duration_s,
         "ticks": r.ticks,

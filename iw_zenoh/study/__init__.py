@@ -1,0 +1,6 @@
+"""``iwz study``: many lock-step runs of a scenario (seeds, conditions), every ``iwz report``
+measure aggregated with its mean, spread and 95 % interval, conditions side by side, as JSON and
+an HTML page (docs/study.md).
+
+:mod:`~iw_zenoh.study.fields` (``--set FIELD=VALUE``) is also ``iwz run``'s.
+"""
