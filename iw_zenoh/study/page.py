@@ -48,7 +48,7 @@ def _cell(key: str, s: Mapping[str, Any] | None) -> str:
 def _svg(fig: Figure) -> str:
     buf = io.StringIO()
     with mpl.rc_context({"svg.fonttype": "none"}):  # text as text: a smaller page
-        FigureCanvasSVG(fig).print_svg(buf)
+        FigureCanvasSVG(fig).print_svg(buf)  # type: ignore[no-untyped-call]
     text = buf.getvalue()
     return text[text.index("<svg") :]
 

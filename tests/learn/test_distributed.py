@@ -12,6 +12,7 @@ import pytest
 
 import iw_zenoh.learn
 from iw_zenoh.errors import IwError
+from iw_zenoh.learn.distributed import DistributedEnv
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
 
@@ -81,8 +82,11 @@ def test_the_same_seed_and_actions_give_the_same_trajectory_in_process_and_over_
     env = iw_zenoh.learn.make_env(scenario, robot=1, goal=(16.0, 5.0), distributed=True, log_dir=tmp_path / "logs")
     try:
         got = _episode(env, 7)
-        pids = [c.proc.pid for c in env.unwrapped.launcher.children if c.proc is not None]
-        assert {c.role for c in env.unwrapped.launcher.children} >= {"router", "world", "collision", "sensors", "radio"}
+        run = env.unwrapped
+        assert isinstance(run, DistributedEnv)
+        assert run.launcher is not None
+        pids = [c.proc.pid for c in run.launcher.children if c.proc is not None]
+        assert {c.role for c in run.launcher.children} >= {"router", "world", "collision", "sensors", "radio"}
     finally:
         env.close()
     assert len(got) == len(want) == STEPS + 1

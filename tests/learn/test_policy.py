@@ -13,6 +13,7 @@ import pytest
 import iw_zenoh.learn
 from iw_zenoh.errors import ConfigError
 from iw_zenoh.learn.policy import load_policy
+from iw_zenoh.learn.scenario import ScenarioEnv
 from iw_zenoh.messages import WorldState
 from iw_zenoh.record.reader import RecordingReader
 from tests.integration.harness import iwz_run_argv
@@ -76,11 +77,14 @@ def test_a_policy_in_a_lockstep_run_drives_as_in_the_in_process_environment(scen
                 recorded[rec.message.tick] = rec.message
     policy = load_policy(f"{scenario.parent / 'steer.py'}:steer")
     env = iw_zenoh.learn.make_env(scenario, robot=1, goal=(12.0, 7.0))
+    inner = env.unwrapped
+    assert isinstance(inner, ScenarioEnv)
     obs, _ = env.reset(seed=3)
-    states = [env.unwrapped.episode.last.state]
+    assert inner.episode is not None
+    states = [inner.episode.last.state]
     for _ in range(24):
         obs, *_ = env.step(np.asarray(policy(obs), dtype=np.float32))
-        states.append(env.unwrapped.episode.last.state)
+        states.append(inner.episode.last.state)
     assert len(recorded) >= 25
     for st in states:  # robot by robot (the arrays are in the order the robots registered)
         assert _robots(st) == _robots(recorded[st.tick]), st.tick

@@ -46,7 +46,9 @@ def test_a_set_not_of_the_form_is_refused_by_the_parser(scenario: Path, capsys: 
     assert "FIELD=VALUE" in capsys.readouterr().err
 
 
-def test_a_refused_field_ends_iwz_run_before_anything_starts(scenario: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_refused_field_ends_iwz_run_before_anything_starts(
+    scenario: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     assert launcher.main([str(scenario), "--set", "world.duration_s=-5", "--no-record"]) == 2
     out = capsys.readouterr().out
     assert "world.duration_s" in out

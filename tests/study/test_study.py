@@ -62,7 +62,7 @@ def _run_and_report(scenario: Path, tmp: Path, seed: int) -> dict[str, object]:
     assert r.returncode in (0, 1), r.stdout + r.stderr
     rep = subprocess.run([*IWZ, "report", str(out), "--json"], capture_output=True, text=True, timeout=60)
     assert rep.returncode == 0, rep.stderr
-    [run] = json.loads(rep.stdout)["runs"]
+    run: dict[str, object] = json.loads(rep.stdout)["runs"][0]
     del run["file"]
     return run
 
