@@ -33,7 +33,6 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=(
             "Examples:\n"
             "  iwz run demo                        (Ctrl-C stops everything cleanly)\n"
-            "  iwz run demo --lockstep --seed 7 --set world.duration_s=20   (one run of an iwz study)\n"
             "  iwz run demo --secure     (every process its certificate; the router enforces the roles)\n"
             "  iwz run demo --secure --no-audit   (enforced all the same, refusals not logged)\n"
             "  iwz run lab.toml --listen tls/10.0.0.1:7447 --ids ids          (host with the router)\n"
@@ -60,17 +59,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-status", action="store_true", help="no live status line")
     p.add_argument("--record", metavar="FILE", help="record the run here (default recordings/SCENARIO-DATE-TIME.mcap)")
     p.add_argument("--no-record", action="store_true", help="do not record the run")
-    p.add_argument("--lockstep", action="store_true", help="run in lock-step whatever the scenario says (reproducible)")
-    p.add_argument("--seed", type=int, metavar="N", help="the world's seed (the scenario's world.seed otherwise)")
-    p.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        type=_set_arg,
-        metavar="FIELD=VALUE",
-        help='change a scenario field, e.g. --set world.duration_s=30 --set \'agents[0].args=["--id", "1"]\' '
-        "(repeatable; VALUE as in the file; docs/study.md)",
-    )
+    _add_study_arguments(p)
     g = p.add_argument_group("security and several hosts (docs/security.md)")
     g.add_argument(
         "--secure",
@@ -93,6 +82,26 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--listen", default="", metavar="ENDPOINT", help="where the router listens (default loopback)")
     p.add_argument("-v", "--verbose", action="count", default=0, help="log more")
     return p
+
+
+def _add_study_arguments(p: argparse.ArgumentParser) -> None:
+    """``--lockstep``, ``--seed`` and ``--set``: what one run of an ``iwz study`` changes."""
+    p.add_argument("--lockstep", action="store_true", help="run in lock-step whatever the scenario says (reproducible)")
+    p.add_argument(
+        "--seed",
+        type=int,
+        metavar="N",
+        help="the world's seed (the scenario's world.seed otherwise), e.g. iwz run demo --lockstep --seed 7",
+    )
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        type=_set_arg,
+        metavar="FIELD=VALUE",
+        help='change a scenario field, e.g. --set world.duration_s=30 --set \'agents[0].args=["--id", "1"]\' '
+        "(repeatable; VALUE as in the file; docs/study.md)",
+    )
 
 
 def _set_arg(text: str) -> tuple[str, Any]:
