@@ -11,11 +11,11 @@ from __future__ import annotations
 import argparse
 from dataclasses import replace
 
+from iw_zenoh.agent.places import point_arg, pose_arg
 from iw_zenoh.learn.chairnav import default_chair
 from iw_zenoh.learn.nav import ACTIONS, Goal
 from iw_zenoh.learn.policy import PolicyAgent, load_policy
-from iw_zenoh.places import point_arg, pose_arg
-from iw_zenoh.specfile import spec_with_args
+from iw_zenoh.scenario.specfile import spec_with_args
 
 __all__ = ["add_arguments", "make"]
 

@@ -28,20 +28,20 @@ import msgspec
 import numpy as np
 
 from iw_zenoh.agent import AgentHost
+from iw_zenoh.agent.hosting import Command
 from iw_zenoh.bus import ZenohBus
-from iw_zenoh.config import Scenario
+from iw_zenoh.bus.net import NetConfig, free_port
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import IwError
-from iw_zenoh.hosting import Command
+from iw_zenoh.launch.launcher import Launcher
+from iw_zenoh.launch.secure_run import asked_id
 from iw_zenoh.learn.nav import Reward, Senses, goal_distance, to_powers
 from iw_zenoh.learn.render import frame
 from iw_zenoh.learn.scenario import ScenarioEnv, build
 from iw_zenoh.maps import load_lab
 from iw_zenoh.messages import Heard, SensorReading, WorldState
-from iw_zenoh.net import NetConfig, free_port
-from iw_zenoh.nodes.launcher import Launcher
-from iw_zenoh.nodes.secure_run import asked_id
+from iw_zenoh.scenario.file import Scenario
 
 __all__ = ["DistributedEnv"]
 

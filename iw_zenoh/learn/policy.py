@@ -24,9 +24,9 @@ from typing import Any
 
 import numpy as np
 
+from iw_zenoh.agent.hosting import Command
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import ConfigError
-from iw_zenoh.hosting import Command
 from iw_zenoh.learn.nav import ACTIONS, Goal, Senses, to_powers
 from iw_zenoh.messages import Heard, SensorReading, WorldState
 

@@ -2,5 +2,5 @@
 measure aggregated with its mean, spread and 95 % interval, conditions side by side, as JSON and
 an HTML page (docs/study.md).
 
-:mod:`~iw_zenoh.study.fields` (``--set FIELD=VALUE``) is also ``iwz run``'s.
+``--set FIELD=VALUE`` is :mod:`iw_zenoh.scenario.fields`' (``iwz run`` takes it too).
 """

@@ -17,11 +17,11 @@ from typing import Any
 
 import msgspec
 
-from iw_zenoh.config import load_scenario
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.errors import ConfigError, IwError
-from iw_zenoh.shipped import resolve_scenario
-from iw_zenoh.study.fields import parse_set
+from iw_zenoh.scenario.fields import parse_set
+from iw_zenoh.scenario.file import load_scenario
+from iw_zenoh.scenario.shipped import resolve_scenario
 from iw_zenoh.study.runs import Condition, RunJob, run_all
 from iw_zenoh.study.stats import summarize
 

@@ -18,8 +18,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from iw_zenoh.bus.net import free_port
 from iw_zenoh.errors import IwError
-from iw_zenoh.net import free_port
 from iw_zenoh.record.report import as_json, report_of
 
 __all__ = ["Condition", "RunJob", "run_all", "run_one"]

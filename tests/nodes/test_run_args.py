@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from iw_zenoh.config import load_scenario
-from iw_zenoh.nodes import launcher
-from iw_zenoh.nodes.run_args import build_parser, scenario_sets
+from iw_zenoh.launch import launcher
+from iw_zenoh.launch.args import build_parser, scenario_sets
+from iw_zenoh.scenario.file import load_scenario
 
 TOML = """
 name = "s"

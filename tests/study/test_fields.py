@@ -10,9 +10,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from iw_zenoh.config import parse_scenario
 from iw_zenoh.errors import ConfigError
-from iw_zenoh.study.fields import apply_sets, parse_set
+from iw_zenoh.scenario.fields import apply_sets, parse_set
+from iw_zenoh.scenario.file import parse_scenario
 
 TOML = """
 name = "s"

@@ -26,9 +26,9 @@ from iw_zenoh.core.modes import Mode, Profile
 from iw_zenoh.errors import ConfigError, MapError
 from iw_zenoh.maps import load_grid, load_lab
 from iw_zenoh.messages import Obstacle
+from iw_zenoh.scenario.fields import apply_sets
+from iw_zenoh.scenario.specfile import SPEC_TABLE, check_spec, load_spec_file
 from iw_zenoh.sim.obstacles import Obstacles
-from iw_zenoh.specfile import SPEC_TABLE, check_spec, load_spec_file
-from iw_zenoh.study.fields import apply_sets
 
 __all__ = [
     "AgentEntry",
@@ -348,7 +348,7 @@ def parse_scenario(text: str, base: Path, name: str = "scenario", sets: Sequence
         base: Folder that relative paths are taken from.
         name: The scenario's name (its file name), unless the file names it.
         sets: Fields changed from the command line, ``(path, value)`` (``--set``,
-            :mod:`iw_zenoh.study.fields`), before the scenario is checked.
+            :mod:`iw_zenoh.scenario.fields`), before the scenario is checked.
 
     Raises:
         ConfigError: Naming the field and the reason.
