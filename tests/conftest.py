@@ -3,7 +3,12 @@ its proposal, an agent host on a fake bus."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import inspect
+import os
+import subprocess
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+from types import CodeType, ModuleType
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -22,12 +27,95 @@ settings.register_profile("ci", deadline=None, suppress_health_check=[HealthChec
 settings.load_profile("ci")
 
 
-def pytest_sessionstart(session: pytest.Session) -> None:
-    """Compiles the proximity and contact kernels once, before any test starts a sensors or
-    collision process or an agent that plans (in a fresh checkout each of them would otherwise
-    compile them, for seconds)."""
-    cones.warm_up()
-    contact.warm_up()
+TESTS = Path(__file__).resolve().parent
+# what a test module that starts processes holds: the modules (or their names) it starts them with
+PROCESS_STARTERS = frozenset({"subprocess", "multiprocessing", "tests.integration.harness"})
+_warm: list[bool] = []
+CHECKS = frozenset({"_kernels_for_processes", "_no_process_unless_slow"})  # this file's own, on every test
+
+
+def _starter(value: object) -> bool:
+    name = value.__name__ if isinstance(value, ModuleType) else getattr(value, "__module__", None)
+    return name in PROCESS_STARTERS
+
+
+def _codes(code: CodeType) -> Iterator[CodeType]:
+    """A code object and every one nested in it (its lambdas, comprehensions, inner functions)."""
+    yield code
+    for const in code.co_consts:
+        if isinstance(const, CodeType):
+            yield from _codes(const)
+
+
+def _reaches_a_starter(fn: object, seen: set[int]) -> bool:
+    """Whether ``fn`` (a function or a class of the tests), or what of the tests it calls, uses a
+    process starter."""
+    if id(fn) in seen:
+        return False
+    seen.add(id(fn))
+    if isinstance(fn, type):
+        return any(_reaches_a_starter(v, seen) for v in vars(fn).values() if inspect.isfunction(v))
+    fn = inspect.unwrap(fn) if callable(fn) else fn
+    code, scope = getattr(fn, "__code__", None), getattr(fn, "__globals__", None)
+    if code is None or scope is None:
+        return False
+    for name in {n for c in _codes(code) for n in c.co_names}:
+        value = scope.get(name)
+        if value is None:
+            continue
+        if _starter(value):
+            return True
+        ours = inspect.isfunction(value) or isinstance(value, type)
+        if ours and str(value.__module__).startswith("tests") and _reaches_a_starter(value, seen):
+            return True
+    return False
+
+
+def _starts_processes(item: pytest.Item) -> bool:
+    """Whether a test starts processes: it is an integration test, carries the ``zenoh`` marker, or
+    its function or one of its fixtures (or a helper of the tests they call) uses ``subprocess``,
+    ``multiprocessing`` or the integration harness."""
+    if "integration" in Path(str(item.path)).resolve().relative_to(TESTS).parts:
+        return True
+    if item.get_closest_marker("zenoh") is not None:
+        return True
+    seen: set[int] = set()
+    if _reaches_a_starter(getattr(item, "function", None), seen):
+        return True
+    info = getattr(item, "_fixtureinfo", None)
+    defs = info.name2fixturedefs.values() if info is not None else ()
+    return any(_reaches_a_starter(d[-1].func, seen) for d in defs if d and d[-1].argname not in CHECKS)
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Every test that starts processes is ``slow``: ``pytest -m "not slow"`` is the quick loop."""
+    for item in items:
+        if _starts_processes(item):
+            item.add_marker(pytest.mark.slow)
+
+
+@pytest.fixture(autouse=True)
+def _kernels_for_processes(request: pytest.FixtureRequest) -> None:
+    """Compiles the proximity and contact kernels once, before the first test that starts processes
+    (a sensors or collision process or an agent that plans would otherwise each compile them, for
+    seconds, in a fresh checkout); a quick run (``-m "not slow"``) compiles only what its tests call."""
+    if not _warm and request.node.get_closest_marker("slow") is not None:
+        cones.warm_up()
+        contact.warm_up()
+        _warm.append(True)
+
+
+@pytest.fixture(autouse=True)
+def _no_process_unless_slow(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> None:
+    """With ``IWZ_CHECK_SLOW=1``, a test not marked ``slow`` that starts a process fails, naming it:
+    the check that the ``slow`` marker is on every test that starts processes."""
+    if os.environ.get("IWZ_CHECK_SLOW") != "1" or request.node.get_closest_marker("slow") is not None:
+        return
+
+    def refuse(*args: object, **kwargs: object) -> None:
+        raise AssertionError(f"{request.node.nodeid} starts a process ({args[:1]}) but is not marked slow")
+
+    monkeypatch.setattr(subprocess.Popen, "__init__", refuse)
 
 
 def box_wall(x0: float, y0: float, x1: float, y1: float, height_m: float = 4.0) -> Wall:
