@@ -13,8 +13,9 @@ import pytest
 
 from iw_zenoh import keys
 from iw_zenoh.messages import WorldInfo, WorldState, decode, encode
+from tests.integration.faults import FaultRun as _Run
+from tests.integration.faults import fault_scenario as _scenario
 from tests.integration.harness import wait_msg
-from tests.integration.test_faults import _Run, _scenario
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(170)]
 

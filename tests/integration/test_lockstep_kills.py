@@ -11,8 +11,10 @@ from pathlib import Path
 import pytest
 
 from iw_zenoh.messages import WorldState
+from tests.integration.faults import FaultRun as _Run
+from tests.integration.faults import fault_scenario as _scenario
+from tests.integration.faults import position_of as _at
 from tests.integration.harness import wait_event, wait_msg
-from tests.integration.test_faults import _at, _Run, _scenario
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
 

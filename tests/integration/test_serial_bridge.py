@@ -17,6 +17,7 @@ from iw_zenoh import keys
 from iw_zenoh.bus import ZenohBus
 from iw_zenoh.messages import Actions, ChairReading, Control, WorldState, encode
 from tests.integration.harness import MAPS, Net, Proc, subscribe, wait_event, wait_msg
+from tests.integration.serial_sim import start_sim
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(150)]
 
@@ -36,28 +37,6 @@ def start_emulator(net: Net, *extra: str) -> tuple[Proc, str, Path]:
         assert time.monotonic() < deadline, "the emulator made no pty in 30 s"
         time.sleep(0.05)  # polling a log file: there is no event to wait on
     return proc, link, wheels
-
-
-def start_sim(net: Net, link: str) -> ZenohBus:
-    """World, collision, sensors and the serial bridge for robot 1 on ``link``."""
-    net.spawn("world", str(MAPS / "liacc.xml"), "--grid", str(MAPS / "liacc-grid.xml"))
-    net.spawn("collision")
-    net.spawn("sensors")
-    net.spawn(
-        "bridge",
-        "serial",
-        "--port",
-        link,
-        "--robot",
-        "chair",
-        "--id",
-        "1",
-        "--start",
-        "10,6.1,0",
-        "--log",
-        str(net.tmp / "bridge.csv"),
-    )
-    return net.client()
 
 
 def drive(bus: ZenohBus, sim: str, power: float, seconds: float) -> int:

@@ -22,7 +22,7 @@ from iw_zenoh import keys
 from iw_zenoh.bus import Inbox
 from iw_zenoh.messages import Actions, ChairReading, Event, EventKind, decode, encode
 from tests.integration.harness import Net, subscribe, wait_msg
-from tests.integration.test_serial_bridge import start_sim
+from tests.integration.serial_sim import start_sim
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(150)]
 

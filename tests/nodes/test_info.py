@@ -5,21 +5,12 @@ from __future__ import annotations
 import msgspec
 import pytest
 
-from iw_zenoh.convert import lab_to_msg
-from iw_zenoh.core.lab import Lab
 from iw_zenoh.core.modes import Profile
-from iw_zenoh.messages import RobotSpecMsg, WorldInfo, encode
+from iw_zenoh.messages import encode
 from iw_zenoh.nodes.info import InfoCache
 from iw_zenoh.sim.collision import CollisionNode
-from tests.bridges.fakes import FakeBus
-from tests.conftest import box_wall
-
-LAB = Lab("t", 10.0, 6.0, (box_wall(4.0, 0.0, 4.2, 3.0),))
-
-
-def _info(revision: int, robots: int = 0) -> WorldInfo:
-    specs = [RobotSpecMsg(name=f"r{i}", id=i, x=1.0 + i, y=4.0, legacy=True) for i in range(1, robots + 1)]
-    return WorldInfo(revision=revision, lab=lab_to_msg(LAB), period_ns=50_000_000, robots=specs)
+from tests.support.fakes import FakeBus
+from tests.support.infos import world_info as _info
 
 
 class _CountingBus(FakeBus):

@@ -7,7 +7,9 @@ from iw_zenoh import keys
 from iw_zenoh.messages import Actions, encode
 from iw_zenoh.messages.wire import Outgoing
 from iw_zenoh.sim.registry import MAX_ROBOTS
-from tests.nodes.test_world_wake import ROBOTS, TICK, _deliver, _world
+from tests.support.world_node import ROBOTS, TICK
+from tests.support.world_node import deliver_actions as _deliver
+from tests.support.world_node import lockstep_world as _world
 
 INVENTED = 10_000  # ids the world does not hold, each on its own key
 

@@ -13,7 +13,7 @@ import pytest
 from iw_zenoh import keys
 from iw_zenoh.errors import RecordingError
 from iw_zenoh.launch.launcher import Launcher
-from iw_zenoh.messages import Event, EventKind, WorldState, decode, encode
+from iw_zenoh.messages import WorldState, decode
 from iw_zenoh.nodes.role_options import RecorderOptions
 from iw_zenoh.nodes.role_options import add_recorder_arguments as recorder_arguments
 from iw_zenoh.process.options import options_from_args
@@ -28,41 +28,13 @@ from iw_zenoh.record.parts import (
     recording_parts,
 )
 from iw_zenoh.record.reader import open_recording
-from iw_zenoh.record.recording import SIM_INDEX, Recorder
+from iw_zenoh.record.recording import SIM_INDEX
 from iw_zenoh.record.replay import Player, ReplayOptions, sim_index
 from iw_zenoh.record.tools import check_recording, doctor_main, recover_main
 from iw_zenoh.scenario.file import load_scenario
-from tests.record.test_recording import _state
+from tests.support.parts import recorded_part as _part
 
-T0 = 1_000_000_000
 MAPS = Path(__file__).resolve().parents[2] / "maps"
-
-
-def _part(first: Path, ticks: range, *, run: str | None, cut: bool = False) -> Path:
-    """Writes the next part as the recorder does (ticks 100 ms apart); ``cut``: killed mid-chunk."""
-    path, part, user = next_part(first, run)
-    meta = {PART_META: part, "iw.user": user or {"scenario": "unit", "seed": "7"}}
-    f = path.open("wb")
-    rec = Recorder(f, meta, chunk_size=1500, scene=False)
-    for t in ticks:
-        at = T0 + t * 100_000_000
-        rec.add(keys.state("s"), _state(t), at)
-        if t % 10 == 5:
-            rec.add(
-                keys.event("s", "collision"),
-                encode(Event(kind=EventKind.COLLISION, robot_id=1, reason="wall", sim_time_ns=t * 10**8)),
-                at + 1,
-            )
-    if cut:
-        rec.flush()
-        f.flush()
-        size = f.tell()
-        f.close()
-        path.write_bytes(path.read_bytes()[: size - 300])  # the last chunk half written
-    else:
-        rec.finish()
-        f.close()
-    return path
 
 
 def test_parts_are_named_after_the_first_and_found_from_any_of_them(tmp_path: Path) -> None:

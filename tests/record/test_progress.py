@@ -8,7 +8,7 @@ from pathlib import Path
 
 from iw_zenoh.record.progress import Progress
 from iw_zenoh.record.tools import recover
-from tests.record.test_parts import _part
+from tests.support.parts import recorded_part as _part
 
 
 class _Clock:

@@ -10,7 +10,7 @@ from iw_zenoh.errors import IwError, RecordingError
 from iw_zenoh.messages import Actions, Event, WorldState, encode
 from iw_zenoh.record.reader import BadMessage, KeyFilter, RecordingReader, Window, open_recording
 from iw_zenoh.record.recording import Recorder
-from tests.record.test_recording import _state
+from tests.support.recordings import recorded_state as _state
 
 SAMPLE = Path(__file__).resolve().parents[2] / "recordings" / "demo-sample.mcap"
 

@@ -6,28 +6,11 @@ from pathlib import Path
 from mcap.reader import make_reader
 
 from iw_zenoh import keys
-from iw_zenoh.messages import Actions, WorldState, encode
+from iw_zenoh.messages import Actions, encode
 from iw_zenoh.record.recording import SIM_INDEX, Recorder
 from iw_zenoh.record.tools import check, recover
-from tests.record.consumer import proto_decode
-
-
-def _state(tick: int) -> bytes:
-    return encode(
-        WorldState(
-            tick=tick,
-            sim_time_ns=tick * 100_000_000,
-            revision=1,
-            ids=[1],
-            x=[1.0 * tick],
-            y=[2.0],
-            heading=[0.0],
-            collided=[False],
-            rolled_left=[0.0],
-            rolled_right=[0.0],
-            speed=[0.0],
-        )
-    )
+from tests.support.consumer import proto_decode
+from tests.support.recordings import recorded_state as _state
 
 
 def _write(path: Path, ticks: int, *, finish: bool = True) -> Recorder:

@@ -14,7 +14,7 @@ from iw_zenoh.record.reader import open_recording
 from iw_zenoh.record.recording import Recorder
 from iw_zenoh.record.replay import Player, ReplayOptions
 from iw_zenoh.viewer.sources import LocalBus
-from tests.record.test_recording import _state
+from tests.support.recordings import recorded_state as _state
 
 T0 = 1_000_000_000
 PERIOD = 100_000_000

@@ -9,7 +9,9 @@ from iw_zenoh.messages import Actions, Control, Event, Obstacle, RegisterRequest
 from iw_zenoh.sim.config import MS
 from iw_zenoh.sim.resume import WorldSnapshot, resume, snapshot
 from iw_zenoh.sim.world import WorldCore
-from tests.sim.test_world import _core, _kinds, _tick
+from tests.support.sim_core import event_kinds as _kinds
+from tests.support.sim_core import step as _tick
+from tests.support.sim_core import world_core as _core
 
 
 def _driven() -> tuple[WorldCore, WorldState]:

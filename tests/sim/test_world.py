@@ -2,46 +2,23 @@ from __future__ import annotations
 
 import pytest
 
-from iw_zenoh.core.lab import Grid, GridPosition, Lab
 from iw_zenoh.messages import (
     Actions,
     Control,
     Event,
     Obstacle,
     PoseReport,
-    Proposed,
     RegisterRequest,
     RobotSpecMsg,
     Verdict,
     WorldState,
 )
 from iw_zenoh.sim import registry
-from iw_zenoh.sim.config import MS, WorldConfig
+from iw_zenoh.sim.config import MS
 from iw_zenoh.sim.registry import MAX_ROBOT_ID
-from iw_zenoh.sim.world import WorldCore
-from tests.conftest import box_wall
-
-
-def _core(**kw: object) -> WorldCore:
-    lab = Lab("t", 20.0, 10.0, (box_wall(9.0, 0.0, 10.0, 3.0),))
-    grid = Grid((GridPosition(2, 5, 0), GridPosition(5, 5, 0)))
-    return WorldCore(WorldConfig(sim="t", **kw), lab, grid)  # type: ignore[arg-type]
-
-
-def _kinds(out: list[tuple[str, object]]) -> list[str]:
-    return [m.kind for _, m in out if isinstance(m, Event)]
-
-
-def _tick(core: WorldCore, now_ns: int, verdict: bool = True) -> WorldState:
-    out = core.begin_tick(now_ns)
-    prop = next(m for _, m in out if isinstance(m, Proposed))
-    v = (
-        Verdict(tick=prop.tick, revision=prop.revision, ids=prop.ids, collided=[False] * len(prop.ids))
-        if verdict
-        else None
-    )
-    done = core.finish_tick(v)
-    return next(m for _, m in done if isinstance(m, WorldState))
+from tests.support.sim_core import event_kinds as _kinds
+from tests.support.sim_core import step as _tick
+from tests.support.sim_core import world_core as _core
 
 
 def test_registration_takes_the_first_free_grid_slot_and_announces_it() -> None:

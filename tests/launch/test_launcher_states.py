@@ -15,21 +15,7 @@ from iw_zenoh.bus.net import free_port
 from iw_zenoh.launch.launcher import STATES_KEPT, Launcher
 from iw_zenoh.messages import WorldState, encode
 from iw_zenoh.scenario.file import load_scenario
-
-SCENARIO = """
-name = "judged"
-[world]
-map = "lab.xml"
-mode = "lockstep"
-[[agents]]
-program = "waypoint"
-args = ["--id", "1", "--waypoints", "9,5"]
-[[criteria.reach]]
-robot = 1
-x = 9.0
-y = 5.0
-within = 0.5
-"""
+from tests.support.scenarios import SCENARIO
 
 
 def _state(tick: int, x: float) -> bytes:
