@@ -11,6 +11,7 @@ A role's typed options (a ``msgspec.Struct`` its flags fill) are :mod:`iw_zenoh.
 from __future__ import annotations
 
 import argparse
+import faulthandler
 import logging
 import os
 import signal
@@ -395,6 +396,8 @@ def start_role(
     prog = prog or f"iwz {role}"
     args = _parse(argv, prog, description, epilog, arguments, default_mode, name_help or role)
     setup_logging(args.verbose, prog.removeprefix("iwz "))
+    if not faulthandler.is_enabled():  # a native crash (SIGSEGV...) leaves every thread's stack in the log
+        faulthandler.enable()
     watch_supervisor()  # before the warm-up: a launcher gone by then is seen at once
     if warm_up is not None:
         _warm(warm_up)
