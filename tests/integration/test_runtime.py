@@ -341,7 +341,7 @@ def test_the_sensors_node_catches_up_a_tick_of_backlog(net: Net) -> None:
 
 _CRASH = """
 import ctypes, sys
-from iw_zenoh.runtime import start_role
+from iw_zenoh.process.runtime import start_role
 sys.exit(start_role(["--sim", "crash", "--mode", "peer"], role="crash", description="d", run=lambda p: ctypes.string_at(0)))
 """
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from iw_zenoh.net import free_port
+from iw_zenoh.bus.net import free_port
 from iw_zenoh.record.tools import check
 from tests.integration.harness import ROOT, stop_run
 
