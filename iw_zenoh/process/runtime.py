@@ -284,9 +284,12 @@ def _alive(pid: int) -> bool:
 
 
 def setup_logging(verbosity: int, role: str) -> None:
-    """Configures logging for a process (``-v`` info, ``-vv`` debug)."""
+    """Configures logging for a process (``-v`` info, ``-vv`` debug); a native crash writes every
+    thread's stack to stderr, the process's log (faulthandler)."""
     level = logging.WARNING if verbosity <= 0 else logging.INFO if verbosity == 1 else logging.DEBUG
     logging.basicConfig(level=level, format=f"%(asctime)s {role} %(levelname)s %(name)s: %(message)s")
+    if not faulthandler.is_enabled():  # a native crash (SIGSEGV...) leaves every thread's stack in the log
+        faulthandler.enable()
 
 
 @dataclass
@@ -398,8 +401,6 @@ def start_role(
     prog = prog or f"iwz {role}"
     args = _parse(argv, prog, description, epilog, arguments, default_mode, name_help or role)
     setup_logging(args.verbose, prog.removeprefix("iwz "))
-    if not faulthandler.is_enabled():  # a native crash (SIGSEGV...) leaves every thread's stack in the log
-        faulthandler.enable()
     watch_supervisor()  # before the warm-up: a launcher gone by then is seen at once
     if warm_up is not None:
         _warm(warm_up)
