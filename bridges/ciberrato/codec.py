@@ -164,8 +164,8 @@ class Measures:
 
 
 def build_measures(m: Measures) -> bytes:
-    """A ``<Measures>`` datagram, byte for byte as the legacy server prints it (at most 4096 bytes
-    for the Python and C clients), in Latin-1: tab indents, ``<GPS ... />`` with its space, ``\\n\\0`` at
+    r"""A ``<Measures>`` datagram, byte for byte as the legacy server prints it (at most 4096 bytes
+    for the Python and C clients), in Latin-1: tab indents, ``<GPS ... />`` with its space, ``\n\0`` at
     the end. Formatted directly rather than through lxml: it is sent to every robot every cycle."""
     attrs = ""
     if m.collision is not None:

@@ -350,6 +350,8 @@ class ZenohBus:
         return self.session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK)
 
     def publish(self, key: str, data: bytes) -> None:
+        """Puts ``data`` on ``key`` through the key's own publisher (declared on first use,
+        congestion control BLOCK: a slow subscriber holds the sender back, nothing is dropped)."""
         try:
             self._pubs.get(key).put(data)
         except zenoh.ZError:
@@ -358,6 +360,9 @@ class ZenohBus:
             self._pubs.get(key).put(data)
 
     def subscribe(self, key_expr: str, inbox: Inbox, *, ordered: bool = False) -> Handle:
+        """Puts every sample on ``key_expr`` into ``inbox`` as ``(key, payload, receive time in
+        ns)``; ``ordered`` delivers on Zenoh's network thread, in the network's order (dearer)."""
+
         def on_sample(sample: zenoh.Sample) -> None:
             inbox.put((str(sample.key_expr), sample.payload.to_bytes(), time.time_ns()))
 
@@ -385,11 +390,14 @@ class ZenohBus:
         return q
 
     def serve(self, key: str) -> QueryInbox:
+        """A queryable on ``key``: its queries wait in the returned inbox to be answered."""
         q = _ZenohQueryInbox(self.session, key)
         self._handles[id(q)] = q
         return q
 
     def query(self, key: str, payload: bytes = b"", timeout_s: float = 2.0) -> list[bytes]:
+        """Asks ``key`` and waits up to ``timeout_s`` for every answer; the answers' payloads
+        (errors left out)."""
         out: list[bytes] = []
         for reply in self.session.get(key, payload=payload, timeout=timeout_s):
             if reply.ok is not None:
@@ -397,6 +405,8 @@ class ZenohBus:
         return out
 
     def ask(self, key: str, payload: bytes = b"", timeout_s: float = 2.0) -> Asked:
+        """Asks ``key`` without waiting: the answers' payloads gather in the returned
+        :class:`Asked`, whose ``done`` is set once the query ends (all answered, or timed out)."""
         asked = Asked()
 
         def on_reply(reply: zenoh.Reply) -> None:
@@ -407,9 +417,13 @@ class ZenohBus:
         return asked
 
     def token(self, key: str) -> Handle:
+        """Declares a liveliness token on ``key`` (this process is alive there until undeclared)."""
         return _Kept(self.session.liveliness().declare_token(key), self._handles)
 
     def watch_alive(self, key_expr: str, on_change: Callable[[str, bool], None]) -> Handle:
+        """Calls ``on_change(key, alive)`` for every liveliness token on ``key_expr`` that appears
+        or goes, those alive already included (history)."""
+
         def on_sample(sample: zenoh.Sample) -> None:
             on_change(str(sample.key_expr), sample.kind == zenoh.SampleKind.PUT)
 
@@ -420,6 +434,7 @@ class ZenohBus:
         return len(self._handles)
 
     def close(self) -> None:
+        """Undeclares everything this bus declared, newest first, then closes the session."""
         for h in reversed(list(self._handles.values())):
             try:
                 h.undeclare()

@@ -46,6 +46,7 @@ from iw_zenoh.messages.robot import (
     readings_of,
 )
 from iw_zenoh.messages.wire import COORD_LIMIT, Message, Outgoing, decode, encode, json_schema, stamp_of
+from iw_zenoh.messages.wire import prepare_decoders as _prepare_decoders
 from iw_zenoh.messages.world import (
     BumperMsg,
     Hit,
@@ -166,3 +167,10 @@ TOPIC_TYPES: dict[str, type[Message]] = {
     "say": Say,
     "hear": Hear,
 }  # the message type of each kind of key (see keys.topic_kind)
+
+# every message's decoder made now, before a process starts its threads (why: prepare_decoders)
+from iw_zenoh.messages import events as _events  # noqa: E402
+from iw_zenoh.messages import robot as _robot  # noqa: E402
+from iw_zenoh.messages import world as _world  # noqa: E402
+
+_prepare_decoders(_events, _robot, _world)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sized
+from types import ModuleType
 from typing import Annotated, Any, ClassVar, TypeVar
 
 import msgspec
@@ -116,7 +117,7 @@ def decode(data: bytes, kind: type[T]) -> T:
         DecodeError: Naming the field and the reason; never a half-filled object.
     """
     dec = _DECODERS.get(kind)
-    if dec is None:
+    if dec is None:  # a type outside the package (every message's is made at import: prepare_decoders)
         dec = _DECODERS[kind] = msgspec.json.Decoder(kind)
     try:
         msg: T = dec.decode(data)
@@ -125,6 +126,25 @@ def decode(data: bytes, kind: type[T]) -> T:
     except msgspec.DecodeError as e:
         raise DecodeError(f"{kind.schema}: not JSON: {e}") from None
     return msg
+
+
+def prepare_decoders(*modules: ModuleType) -> int:
+    """Makes the decoder of every ``msgspec.Struct`` defined in ``modules`` now, once (importing
+    :mod:`iw_zenoh.messages` does it for every message); returns how many.
+
+    msgspec works out how to decode a type on its first use and caches that on the type, unlocked:
+    a thread that decodes the type meanwhile can find it half made and kill the process (SIGSEGV,
+    no traceback; ``iwz view`` died so, its page pump and its Foxglove thread both decoding the
+    world's first description). Made at import, before a process starts a thread, no message type
+    is made twice or read half made, and ``msgspec.convert`` on them finds them made too.
+    """
+    made = 0
+    for module in modules:
+        for value in vars(module).values():
+            if isinstance(value, type) and issubclass(value, msgspec.Struct) and value.__module__ == module.__name__:
+                _DECODERS.setdefault(value, msgspec.json.Decoder(value))
+                made += 1
+    return made
 
 
 def json_schema(kind: type[msgspec.Struct]) -> dict[str, Any]:

@@ -80,9 +80,11 @@ class Ros2Chair:
         self.clock = time.monotonic
 
     def spec(self) -> RobotSpec:
+        """This chair's registration: its name and, once registered, its robot id."""
         return RobotSpec(self.name, id=self.robot_id)
 
     def on_registered(self, robot_id: int, spec: RobotSpec) -> None:
+        """Takes the world's answer: the robot id, and the ROS 2 topics of its namespace."""
         self.robot_id = robot_id
         self.topics = ChairTopics(robot_id, namespace_of(self.template, robot_id), spec)
 

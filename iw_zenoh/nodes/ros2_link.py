@@ -42,6 +42,7 @@ class Ros2Publisher:
         self._pub.put(payload, attachment=graph.Attachment(self.seq, time.time_ns(), self.gid).encode())
 
     def undeclare(self) -> None:
+        """Undeclares the publisher and its liveliness token (the topic leaves the ROS 2 graph)."""
         self._pub.undeclare()  # type: ignore[no-untyped-call]
         self._token.undeclare()  # type: ignore[no-untyped-call]
 
@@ -94,6 +95,7 @@ class Ros2Node:
         return key
 
     def undeclare(self) -> None:
+        """Undeclares the node's publishers, subscriptions and tokens, the node's own last."""
         for p in self.publishers:
             p.undeclare()
         for h in reversed(self._handles):
@@ -116,14 +118,17 @@ class Ros2Link:
         self.nodes: list[Ros2Node] = []
 
     def next_id(self) -> int:
+        """A new entity id, unique in this process's session (rmw_zenoh's graph keys carry it)."""
         return next(self._ids)
 
     def node(self, namespace: str, name: str) -> Ros2Node:
+        """A new ROS 2 node ``namespace/name`` of this session, closed with it."""
         n = Ros2Node(self, namespace, name)
         self.nodes.append(n)
         return n
 
     def close(self) -> None:
+        """Undeclares every node, newest first (quietly when the session closed first)."""
         for n in reversed(self.nodes):
             with contextlib.suppress(zenoh.ZError):  # the session closed first
                 n.undeclare()

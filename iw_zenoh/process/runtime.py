@@ -11,6 +11,7 @@ A role's typed options (a ``msgspec.Struct`` its flags fill) are :mod:`iw_zenoh.
 from __future__ import annotations
 
 import argparse
+import faulthandler
 import logging
 import os
 import signal
@@ -283,9 +284,12 @@ def _alive(pid: int) -> bool:
 
 
 def setup_logging(verbosity: int, role: str) -> None:
-    """Configures logging for a process (``-v`` info, ``-vv`` debug)."""
+    """Configures logging for a process (``-v`` info, ``-vv`` debug); a native crash writes every
+    thread's stack to stderr, the process's log (faulthandler)."""
     level = logging.WARNING if verbosity <= 0 else logging.INFO if verbosity == 1 else logging.DEBUG
     logging.basicConfig(level=level, format=f"%(asctime)s {role} %(levelname)s %(name)s: %(message)s")
+    if not faulthandler.is_enabled():  # a native crash (SIGSEGV...) leaves every thread's stack in the log
+        faulthandler.enable()
 
 
 @dataclass

@@ -5,7 +5,7 @@ The CSV has a header and either ``t,speed`` (seconds, m/s) or ``t,left_ticks,rig
 unless it also has ``left_cmd,right_cmd`` (the log ``iwz bridge serial --log`` writes of a real
 run): then the step is found in it, the first run commanded at its top power on both wheels.
 
-examples:
+Examples:
   iwz calibrate chair-step.csv                        # t,speed: a step from rest, logged by hand
   iwz calibrate ticks.csv --ticks-per-m 2000          # t,left_ticks,right_ticks
   iwz calibrate bridge.csv --period-ms 50             # what `iwz bridge serial --log bridge.csv` wrote

@@ -39,12 +39,15 @@ class ChairTopics:
 
     @property
     def frames(self) -> convert.Frames:
+        """Its frame names, under its namespace."""
         return convert.Frames.of(self.namespace)
 
     def odom_topic(self) -> str:
+        """The topic of its odometry (``nav_msgs/Odometry``)."""
         return f"{self.namespace}/odom"
 
     def cmd_vel_topic(self) -> str:
+        """The topic it takes its velocity commands from (``geometry_msgs/Twist``)."""
         return f"{self.namespace}/cmd_vel"
 
     def scan_topic(self, laser_id: int) -> str:
@@ -52,6 +55,7 @@ class ChairTopics:
         return f"{self.namespace}/scan" if len(self.spec.lasers) == 1 else f"{self.namespace}/scan{laser_id}"
 
     def range_topic(self, sensor_id: int) -> str:
+        """The topic of its proximity sensor ``sensor_id`` (``sensor_msgs/Range``)."""
         return f"{self.namespace}/range/s{sensor_id}"
 
     def odom(self, st: WorldState, i: int, period_s: float) -> bytes:
@@ -61,7 +65,7 @@ class ChairTopics:
         return convert.odometry(self.frames, st.sim_time_ns, pose)
 
     def links(self, st: WorldState, i: int) -> list[Link]:
-        """odom -> base_link at the state's pose, base_link -> each sensor where it is mounted."""
+        """Its transforms: odom -> base_link at the state's pose, base_link -> each sensor where it is mounted."""
         f, base = self.frames, self.frames.base
         out: list[Link] = [(f.odom, base, st.x[i], st.y[i], st.heading[i])]
         out += [(base, f.name(f"laser{s.id}"), s.x_m, s.y_m, math.radians(s.angle_deg)) for s in self.spec.lasers]

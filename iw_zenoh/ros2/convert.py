@@ -42,17 +42,21 @@ class Frames:
 
     @classmethod
     def of(cls, namespace: str) -> Frames:
+        """The frames of a chair in ``namespace`` (its slashes dropped: frame ids have none first)."""
         return cls(namespace.strip("/"))
 
     def name(self, frame: str) -> str:
+        """``frame`` under the chair's prefix (``laser1`` -> ``robot1/laser1``)."""
         return f"{self.prefix}/{frame}" if self.prefix else frame
 
     @property
     def odom(self) -> str:
+        """The chair's odometry frame, fixed in the world."""
         return self.name("odom")
 
     @property
     def base(self) -> str:
+        """The chair's body frame."""
         return self.name("base_link")
 
 

@@ -53,7 +53,7 @@ _CDR_LE = b"\x00\x01\x00\x00"
 
 @functools.cache
 def store() -> Any:
-    """rosbags' ROS 2 Jazzy type store (built once)."""
+    """The ROS 2 Jazzy type store of rosbags (built once)."""
     return get_typestore(Stores.ROS2_JAZZY)
 
 

@@ -238,7 +238,7 @@ def _value_at(doc: Any, path: str) -> Any:
 
 
 def _refusal(error: msgspec.ValidationError, doc: dict[str, Any], name: str) -> ConfigError:
-    """msgspec's error as a ConfigError: the field's dotted path (``agents[0].robots``) and the reason."""
+    """A msgspec validation error as a ConfigError: the field's dotted path (``agents[0].robots``) and the reason."""
     m = _AT.match(str(error))
     assert m is not None  # the pattern matches any text
     reason, path = m["reason"], (m["path"] or "").lstrip(".")

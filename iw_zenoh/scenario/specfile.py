@@ -215,7 +215,7 @@ def _narrowed(built: dict[str, Any], path: Path_, value: Any) -> str:
 
 
 def _refused(error: msgspec.ValidationError, where: str) -> ConfigError:
-    """msgspec's refusal as a ConfigError naming the field's path."""
+    """A msgspec refusal as a ConfigError naming the field's path."""
     m = _AT.match(str(error))
     assert m is not None  # the pattern matches any text
     reason, path = m["reason"], m["path"] or ""

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import signal
 import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -336,3 +337,18 @@ def test_the_sensors_node_catches_up_a_tick_of_backlog(net: Net) -> None:
         if d is not None:
             got.add(decode(d[1], SensorReading).tick)
     assert got == {1, 2, 3}
+
+
+_CRASH = """
+import ctypes, sys
+from iw_zenoh.process.runtime import start_role
+sys.exit(start_role(["--sim", "crash", "--mode", "peer"], role="crash", description="d", run=lambda p: ctypes.string_at(0)))
+"""
+
+
+def test_a_role_that_crashes_in_native_code_leaves_its_threads_stacks_in_its_log() -> None:
+    # the viewer died of SIGSEGV with an empty log, so nobody could tell where: now the log says
+    p = subprocess.run([sys.executable, "-c", _CRASH], capture_output=True, text=True, timeout=60)
+    assert p.returncode == -signal.SIGSEGV
+    assert "Fatal Python error: Segmentation fault" in p.stderr
+    assert "in start_role" in p.stderr

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from iw_zenoh.bus.net import free_port
 from iw_zenoh.record.tools import check
 from tests.integration.harness import ROOT, stop_run
 
@@ -31,7 +32,10 @@ def _install(tmp: Path) -> dict[str, str]:
             shutil.copy(ROOT / name, src / name)
     shutil.copy(ROOT / "recordings" / "demo-sample.mcap", src / "recordings" / "demo-sample.mcap")
     pip = [sys.executable, "-m", "pip", "-q", "--disable-pip-version-check"]
-    subprocess.run([*pip, "wheel", "--no-deps", "-w", str(tmp / "dist"), str(src)], check=True, timeout=300)
+    # built with the test venv's setuptools (the test extra has it): an isolated build env costs
+    # a download and an install of setuptools each time (about a minute on a loaded 2-core CI)
+    build = [*pip, "wheel", "--no-deps", "--no-build-isolation", "-w", str(tmp / "dist"), str(src)]
+    subprocess.run(build, check=True, timeout=300)
     [wheel] = (tmp / "dist").glob("iw_zenoh-*.whl")
     subprocess.run([*pip, "install", "--no-deps", "--target", str(tmp / "site"), str(wheel)], check=True, timeout=120)
     return {**os.environ, "PYTHONPATH": str(tmp / "site")}
@@ -62,7 +66,18 @@ def test_an_installed_package_lists_its_scenarios_and_runs_the_demo_by_name(tmp_
 
     # lock-step, so the verdict does not hang on how loaded the machine is; recorded where a user's
     # `iwz run demo` records: recordings/ in the folder it runs in
-    argv = [*iwz, "run", "demo", "--lockstep", "--no-status", "--log-dir", str(tmp_path / "logs")]
+    # on a free port, not the default 7447: another run on this machine (a parallel test) may hold it
+    argv = [
+        *iwz,
+        "run",
+        "demo",
+        "--lockstep",
+        "--no-status",
+        "--port",
+        str(free_port()),
+        "--log-dir",
+        str(tmp_path / "logs"),
+    ]
     p = subprocess.Popen(argv, cwd=here, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         out, err = p.communicate(timeout=240)

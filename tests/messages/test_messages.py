@@ -1,6 +1,9 @@
 from __future__ import annotations
 
+import subprocess
+import sys
 from dataclasses import replace
+from pathlib import Path
 
 import msgspec
 import pytest
@@ -226,3 +229,45 @@ def test_encoded_messages_validate_against_their_published_json_schemas() -> Non
         jsonschema.validate(json.loads(encode(m)), json_schema(type(m)))
     with pytest.raises(jsonschema.ValidationError):
         jsonschema.validate({"robot_id": "x"}, json_schema(Actions))
+
+
+# Six threads decode the first message of each type recorded in the sample, all at once, in a
+# fresh process: the first use of a type, as a role's threads meet it at start (the viewer's
+# page pump and Foxglove thread both decoding the world's first description).
+_FIRST_DECODES = """
+import sys, threading
+from pathlib import Path
+from iw_zenoh.messages import TOPIC_TYPES, decode
+from iw_zenoh.record.reader import open_recording
+
+with open_recording(Path(sys.argv[1])) as rec:
+    firsts = {}
+    for r in rec.raw(TOPIC_TYPES):
+        firsts.setdefault(TOPIC_TYPES[r.kind], r.data)
+go = threading.Barrier(6)
+
+def work():
+    go.wait()
+    for kind, data in firsts.items():
+        decode(data, kind)
+
+threads = [threading.Thread(target=work) for _ in range(6)]
+for t in threads:
+    t.start()
+for t in threads:
+    t.join()
+print(len(firsts))
+"""
+
+
+@pytest.mark.timeout(120)
+def test_threads_decoding_a_message_type_for_the_first_time_at_once_do_not_crash_the_process() -> None:
+    # msgspec makes a type's decoding on its first use, unlocked: a thread could read it half
+    # made and die of SIGSEGV (4 processes in 10 did here before every type was made at import)
+    sample = Path(__file__).resolve().parents[1] / "recordings" / "demo-sample.mcap"
+    for _ in range(8):
+        p = subprocess.run(
+            [sys.executable, "-c", _FIRST_DECODES, str(sample)], capture_output=True, text=True, timeout=60
+        )
+        assert p.returncode == 0, f"exit {p.returncode}:\n{p.stderr[-2000:]}"
+        assert int(p.stdout) >= 8, p.stdout  # the sample holds info, states, readings, events...
