@@ -101,6 +101,8 @@ def test_the_committed_trace_drives_slalom_manual_to_pass_and_the_report_shows_t
     assert report.returncode == 0, report.stderr
     rows = {line[:36].strip(): line[36:].strip() for line in report.stdout.splitlines()}
     inputs = sum(1 for line in TRACE.read_text().splitlines() if line.startswith("{"))
-    assert rows["driver inputs"] == str(inputs)  # every replayed input recorded as a driver's
+    # every replayed input is recorded as a driver's; the run stops once the goal is reached, so
+    # the trace's last inputs (its release, after the goal) may not have been given
+    assert inputs - 10 <= int(rows["driver inputs"]) <= inputs
     assert int(rows["commands given"]) > 10
     assert rows["assistance intervened, s"] == "0.0"  # slalom-manual: no shared control
