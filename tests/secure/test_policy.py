@@ -49,7 +49,7 @@ def test_an_agent_publishes_only_for_its_own_robots_and_its_own_batch() -> None:
     assert puts == {
         "iw/s/agent/alice/actions",
         "iw/s/events/bad-message",
-        *(f"iw/s/robot/{r}/{k}" for r in (1, 2) for k in ("actions", "say", "pose_report")),
+        *(f"iw/s/robot/{r}/{k}" for r in (1, 2) for k in ("actions", "say", "pose_report", "driving", "drive")),
     }
 
 
