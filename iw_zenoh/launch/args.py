@@ -70,7 +70,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--record", metavar="FILE", help="record the run here (default recordings/SCENARIO-DATE-TIME.mcap)")
     p.add_argument("--no-record", action="store_true", help="do not record the run")
     _add_study_arguments(p)
-    _add_trace(p)
     g = p.add_argument_group("security and several hosts (docs/security.md)")
     g.add_argument(
         "--secure",
@@ -113,6 +112,7 @@ def _add_study_arguments(p: argparse.ArgumentParser) -> None:
         help='change a scenario field, e.g. --set world.duration_s=30 --set \'agents[0].args=["--id", "1"]\' '
         "(repeatable; VALUE as in the file; docs/study.md)",
     )
+    _add_trace(p)
 
 
 def _set_arg(text: str) -> tuple[str, Any]:
