@@ -266,6 +266,7 @@ def test_removing_a_robot_on_the_page_removes_it_from_the_world(
     page.mouse.click(box["x"] + sx, box["y"] + sy)
     page.wait_for_selector("#panel:not([hidden])", timeout=WAIT_MS)
     assert f"robot {target['id']}" in page.inner_text("#panel-title")
+    page.once("dialog", lambda d: d.accept())  # the page asks first
     page.click("#btn-remove")
     wait_event(events, "removed", pred=lambda e: e.robot_id == target["id"])
     states = subscribe(bus, keys.state(net.sim))
