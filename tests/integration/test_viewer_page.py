@@ -7,6 +7,8 @@ Screenshots of the driving view, the 2D view with its legend and the robot panel
 
 from __future__ import annotations
 
+import base64
+import json
 import math
 import os
 import re
@@ -15,6 +17,8 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from playwright.sync_api import Browser, Dialog, Page
 
 from iw_zenoh.messages import WorldState
@@ -331,3 +335,77 @@ def test_a_replay_opens_paused_at_its_start_with_its_incidents_marked_and_explai
     assert any(k.replace("-", " ") in explain for k in kinds), (kinds, explain)
     assert "click" in (marks.first.get_attribute("title") or "")
     page.close()
+
+
+GLTF_TRIANGLE = {  # one triangle, y up (glTF's), its buffer in a data URI
+    "asset": {"version": "2.0"},
+    "buffers": [
+        {
+            "byteLength": 36,
+            "uri": "data:application/octet-stream;base64,"
+            + base64.b64encode(struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0)).decode(),
+        }
+    ],
+    "bufferViews": [{"buffer": 0, "byteLength": 36}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+}
+
+
+@pytest.fixture(scope="module")
+def readers(live: tuple[Net, str], browser: Browser) -> Iterator[Page]:
+    """A page of the live viewer, for models.js's readers."""
+    page = browser.new_page()
+    page.goto(live[1])
+    yield page
+    page.close()
+
+
+def _read(page: Page, kind: str, data: bytes) -> str:
+    """models.js's reader of ``kind`` ("stl" or "gltf") on ``data``: "ok N" (N numbers read) or the
+    error's name and message."""
+    return str(
+        page.evaluate(
+            """async ([kind, bytes]) => {
+                const m = await import('/static/models.js');
+                const buf = new Uint8Array(bytes).buffer;
+                try {
+                    const got = kind === 'stl' ? m.parseStl(buf) : await m.parseGltf(buf, location.href);
+                    return `ok ${got.tris.length}`;
+                } catch (e) { return `${e.name}: ${e.message}`; }
+            }""",
+            [kind, list(data)],
+        )
+    )
+
+
+def test_the_model_readers_read_stl_and_gltf_and_turn_gltf_z_up(readers: Page) -> None:
+    assert _read(readers, "stl", _stl_box(1, 1, 1)) == "ok 108"
+    ascii_stl = b"solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n"
+    assert _read(readers, "stl", ascii_stl) == "ok 9"
+    assert _read(readers, "gltf", json.dumps(GLTF_TRIANGLE).encode()) == "ok 9"
+    up = readers.evaluate(
+        """async (text) => { const m = await import('/static/models.js');
+            return Array.from((await m.parseGltf(new TextEncoder().encode(text).buffer, location.href)).tris); }""",
+        json.dumps(GLTF_TRIANGLE),
+    )
+    assert up[6:9] == [0, 0, 1]  # glTF's (0, 1, 0), y up, is z up here
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    data=st.one_of(
+        st.binary(max_size=300),
+        st.builds(lambda b, cut: b[:cut], st.just(_stl_box(1, 2, 3)), st.integers(0, 700)),
+        st.builds(lambda n: b"x" * 80 + struct.pack("<I", n) + b"\0" * 50, st.integers(0, 2**32 - 1)),
+        st.builds(lambda t: f"solid a\nvertex {t}\n".encode(), st.text(max_size=40)),
+    ),
+    kind=st.sampled_from(["stl", "gltf"]),
+)
+def test_the_model_readers_refuse_garbage_with_a_reason_and_never_hang(readers: Page, data: bytes, kind: str) -> None:
+    got = _read(readers, kind, data)
+    if got.startswith("ok "):
+        assert int(got[3:]) % 9 == 0, got  # whole triangles only
+    else:
+        assert ": " in got, got  # an error with its name and a message
+        assert len(got) > len("Error: "), got
