@@ -22,7 +22,7 @@ const SPEC_ROWS = [
   ["shape", "shape", "", -1],
   ["width", "length (along the heading)", "m", 2],
   ["height", "width (wheel base)", "m", 2],
-  ["com", "wheel axis from the rear", "of the length", 2],
+  ["com", "front ahead of the wheel axis", "of the length", 2],
   ["max_speed", "top speed", "m/s", 2],
   ["acceleration_curve", "motor inertia (0 none, 1 never moves)", "", 2],
   ["ticks_per_m", "encoder", "ticks/m", 0],
