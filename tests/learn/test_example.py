@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 from types import ModuleType
 
+import gymnasium
 import numpy as np
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "docs" / "examples" / "ppo_chairnav.py"
@@ -44,5 +45,6 @@ def test_a_chair_that_stands_still_times_out_and_the_scale_divides_by_one_to_ten
     import iw_zenoh.learn  # noqa: PLC0415
 
     box = iw_zenoh.learn.ChairNavEnv().observation_space
+    assert isinstance(box, gymnasium.spaces.Box)
     assert np.all(np.abs(box.high / ex.SCALE) <= 100.0)  # the goal's distance bound (1000 m) / 10
     assert np.all(ex.SCALE >= 1.0)
