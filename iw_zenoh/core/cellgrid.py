@@ -28,6 +28,7 @@ __all__ = [
     "SceneWalls",
     "bin_boxes",
     "cell_range",
+    "gather",
     "grid_for",
     "in_convex",
     "in_wall",
@@ -216,6 +217,47 @@ def bin_boxes(
                 items[fill[r * nx + c]] = i
                 fill[r * nx + c] += 1
     return start, items
+
+
+@njit(cache=True, nogil=True)
+def gather(
+    g: CellGrid,
+    start: IntArray,
+    items: IntArray,
+    item_box: FloatArray,
+    seen: IntArray,
+    tag: int,
+    x0: float,
+    y0: float,
+    x1: float,
+    y1: float,
+    out: IntArray,
+) -> int:  # pragma: no cover
+    """The walk every kernel makes: the items binned (``start``, ``items``: CSR over the cells of
+    ``g``) in the cells that the box ``[x0, x1] x [y0, y1]`` touches, each once, whose own box
+    (``item_box``, rows ``x0, y0, x1, y1``) overlaps it, written to ``out``; returns how many.
+
+    ``seen`` (one slot an item) marks the items met: an item marked ``tag`` already is skipped,
+    and a kernel passes its query's index as the tag, so the marks need no clearing between
+    queries. ``out`` has room for every item. The items come in cell order: every kernel's
+    answer is the same whatever their order (a minimum, or pairs sorted afterwards).
+    """
+    n = 0
+    ca, cb = cell_range(x0, x1, g.x0, g.cell, g.nx)
+    ra, rb = cell_range(y0, y1, g.y0, g.cell, g.ny)
+    for r in range(ra, rb + 1):
+        for c in range(ca, cb + 1):
+            q = r * g.nx + c
+            for j in range(start[q], start[q + 1]):
+                s = items[j]
+                if seen[s] == tag:
+                    continue
+                seen[s] = tag
+                if item_box[s, 0] > x1 or item_box[s, 2] < x0 or item_box[s, 1] > y1 or item_box[s, 3] < y0:
+                    continue
+                out[n] = s
+                n += 1
+    return n
 
 
 @njit(cache=True, nogil=True)

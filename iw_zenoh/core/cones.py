@@ -23,7 +23,7 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from iw_zenoh.core.cellgrid import SceneIndex, cell_range, in_convex, in_walls, scene_index
+from iw_zenoh.core.cellgrid import SceneIndex, gather, in_convex, in_walls, scene_index
 from iw_zenoh.core.lab import Lab, Scene, Wall
 
 __all__ = ["cone_distances", "warm_up"]
@@ -125,41 +125,30 @@ def _scan(
     best = np.full(m, np.inf)
     seen_seg = np.full(segs.shape[0], -1, dtype=np.int64)
     seen_body = np.full(bbox.shape[0], -1, dtype=np.int64)
+    near_seg = np.empty(segs.shape[0], dtype=np.int64)
+    near_body = np.empty(bbox.shape[0], dtype=np.int64)
     for i in range(m):
         px, py = ox[i], oy[i]
         lx, ly, rx, ry = nrm[i, 0], nrm[i, 1], nrm[i, 2], nrm[i, 3]
         x0, y0, x1, y1 = box[i, 0], box[i, 1], box[i, 2], box[i, 3]
         d = math.inf
-        ca, cb = cell_range(x0, x1, g.x0, g.cell, g.nx)
-        ra, rb = cell_range(y0, y1, g.y0, g.cell, g.ny)
-        for r in range(ra, rb + 1):
-            for c in range(ca, cb + 1):
-                q = r * g.nx + c
-                for j in range(w.seg_start[q], w.seg_start[q + 1]):
-                    s = w.seg_items[j]
-                    if seen_seg[s] == i:
-                        continue
-                    seen_seg[s] = i
-                    if seg_box[s, 0] > x1 or seg_box[s, 2] < x0 or seg_box[s, 1] > y1 or seg_box[s, 3] < y0:
-                        continue
-                    d = min(d, _wedge(px, py, lx, ly, rx, ry, segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3]))
-                for j in range(ix.b_start[q], ix.b_start[q + 1]):
-                    b = ix.b_items[j]
-                    if b == owner[i] or seen_body[b] == i:
-                        continue
-                    seen_body[b] = i
-                    if bbox[b, 0] > x1 or bbox[b, 2] < x0 or bbox[b, 1] > y1 or bbox[b, 3] < y0:
-                        continue
-                    inside_box = bbox[b, 0] <= px <= bbox[b, 2] and bbox[b, 1] <= py <= bbox[b, 3]
-                    if inside_box and in_convex(px, py, body_xy[b], k):
-                        d = 0.0  # a mounting point inside another body sees it at 0
-                    for e in range(k):
-                        f = (e + 1) % k
-                        ax, ay = body_xy[b, e, 0], body_xy[b, e, 1]
-                        bx, by = body_xy[b, f, 0], body_xy[b, f, 1]
-                        # only edges facing the sensor can hold the nearest point of a convex body
-                        if (bx - ax) * (py - ay) - (by - ay) * (px - ax) <= 0.0:
-                            d = min(d, _wedge(px, py, lx, ly, rx, ry, ax, ay, bx, by))
+        for t in range(gather(g, w.seg_start, w.seg_items, seg_box, seen_seg, i, x0, y0, x1, y1, near_seg)):
+            s = near_seg[t]
+            d = min(d, _wedge(px, py, lx, ly, rx, ry, segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3]))
+        for t in range(gather(g, ix.b_start, ix.b_items, bbox, seen_body, i, x0, y0, x1, y1, near_body)):
+            b = near_body[t]
+            if b == owner[i]:
+                continue
+            inside_box = bbox[b, 0] <= px <= bbox[b, 2] and bbox[b, 1] <= py <= bbox[b, 3]
+            if inside_box and in_convex(px, py, body_xy[b], k):
+                d = 0.0  # a mounting point inside another body sees it at 0
+            for e in range(k):
+                f = (e + 1) % k
+                ax, ay = body_xy[b, e, 0], body_xy[b, e, 1]
+                bx, by = body_xy[b, f, 0], body_xy[b, f, 1]
+                # only edges facing the sensor can hold the nearest point of a convex body
+                if (bx - ax) * (py - ay) - (by - ay) * (px - ax) <= 0.0:
+                    d = min(d, _wedge(px, py, lx, ly, rx, ry, ax, ay, bx, by))
         if d > 0.0 and in_walls(w, px, py):
             d = 0.0  # a mounting point inside a wall sees distance 0 (even-odd rule over its edges)
         best[i] = d if d <= rng[i] else math.inf

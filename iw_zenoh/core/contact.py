@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from iw_zenoh.core.cellgrid import bin_boxes, cell_range, in_convex, in_wall, scene_walls
+from iw_zenoh.core.cellgrid import CellGrid, bin_boxes, gather, in_convex, in_wall, scene_walls
 from iw_zenoh.core.lab import Lab, Scene, Wall
 
 __all__ = ["TOUCH_M", "touching", "warm_up"]
@@ -74,11 +74,7 @@ def touching(
         w.wall_box,
         w.wall_start,
         w.wall_items,
-        g.x0,
-        g.y0,
-        g.cell,
-        g.nx,
-        g.ny,
+        g,
     )
 
 
@@ -204,11 +200,7 @@ def _touching(
     wall_box: FloatArray,
     wall_start: IntArray,
     wall_items: IntArray,
-    gx0: float,
-    gy0: float,
-    cell: float,
-    nx: int,
-    ny: int,
+    g: CellGrid,
 ) -> tuple[IntArray, IntArray]:  # pragma: no cover
     n = c_now.shape[0]
     k = c_now.shape[1]
@@ -230,39 +222,32 @@ def _touching(
             or c_next[i, :, 0].max() > width
             or c_next[i, :, 1].max() > height
         )
-    b_start, b_items = bin_boxes(box, gx0, gy0, cell, nx, ny)
+    b_start, b_items = bin_boxes(box, g.x0, g.y0, g.cell, g.nx, g.ny)
     walls = np.empty((16, 2), dtype=np.int64)
     nwp = 0
     robots = np.empty((16, 2), dtype=np.int64)
     nrp = 0
     seen = np.full(max(nw, 1), -1, dtype=np.int64)
+    near = np.empty(max(nw, 1), dtype=np.int64)
+    seen_robot = np.full(n, -1, dtype=np.int64)
+    near_robot = np.empty(n, dtype=np.int64)
     hull = np.empty((2 * sweep.shape[1] + 1, 2), dtype=np.float64)
     for i in range(n):
         x0, y0, x1, y1 = box[i, 0], box[i, 1], box[i, 2], box[i, 3]
-        ca, cb = cell_range(x0, x1, gx0, cell, nx)
-        ra, rb = cell_range(y0, y1, gy0, cell, ny)
         if not wall_free[i] and nw:
             hk = -1  # the sweep's hull, built when a wall needs it
             first_wall = nwp
-            for r in range(ra, rb + 1):
-                for c in range(ca, cb + 1):
-                    q = r * nx + c
-                    for j in range(wall_start[q], wall_start[q + 1]):
-                        w = wall_items[j]
-                        if seen[w] == i:
-                            continue
-                        seen[w] = i
-                        if wall_box[w, 0] > x1 or wall_box[w, 2] < x0 or wall_box[w, 1] > y1 or wall_box[w, 3] < y0:
-                            continue
-                        f, m = wall_first[w], wall_count[w]
-                        hit = _wall_touch(c_next[i], k, segs, f, m)
-                        if not hit:
-                            if hk < 0:
-                                hk = _hull(sweep[i], hull)
-                            hit = _wall_touch(hull, hk, segs, f, m) and not _wall_touch(c_now[i], k, segs, f, m)
-                        if hit:
-                            walls = _push(walls, nwp, i, w)
-                            nwp += 1
+            for t in range(gather(g, wall_start, wall_items, wall_box, seen, i, x0, y0, x1, y1, near)):
+                w = near[t]
+                f, m = wall_first[w], wall_count[w]
+                hit = _wall_touch(c_next[i], k, segs, f, m)
+                if not hit:
+                    if hk < 0:
+                        hk = _hull(sweep[i], hull)
+                    hit = _wall_touch(hull, hk, segs, f, m) and not _wall_touch(c_now[i], k, segs, f, m)
+                if hit:
+                    walls = _push(walls, nwp, i, w)
+                    nwp += 1
             # this robot's walls in index order
             for a in range(first_wall + 1, nwp):
                 b = a
@@ -274,26 +259,17 @@ def _touching(
         if outside[i]:
             walls = _push(walls, nwp, i, nw)
             nwp += 1
-        # robots: each pair once, in the cell holding the lower-left corner of the boxes' overlap
-        for r in range(ra, rb + 1):
-            for c in range(ca, cb + 1):
-                q = r * nx + c
-                for t in range(b_start[q], b_start[q + 1]):
-                    j = b_items[t]
-                    if j <= i:
-                        continue
-                    if box[j, 0] > x1 or box[j, 2] < x0 or box[j, 1] > y1 or box[j, 3] < y0:
-                        continue
-                    oc, _ = cell_range(max(x0, box[j, 0]), x1, gx0, cell, nx)
-                    orow, _ = cell_range(max(y0, box[j, 1]), y1, gy0, cell, ny)
-                    if oc != c or orow != r:
-                        continue
-                    hit = _convex_touch(c_next[i], k, c_next[j], k)
-                    if not hit:
-                        hit = _convex_touch(c_mid[i], k, c_mid[j], k) and not _convex_touch(c_now[i], k, c_now[j], k)
-                    if hit:
-                        robots = _push(robots, nrp, i, j)
-                        nrp += 1
+        # robots: each pair once, from its lower index
+        for t in range(gather(g, b_start, b_items, box, seen_robot, i, x0, y0, x1, y1, near_robot)):
+            j = near_robot[t]
+            if j <= i:
+                continue
+            hit = _convex_touch(c_next[i], k, c_next[j], k)
+            if not hit:
+                hit = _convex_touch(c_mid[i], k, c_mid[j], k) and not _convex_touch(c_now[i], k, c_now[j], k)
+            if hit:
+                robots = _push(robots, nrp, i, j)
+                nrp += 1
     robots = robots[:nrp]
     if nrp > 1:
         robots = robots[np.argsort(robots[:, 0] * n + robots[:, 1], kind="mergesort")]

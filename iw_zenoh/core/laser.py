@@ -22,7 +22,7 @@ import numpy.typing as npt
 from numba import njit
 
 from iw_zenoh.core.bodies import Bodies
-from iw_zenoh.core.cellgrid import SceneIndex, cell_range, in_convex, in_walls, scene_index
+from iw_zenoh.core.cellgrid import SceneIndex, gather, in_convex, in_walls, scene_index
 from iw_zenoh.core.lab import Lab, Scene, Wall
 
 __all__ = ["laser_distances", "laser_ranges", "noisy_ranges", "warm_up"]
@@ -219,6 +219,8 @@ def _scan(
     out = np.full(first[ns], np.inf)
     seen_seg = np.full(segs.shape[0], -1, dtype=np.int64)
     seen_body = np.full(bbox.shape[0], -1, dtype=np.int64)
+    near_seg = np.empty(segs.shape[0], dtype=np.int64)
+    near_body = np.empty(bbox.shape[0], dtype=np.int64)
     most = 0
     for i in range(ns):
         most = max(most, first[i + 1] - first[i])
@@ -232,42 +234,25 @@ def _scan(
             sn[j] = math.sin(start[i] + j * step[i])
         x0, y0, x1, y1 = px - r, py - r, px + r, py + r
         blind = False  # the mounting point is inside something
-        ca, cb = cell_range(x0, x1, g.x0, g.cell, g.nx)
-        ra, rb = cell_range(y0, y1, g.y0, g.cell, g.ny)
-        for row in range(ra, rb + 1):
-            for c in range(ca, cb + 1):
-                q = row * g.nx + c
-                for j in range(w.seg_start[q], w.seg_start[q + 1]):
-                    s = w.seg_items[j]
-                    if seen_seg[s] == i:
-                        continue
-                    seen_seg[s] = i
-                    if seg_box[s, 0] > x1 or seg_box[s, 2] < x0 or seg_box[s, 1] > y1 or seg_box[s, 3] < y0:
-                        continue
-                    _cast(
-                        segs[s, 0] - px, segs[s, 1] - py, segs[s, 2] - px, segs[s, 3] - py,
-                        r, start[i], step[i], cs, sn, out, off, nb,
-                    )  # fmt: skip
-                for j in range(ix.b_start[q], ix.b_start[q + 1]):
-                    b = ix.b_items[j]
-                    if b == owner[i] or seen_body[b] == i:
-                        continue
-                    seen_body[b] = i
-                    if bbox[b, 0] > x1 or bbox[b, 2] < x0 or bbox[b, 1] > y1 or bbox[b, 3] < y0:
-                        continue
-                    if (
-                        bbox[b, 0] <= px <= bbox[b, 2]
-                        and bbox[b, 1] <= py <= bbox[b, 3]
-                        and in_convex(px, py, body_xy[b], k)
-                    ):
-                        blind = True
-                    for e in range(k):
-                        f = (e + 1) % k
-                        ax, ay = body_xy[b, e, 0] - px, body_xy[b, e, 1] - py
-                        bx, by = body_xy[b, f, 0] - px, body_xy[b, f, 1] - py
-                        # only edges facing the scanner can hold a convex body's first hit
-                        if (bx - ax) * (-ay) - (by - ay) * (-ax) <= 0.0 and (ax != bx or ay != by):
-                            _cast(ax, ay, bx, by, r, start[i], step[i], cs, sn, out, off, nb)
+        for t in range(gather(g, w.seg_start, w.seg_items, seg_box, seen_seg, i, x0, y0, x1, y1, near_seg)):
+            s = near_seg[t]
+            _cast(
+                segs[s, 0] - px, segs[s, 1] - py, segs[s, 2] - px, segs[s, 3] - py,
+                r, start[i], step[i], cs, sn, out, off, nb,
+            )  # fmt: skip
+        for t in range(gather(g, ix.b_start, ix.b_items, bbox, seen_body, i, x0, y0, x1, y1, near_body)):
+            b = near_body[t]
+            if b == owner[i]:
+                continue
+            if bbox[b, 0] <= px <= bbox[b, 2] and bbox[b, 1] <= py <= bbox[b, 3] and in_convex(px, py, body_xy[b], k):
+                blind = True
+            for e in range(k):
+                f = (e + 1) % k
+                ax, ay = body_xy[b, e, 0] - px, body_xy[b, e, 1] - py
+                bx, by = body_xy[b, f, 0] - px, body_xy[b, f, 1] - py
+                # only edges facing the scanner can hold a convex body's first hit
+                if (bx - ax) * (-ay) - (by - ay) * (-ax) <= 0.0 and (ax != bx or ay != by):
+                    _cast(ax, ay, bx, by, r, start[i], step[i], cs, sn, out, off, nb)
         if not blind and in_walls(w, px, py):
             blind = True
         for j in range(off, off + nb):

@@ -4,6 +4,7 @@ learner's actions, every other robot by its own agent in-process, observation an
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -11,7 +12,8 @@ from typing import Any
 import numpy as np
 
 from iw_zenoh.learn.nav import Goal, Reward, Senses, goal_distance, to_powers
-from iw_zenoh.sim.local import LocalWorld, Step
+from iw_zenoh.messages import WorldState
+from iw_zenoh.sim.local import ArrayStep, LocalWorld, Step
 
 __all__ = ["Episode", "Outcome"]
 
@@ -37,6 +39,9 @@ class Episode:
         max_steps: Steps before an episode is truncated.
         action: ``"vw"`` or ``"wheels"`` (:func:`iw_zenoh.learn.nav.to_powers`).
         reward: The reward's terms.
+        arrays: Step on arrays (:meth:`LocalWorld.step_arrays`: no messages built, the same
+            observations and rewards bit for bit) when every robot is a learner's chair; False:
+            always on messages.
     """
 
     def __init__(
@@ -48,6 +53,7 @@ class Episode:
         max_steps: int = 600,
         action: str = "vw",
         reward: Reward | None = None,
+        arrays: bool = True,
     ) -> None:
         self.world = world
         self.goals = dict(goals)
@@ -60,14 +66,35 @@ class Episode:
         self.senses = {rid: Senses(spec, period_s) for rid, spec in self.specs.items()}
         self.steps = 0
         self._pending: dict[int, Any] = {}
+        # nothing but learners' chairs: the world steps on arrays, no message is built
+        self.fast = arrays and not self.agents and set(world.ids) == set(self.goals)
+        self.arrays: ArrayStep | None = None
         self.last = self._advance({})
-        self._dist = {rid: goal_distance(self.last.state, self._index(rid), g) for rid, g in self.goals.items()}
+        self._dist = {rid: self._distance(rid) for rid in self.goals}
 
     def _index(self, rid: int) -> int:
+        if self.arrays is not None:
+            return self.arrays.ids.index(rid)
         return self.last.state.ids.index(rid)
+
+    def _distance(self, rid: int) -> float:
+        g, i = self.goals[rid], self._index(rid)
+        if self.arrays is None:
+            return goal_distance(self.last.state, i, g)
+        x, y = self.arrays.pose[i, :2].tolist()
+        return math.hypot(g.x - x, g.y - y)
+
+    def _collided(self, rid: int) -> bool:
+        if self.arrays is None:
+            return bool(self.last.readings[rid].collision)
+        return bool(self.arrays.collided[self._index(rid)])
 
     def _advance(self, commands: dict[int, Any]) -> Step:
         """One tick: the learners' commands and the agents' answers to the last readings."""
+        if self.fast:
+            ids = self.world.array_ids()
+            self.arrays = a = self.world.step_arrays(np.asarray([commands.get(rid, (0.0, 0.0)) for rid in ids]))
+            return _Lazy(a, self.world)  # type: ignore[return-value]
         s = self.world.step({**self._pending, **commands})
         self._pending = {
             rid: agent.on_sensors(s.readings[rid], s.heard.get(rid, []))
@@ -78,6 +105,8 @@ class Episode:
 
     def observe(self, rid: int) -> np.ndarray:
         """A learner's current observation."""
+        if self.arrays is not None:
+            return self.senses[rid].observe_arrays(self.arrays, self._index(rid), self.goals[rid])
         return self.senses[rid].observe(self.last.readings[rid], self.last.state, self._index(rid), self.goals[rid])
 
     def step(self, actions: Mapping[int, np.ndarray]) -> dict[int, Outcome]:
@@ -87,17 +116,48 @@ class Episode:
         cmds.update({rid: to_powers(a, self.specs[rid], self.action) for rid, a in actions.items()})
         self.last = self._advance(cmds)
         self.steps += 1
+        tick = self.world.tick
         out: dict[int, Outcome] = {}
         for rid in actions:
             goal = self.goals[rid]
-            dist = goal_distance(self.last.state, self._index(rid), goal)
+            dist = self._distance(rid)
             reached = dist < goal.within
-            collided = bool(self.last.readings[rid].collision)
+            collided = self._collided(rid)
             r = self.reward.progress * (self._dist[rid] - dist) + self.reward.time
             r += self.reward.goal if reached else 0.0
             r += self.reward.collision if collided else 0.0
             self._dist[rid] = dist
-            info = {"distance": dist, "reached": reached, "collided": collided, "tick": self.last.state.tick}
+            info = {"distance": dist, "reached": reached, "collided": collided, "tick": tick}
             truncated = self.steps >= self.max_steps or self.world.stopped
             out[rid] = Outcome(self.observe(rid), float(r), reached or collided, truncated, info)
         return out
+
+
+class _Lazy:
+    """A tick stepped on arrays, as much of a :class:`~iw_zenoh.sim.local.Step` as the
+    environments read of it: its state, built only when asked (to render; speeds are not filled)."""
+
+    def __init__(self, a: ArrayStep, world: LocalWorld) -> None:
+        self.arrays = a
+        self._world = world
+
+    @property
+    def state(self) -> WorldState:
+        """The tick's committed state message."""
+        a, w = self.arrays, self._world.world
+        x, y, h = a.pose.T.tolist()
+        rl, rr = a.rolled_m.T.tolist()
+        n = len(a.ids)
+        return WorldState(
+            tick=a.tick,
+            sim_time_ns=w.sim_time_ns(a.tick),
+            revision=w.revision,
+            ids=list(a.ids),
+            x=x,
+            y=y,
+            heading=h,
+            collided=a.collided.tolist(),
+            rolled_left=rl,
+            rolled_right=rr,
+            speed=[0.0] * n,
+        )

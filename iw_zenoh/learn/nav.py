@@ -28,15 +28,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from gymnasium import spaces
 
+from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.motor import MAX_POWER
 from iw_zenoh.core.spec import RobotSpec, default_ir_sensors
 from iw_zenoh.messages import SensorReading, WorldState
+from iw_zenoh.sim.local import ArrayStep
 
-__all__ = ["ACTIONS", "Goal", "Reward", "Senses", "clearance_m", "goal_distance", "to_powers"]
+__all__ = ["ACTIONS", "Goal", "Reward", "Senses", "clearance_m", "goal_distance", "to_powers", "to_powers_batch"]
 
 ACTIONS = ("vw", "wheels")
 FARTHEST_M = 1000.0  # the goal's distance is clipped to this (farther than any lab's diagonal)
@@ -88,12 +91,36 @@ class Senses:
     def observe(self, reading: SensorReading, state: WorldState, index: int, goal: Goal) -> np.ndarray:
         """The observation of the chair at ``index`` of ``state`` from its reading."""
         prox = np.asarray([np.nan if v is None else v for v in reading.proximity_m], dtype=np.float64)
-        prox = np.clip(np.where(np.isnan(prox), self.ir_range, prox), 0.0, self.ir_range)
         beams = [np.nan if v is None else v for scan in reading.lasers or [] for v in scan.ranges]
-        laser = np.asarray(beams, dtype=np.float64)
-        laser = np.clip(np.where(np.isnan(laser), self.laser_range, laser), 0.0, self.laser_range)
-        c = math.radians(reading.compass_deg)
-        x, y, h = state.x[index], state.y[index], state.heading[index]
+        pose = (state.x[index], state.y[index], state.heading[index])
+        rolled = (state.rolled_left[index], state.rolled_right[index])
+        return self._vector(prox, np.asarray(beams, dtype=np.float64), reading.compass_deg, pose, rolled, goal)
+
+    def observe_arrays(self, a: ArrayStep, index: int, goal: Goal) -> np.ndarray:
+        """The same observation from a tick's arrays (:meth:`LocalWorld.step_arrays`), bit for bit."""
+        r = a.readings
+        assert r is not None, "observe_arrays needs a sensed tick"
+        m_first, m_last, l_first, l_last = _slices(a.bodies)
+        prox = r.proximity_m[m_first[index] : m_last[index]]
+        laser = r.laser_m[l_first[index] : l_last[index]]
+        x, y, h = a.pose[index].tolist()
+        rolled = a.rolled_m[index].tolist()
+        return self._vector(prox, laser, float(r.compass_deg[index]), (x, y, h), (rolled[0], rolled[1]), goal)
+
+    def _vector(
+        self,
+        prox: np.ndarray,
+        laser: np.ndarray,
+        compass_deg: float,
+        pose: tuple[float, float, float],
+        rolled: tuple[float, float],
+        goal: Goal,
+    ) -> np.ndarray:
+        """The vector from one chair's readings (nothing in range: NaN or inf) and its state."""
+        prox = np.clip(np.where(np.isfinite(prox), prox, self.ir_range), 0.0, self.ir_range)
+        laser = np.clip(np.where(np.isfinite(laser), laser, self.laser_range), 0.0, self.laser_range)
+        c = math.radians(compass_deg)
+        x, y, h = pose
         dist = math.hypot(goal.x - x, goal.y - y)
         bearing = math.atan2(goal.y - y, goal.x - x) - h
         tail = [
@@ -102,10 +129,24 @@ class Senses:
             dist,
             math.sin(bearing),
             math.cos(bearing),
-            state.rolled_left[index] / self.period_s,
-            state.rolled_right[index] / self.period_s,
+            rolled[0] / self.period_s,
+            rolled[1] / self.period_s,
         ]
         return np.clip(np.concatenate([prox, laser, tail]).astype(np.float32), self.lo, self.hi)
+
+
+@lru_cache(maxsize=8)
+def _slices(bodies: Bodies) -> tuple[list[int], list[int], list[int], list[int]]:
+    """Where each robot's proximity sensors and laser beams are in a tick's flat readings (once
+    per roster: Bodies hash by identity)."""
+    robots = np.arange(bodies.n)
+    own, beams = bodies.ir_owner, bodies.lasers.beam_owner
+    return (
+        np.searchsorted(own, robots).tolist(),
+        np.searchsorted(own, robots, side="right").tolist(),
+        np.searchsorted(beams, robots).tolist(),
+        np.searchsorted(beams, robots, side="right").tolist(),
+    )
 
 
 def to_powers(action: np.ndarray, spec: RobotSpec, mode: str) -> tuple[float, float]:
@@ -124,6 +165,24 @@ def to_powers(action: np.ndarray, spec: RobotSpec, mode: str) -> tuple[float, fl
     w = a[1] * spec.max_speed_mps / half_base  # the fastest turn: wheels at +-max_speed
     per_mps = MAX_POWER / spec.max_speed_mps
     return float((v - w * half_base) * per_mps), float((v + w * half_base) * per_mps)
+
+
+def to_powers_batch(actions: np.ndarray, spec: RobotSpec, mode: str) -> np.ndarray:
+    """(N, 2) wheel powers for (N, 2) actions, each as :func:`to_powers` turns it.
+
+    Raises:
+        ValueError: An unknown ``mode``.
+    """
+    a = np.clip(np.asarray(actions, dtype=np.float64).reshape(-1, 2), -1.0, 1.0)
+    if mode == "wheels":
+        return a * MAX_POWER
+    if mode != "vw":
+        raise ValueError(f"action must be one of {ACTIONS}, got {mode!r}")
+    v = a[:, 0] * spec.max_speed_mps
+    half_base = 0.5 * spec.height_m
+    w = a[:, 1] * spec.max_speed_mps / half_base
+    per_mps = MAX_POWER / spec.max_speed_mps
+    return np.column_stack([(v - w * half_base) * per_mps, (v + w * half_base) * per_mps])
 
 
 def clearance_m(spec: RobotSpec) -> float:

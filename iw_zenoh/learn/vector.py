@@ -24,9 +24,9 @@ from gymnasium.vector.utils import batch_space
 from iw_zenoh.core.lab import Lab, Wall
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.learn.chairnav import SEEDS, default_chair
-from iw_zenoh.learn.nav import ACTIONS, Goal, Reward, Senses, clearance_m, goal_distance, to_powers
+from iw_zenoh.learn.nav import ACTIONS, Goal, Reward, Senses, clearance_m, to_powers_batch
 from iw_zenoh.learn.rooms import SIZES, free_point, random_room
-from iw_zenoh.sim.local import LocalWorld
+from iw_zenoh.sim.local import ArrayStep, LocalWorld
 
 __all__ = ["ChairVectorEnv", "vector_env"]
 
@@ -77,6 +77,7 @@ class ChairVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self.action_space = batch_space(self.single_action_space, num_envs)
         self._margin = clearance_m(self.chair)
+        self.within = Goal(0.0, 0.0).within
         self.world: LocalWorld | None = None
 
     def _place(self, i: int) -> None:
@@ -90,7 +91,7 @@ class ChairVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         rid = self.world.add(
             replace(self.chair, name=f"env-{i}", id=self._next_id, x_m=x + ox, y_m=y + oy, dir_deg=heading)
         )
-        self.rid[i], self.goal[i], self.steps[i] = rid, Goal(gx + ox, gy + oy), 0
+        self.rid[i], self.goal_xy[i], self.steps[i] = rid, (gx + ox, gy + oy), 0
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -111,48 +112,67 @@ class ChairVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         lab = Lab(f"{n} rooms", cols * CELL_W + 1.0, rows * CELL_H + 1.0, tuple(walls))
         self.world = LocalWorld(lab, seed=int(g.integers(SEEDS)), sim="vector")
         self._next_id = 0
-        self.rid, self.goal, self.steps = [0] * n, [Goal(0, 0)] * n, [0] * n
+        self.rid = [0] * n
+        self.goal_xy = np.zeros((n, 2))
+        self.steps = np.zeros(n, dtype=np.int64)
         for i in range(n):
             self._place(i)
-        s = self.world.step({})
-        self._dist = [goal_distance(s.state, s.state.ids.index(self.rid[i]), self.goal[i]) for i in range(n)]
+        s = self.world.step_arrays(np.zeros((n, 2)))
+        self._dist = self._distances(s, self._where(s))
         self._ended = np.zeros(n, dtype=bool)
-        return self._observe(), {}
+        return self._observe(s, self._where(s)), {}
 
-    def _observe(self) -> np.ndarray:
-        assert self.world is not None
-        assert self.world.last is not None
-        s = self.world.last
-        at = {rid: k for k, rid in enumerate(s.state.ids)}
-        return np.stack(
-            [self.senses.observe(s.readings[r], s.state, at[r], g) for r, g in zip(self.rid, self.goal, strict=True)]
-        )
+    def _where(self, s: ArrayStep) -> np.ndarray:
+        """(N,) each sub-environment's chair's index in the tick's arrays."""
+        at = {rid: k for k, rid in enumerate(s.ids)}
+        return np.asarray([at[r] for r in self.rid], dtype=np.int64)
+
+    def _distances(self, s: ArrayStep, idx: np.ndarray) -> np.ndarray:
+        """(N,) each chair's distance to its goal, m."""
+        return np.asarray(np.hypot(self.goal_xy[:, 0] - s.pose[idx, 0], self.goal_xy[:, 1] - s.pose[idx, 1]))
+
+    def _observe(self, s: ArrayStep, idx: np.ndarray) -> np.ndarray:
+        """Every sub-environment's observation (ChairNav's layout, :mod:`iw_zenoh.learn.nav`), at once."""
+        r, sn = s.readings, self.senses
+        assert r is not None
+        prox = r.proximity_m.reshape(len(s.ids), -1)[idx]
+        prox = np.where(np.isfinite(prox), prox, sn.ir_range)
+        laser = r.laser_m.reshape(len(s.ids), -1)[idx]
+        laser = np.where(np.isfinite(laser), laser, sn.laser_range)
+        c = np.radians(r.compass_deg[idx])
+        dx, dy = self.goal_xy[:, 0] - s.pose[idx, 0], self.goal_xy[:, 1] - s.pose[idx, 1]
+        bearing = np.arctan2(dy, dx) - s.pose[idx, 2]
+        rolled = s.rolled_m[idx] / sn.period_s
+        tail = np.column_stack([np.sin(c), np.cos(c), np.hypot(dx, dy), np.sin(bearing), np.cos(bearing), rolled])
+        return np.asarray(np.clip(np.concatenate([prox, laser, tail], axis=1).astype(np.float32), sn.lo, sn.hi))
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """One tick of every chair; sub-environments that ended at the last step start again."""
         assert self.world is not None, "call reset() before step()"
         n, w = self.num_envs, self.world
-        restarted = np.flatnonzero(self._ended)
-        for k in restarted.tolist():
+        restarted = self._ended
+        for k in np.flatnonzero(restarted).tolist():
             w.remove(self.rid[k])
             self._place(k)
-        a = np.asarray(actions, dtype=np.float64).reshape(n, 2)
-        s = w.step({self.rid[i]: to_powers(a[i], self.chair, self.action_mode) for i in range(n) if not self._ended[i]})
-        at = {rid: k for k, rid in enumerate(s.state.ids)}
-        reward, term, trunc = np.zeros(n), np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
+        powers = to_powers_batch(np.asarray(actions, dtype=np.float64).reshape(n, 2), self.chair, self.action_mode)
+        powers[restarted] = 0.0  # a chair placed again starts at rest
+        ids = w.array_ids()
+        at = {rid: k for k, rid in enumerate(ids)}
+        idx = np.asarray([at[r] for r in self.rid], dtype=np.int64)
+        given = np.zeros((len(ids), 2))
+        given[idx] = powers
+        s = w.step_arrays(given)
+        dist = self._distances(s, idx)
         r = self.reward_terms
-        for i in range(n):
-            dist = goal_distance(s.state, at[self.rid[i]], self.goal[i])
-            if self._ended[i]:
-                self._dist[i] = dist
-                continue
-            self.steps[i] += 1
-            reached, collided = dist < self.goal[i].within, bool(s.readings[self.rid[i]].collision)
-            reward[i] = r.progress * (self._dist[i] - dist) + r.time + r.goal * reached + r.collision * collided
-            term[i], trunc[i] = reached or collided, self.steps[i] >= self.max_steps
-            self._dist[i] = dist
+        reached, collided = dist < self.within, s.collided[idx]
+        reward = r.progress * (self._dist - dist) + r.time + r.goal * reached + r.collision * collided
+        self.steps += 1
+        term, trunc = reached | collided, self.steps >= self.max_steps
+        reward[restarted], term[restarted], trunc[restarted] = 0.0, False, False  # their first observation
+        self.steps[restarted] = 0
+        self._dist = dist
         self._ended = term | trunc
-        return self._observe(), reward, term, trunc, {}
+        return self._observe(s, idx), reward, term, trunc, {}
 
 
 def vector_env(num_envs: int = 8, **kwargs: Any) -> ChairVectorEnv:

@@ -55,22 +55,34 @@ class CollisionNode:
         )
         self.on_proposed(probe, view)
 
+    def check(
+        self,
+        view: WorldView,
+        bodies: Bodies,
+        now: np.ndarray,
+        nxt: np.ndarray,
+        linear: np.ndarray,
+        active: npt.NDArray[np.bool_] | None = None,
+    ) -> Collisions:
+        """The collisions of one proposal, as arrays: (N, 3) poses now and next, (N,) linear
+        motion (the legacy rule's sign), in the order of ``bodies`` (what :meth:`on_proposed`
+        judges, without messages: :class:`~iw_zenoh.sim.local.LocalWorld`'s array path)."""
+        if view.info.profile == Profile.CIBERRATO:
+            return check_collisions_ciberrato(view.scene, now, nxt, linear, active=active)
+        doors = self._doors_of(bodies)
+        return _doors_pass_doors(
+            check_collisions(view.scene, bodies.outline, now, nxt, active=active, ignore_walls=doors), doors
+        )
+
     def on_proposed(self, msg: Proposed, view: WorldView) -> Verdict:
         """The verdict on one proposal."""
         ids = msg.ids
         now = np.column_stack([msg.x, msg.y, msg.heading]) if ids else np.zeros((0, 3))
         nxt = np.column_stack([msg.next_x, msg.next_y, msg.next_heading]) if ids else np.zeros((0, 3))
         active = np.asarray(msg.active, dtype=bool)
-        bodies = view.bodies_for(ids)
-        if view.info.profile == Profile.CIBERRATO:
-            col = check_collisions_ciberrato(view.scene, now, nxt, np.asarray(msg.linear), active=active)
-            hits = [Hit(robot_id=ids[i], other=ids[j]) for i, j in col.robot_pairs]
-        else:
-            doors = self._doors_of(bodies)
-            col = _doors_pass_doors(
-                check_collisions(view.scene, bodies.outline, now, nxt, active=active, ignore_walls=doors), doors
-            )
-            hits = [Hit(robot_id=ids[i], other=ids[j]) for i, j in col.robot_pairs]
+        col = self.check(view, view.bodies_for(ids), now, nxt, np.asarray(msg.linear), active)
+        hits = [Hit(robot_id=ids[i], other=ids[j]) for i, j in col.robot_pairs]
+        if view.info.profile != Profile.CIBERRATO:  # pairs are i < j once: each robot hit the other
             hits += [Hit(robot_id=ids[j], other=ids[i]) for i, j in col.robot_pairs]
         hits += [Hit(robot_id=ids[i], wall=int(w)) for i, w in col.wall_pairs]
         return Verdict(

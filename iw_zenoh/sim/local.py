@@ -28,10 +28,14 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Protocol
 
+import numpy as np
+
 from iw_zenoh.convert import lab_from_msg, spec_from_msg, spec_to_msg
+from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.lab import Grid, Lab, Scene
 from iw_zenoh.core.modes import Mode, Profile
-from iw_zenoh.core.spec import RobotSpec
+from iw_zenoh.core.sensors import Readings
+from iw_zenoh.core.spec import RobotSpec, RobotType
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import (
     Actions,
@@ -54,7 +58,7 @@ from iw_zenoh.sim.sensors import SensorsNode
 from iw_zenoh.sim.view import WorldView
 from iw_zenoh.sim.world import WorldCore
 
-__all__ = ["LocalWorld", "Step", "WheelCommand"]
+__all__ = ["ArrayStep", "LocalWorld", "Step", "WheelCommand"]
 
 NO_WATCHDOG_MS = 1e12  # lock-step: a robot's command stands until its agent answers again
 
@@ -87,6 +91,30 @@ class Step:
     heard: dict[int, list[Heard]] = field(default_factory=dict)
     events: list[Event] = field(default_factory=list)
     published: list[Outgoing] = field(default_factory=list)
+
+
+@dataclass
+class ArrayStep:
+    """What one tick gave, as arrays (:meth:`LocalWorld.step_arrays`): robot ``i`` is ``ids[i]``.
+
+    Attributes:
+        tick: The tick.
+        ids: The robots' ids in array order.
+        bodies: Their bodies (sensor layouts: :class:`~iw_zenoh.core.bodies.Bodies`).
+        pose: (N, 3) committed poses: x, y (m), heading (rad), as the state's.
+        collided: (N,) the tick's collision flags.
+        rolled_m: (N, 2) how far each wheel rolled (left, right).
+        readings: Every sensor of every robot (:class:`~iw_zenoh.core.sensors.Readings`), None
+            when not sensed; the values a :class:`~iw_zenoh.messages.SensorReading` carries.
+    """
+
+    tick: int
+    ids: list[int]
+    bodies: Bodies
+    pose: np.ndarray
+    collided: np.ndarray
+    rolled_m: np.ndarray
+    readings: Readings | None
 
 
 class LocalWorld:
@@ -133,6 +161,8 @@ class LocalWorld:
         self.sensors = SensorsNode(sim, seed)
         self.radio = RadioNode(sim, radio)
         self._view: WorldView | None = None
+        self._scene_src: Scene | None = None  # the world's scene the view's was built from
+        self._specs: dict[int, RobotSpec] = {}  # each robot's spec as the view has it (kept while it is here)
         self.last: Step | None = None
 
     # --- the roster ------------------------------------------------------------------------
@@ -178,10 +208,15 @@ class LocalWorld:
         return None if self.last is None else self.last.state
 
     def view(self) -> WorldView:
-        """The world as the other roles see it (rebuilt when the roster changes)."""
+        """The world as the other roles see it (rebuilt when the roster changes; the scene and
+        each robot's spec are kept while they stay, so a robot coming or going costs little)."""
         if self._view is None or self._view.info.revision != self.world.revision:
             wi = self.world.info()
-            self._view = WorldView(wi, Scene(lab_from_msg(wi.lab)), {s.id: spec_from_msg(s) for s in wi.robots})
+            was, src = self._view, self.world.scene  # the world makes a new scene when its lab changes
+            scene = was.scene if was is not None and src is self._scene_src else Scene(lab_from_msg(wi.lab))
+            self._scene_src = src
+            self._specs = {s.id: self._specs.get(s.id) or spec_from_msg(s) for s in wi.robots}
+            self._view = WorldView(wi, scene, dict(self._specs))
         return self._view
 
     # --- the tick --------------------------------------------------------------------------
@@ -239,3 +274,49 @@ class LocalWorld:
                     step.events.append(m)
         self.last = step
         return step
+
+    def step_arrays(self, powers: np.ndarray, *, sense: bool = True) -> ArrayStep:
+        """One tick as :meth:`step` runs it, on arrays: no message is built, so it is the fast
+        path for learning (every robot commanded every tick, nothing said).
+
+        The same world, collision check and sensors run (the same functions, the same noise
+        streams), so a run of it gives the states and readings :meth:`step` gives, bit for bit
+        (``tests/sim/test_local.py``); the two may be mixed.
+
+        Args:
+            powers: (N, 2) wheel powers (left, right) of every robot, in :meth:`array_ids` order.
+            sense: Compute the readings.
+
+        Raises:
+            IwError: A Real robot is in the world (its pose comes from its reports: use :meth:`step`),
+                or ``powers`` is not (N, 2).
+        """
+        w = self.world
+        ids = w.arrays()
+        cmd = np.array(powers, dtype=np.float64)
+        if cmd.shape != (len(ids), 2):
+            raise IwError(f"step_arrays takes ({len(ids)}, 2) wheel powers, one row a robot, got {cmd.shape}")
+        entries = [w.registry.entries[rid] for rid in ids]
+        if any(e.spec.type == RobotType.REAL for e in entries):
+            raise IwError("step_arrays cannot step a Real robot (its agent reports its pose): use step()")
+        for e, (left, right) in zip(entries, cmd.tolist(), strict=True):
+            e.cmd = (left, right)  # as on_actions keeps them: a later step() without a command keeps them
+        view = self.view()
+        before = w.state.pose
+        prop = w.propose_next(cmd)
+        col = self.collide.check(view, w.bodies, before, prop.pose, prop.linear)
+        n, _, _, was = w.commit_next(col.collided)
+        st = w.state
+        w.collisions += int(np.count_nonzero(st.collided & ~was))
+        if w.cfg.duration_ticks and n >= w.cfg.duration_ticks:
+            w.stopped = True
+        readings = None
+        if sense:
+            readings, _, enc = self.sensors.read(n, ids, w.bodies, st.pose, st.collided, st.rolled_m, view)
+            self.sensors.commit_counts(n, ids, enc)
+        self.last = None  # step()'s messages are not built here
+        return ArrayStep(n, ids, w.bodies, st.pose, st.collided, st.rolled_m, readings)
+
+    def array_ids(self) -> list[int]:
+        """The robots' ids in the order :meth:`step_arrays` takes and gives them."""
+        return list(self.world.arrays())

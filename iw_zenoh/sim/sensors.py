@@ -188,9 +188,13 @@ class SensorsNode:
         if c.ids != self._enc_ids and len(self._keys) > len(c.ids):
             roster = set(c.ids)
             self._keys = {rid: key for rid, key in self._keys.items() if rid in roster}
-        self._enc_ids, self._enc = c.ids, c.enc
-        self.last_tick = c.msg.tick
-        if self._z is not None and self._z[0] <= c.msg.tick:
+        self.commit_counts(c.msg.tick, c.ids, c.enc)
+
+    def commit_counts(self, tick: int, ids: list[int], enc: np.ndarray) -> None:
+        """Makes tick ``tick`` of robots ``ids`` the newest, with its (N, 2) encoder counts."""
+        self._enc_ids, self._enc = ids, enc
+        self.last_tick = tick
+        if self._z is not None and self._z[0] <= tick:
             self._z = None
 
     def _normals(self, tick: int, ids: list[int], counts: list[int], starts: list[int], only: np.ndarray) -> np.ndarray:
@@ -212,27 +216,48 @@ class SensorsNode:
             return Computed(msg, ids, [], [], np.zeros((0, 2)))
         bodies = view.bodies_for(ids)
         pose = np.column_stack([msg.x, msg.y, msg.heading])
+        rolled = np.column_stack([msg.rolled_left, msg.rolled_right])
+        r, only, enc = self.read(
+            msg.tick, ids, bodies, pose, np.asarray(msg.collided, dtype=bool), rolled, view, subset
+        )
+        out = self._readings(msg, ids, bodies, r, only)
+        # each reading is encoded once: on its robot's key and inside the shard's batch
+        encoded = [encode(m) for _, m in out]
+        return Computed(msg, ids, out, encoded, enc)
+
+    def read(
+        self,
+        tick: int,
+        ids: list[int],
+        bodies: Bodies,
+        pose: np.ndarray,
+        collided: np.ndarray,
+        rolled: np.ndarray,
+        view: WorldView,
+        subset: np.ndarray | None = None,
+    ) -> tuple[Readings, np.ndarray, np.ndarray]:
+        """The readings of tick ``tick`` as arrays (what :meth:`compute` turns into messages), from
+        (N, 3) poses, (N,) collision flags and (N, 2) distances rolled, robots ``ids`` (``bodies``):
+        the readings, the robots computed, and the encoder counts after the tick (not committed:
+        :meth:`commit_counts`)."""
         mine, moving, counts, starts = self._roster(view, ids, bodies)
         only = mine if subset is None else mine & subset
-        z = self._normals(msg.tick, ids, counts, starts, mine)
+        z = self._normals(tick, ids, counts, starts, mine)
         enc = self._encoders(ids)
         r = read_sensors(
             view.scene,
             bodies,
             pose,
-            collided=np.asarray(msg.collided, dtype=bool),
+            collided=collided,
             encoder_acc=enc,
-            rolled_m=np.column_stack([msg.rolled_left, msg.rolled_right]),
+            rolled_m=rolled,
             z=z,
             params=SensorParams(),
             only=only,
             legacy_ir=view.info.profile == Profile.CIBERRATO,
             moving_beacons=moving,
         )
-        out = self._readings(msg, ids, bodies, r, only)
-        # each reading is encoded once: on its robot's key and inside the shard's batch
-        encoded = [encode(m) for _, m in out]
-        return Computed(msg, ids, out, encoded, np.where(only[:, None], r.encoder_acc, enc))
+        return r, only, np.where(only[:, None], r.encoder_acc, enc)
 
     def _roster(
         self, view: WorldView, ids: list[int], bodies: Bodies

@@ -285,8 +285,7 @@ class WorldCore:
         ]
         for rid, agent in gone:
             out += self.remove(rid, f"robot {rid} removed: its agent {agent!r} has been gone {self.cfg.grace_ms:g} ms")
-        self._build()
-        ids = self.registry.arrayed
+        ids = self.arrays()
         cmd, report, fired = self.registry.commands(
             ids,
             now_ns=now_ns,
@@ -296,6 +295,25 @@ class WorldCore:
         if fired:
             silent = f"no actions for {self.cfg.action_timeout_ms:g} ms, motors zeroed"
             out += [self.event(EventKind.WATCHDOG, f"robot {rid}: {silent}", rid) for rid in fired]
+        prop = self.propose_next(cmd, report)
+        n = self.tick + 1
+        self._tick_wall_ns = wall_ns
+        msg = proposed_msg(
+            self.state, prop, ids, sim_time_ns=self.sim_time_ns(n), revision=self.revision, wall_ns=wall_ns
+        )
+        out.append((self._proposed_key, msg))
+        return out
+
+    def arrays(self) -> list[int]:
+        """The robots' ids in array order, the arrays rebuilt first if the roster changed."""
+        self._build()
+        return self.registry.arrayed
+
+    def propose_next(self, cmd: np.ndarray, report: np.ndarray | None = None) -> Proposal:
+        """Tick n's proposal from (N, 2) wheel powers in array order (and (N, 3) poses Real robots
+        reported, NaN rows for none), pending until :meth:`commit_next`: what :meth:`begin_tick` does
+        once it has the commands, without a message (:class:`~iw_zenoh.sim.local.LocalWorld`'s
+        array path calls it directly)."""
         self.state = replace(self.state, cmd=cmd)
         profile = self._profile
         prop = propose(
@@ -303,18 +321,12 @@ class WorldCore:
             self.bodies,
             dt_s=self.cfg.period_ms / 1000.0,
             profile=profile,
-            noise_z=self._motion_noise(ids, profile),
+            noise_z=self._motion_noise(self.registry.arrayed, profile),
             motors_noise_pct=self.cfg.motors_noise_pct,
             reported_pose=report,
         )
-        n = self.tick + 1
-        self._pending = (n, prop)
-        self._tick_wall_ns = wall_ns
-        msg = proposed_msg(
-            self.state, prop, ids, sim_time_ns=self.sim_time_ns(n), revision=self.revision, wall_ns=wall_ns
-        )
-        out.append((self._proposed_key, msg))
-        return out
+        self._pending = (self.tick + 1, prop)
+        return prop
 
     def _motion_noise(self, ids: list[int], profile: Profile) -> np.ndarray | None:
         """This tick's standard normals of movement noise (None when no robot's motion is noisy)."""
@@ -339,35 +351,19 @@ class WorldCore:
 
     def finish_tick(self, verdict: Verdict | None) -> list[Outgoing]:
         """Commits the proposal given the verdict (or holds everyone without one)."""
-        assert self._pending is not None
-        n, prop = self._pending
-        self._pending = None
         ids = list(self.registry.arrayed)
         out = self.presence.on_verdict(verdict is not None, bool(ids))
-        hold: np.ndarray | None = None
-        if verdict is None:
-            hold = np.ones(len(ids), dtype=bool)
-            col = Collisions.none(len(ids))
-        else:
-            c = np.asarray(verdict.collided, dtype=bool)
-            col = Collisions(c, c.copy(), c.copy(), np.zeros((0, 2), dtype=np.int64), np.zeros((0, 2), dtype=np.int64))
-        was = self.state.collided.copy()
-        profile = self._profile
-        self.state = commit(self.state, prop, col, profile=profile, hold=hold)
-        if self.state.tick != n:  # commit counts the tick already
-            self.state = replace(self.state, tick=n)
+        n, prop, hold, was = self.commit_next(None if verdict is None else np.asarray(verdict.collided, dtype=bool))
         if verdict is not None:
             for rid, reason, hit in collision_reports(verdict, ids, self.state.collided & ~was, self.state.pose):
                 self.collisions += 1
                 out.append(self.event(EventKind.COLLISION, reason, rid, payload=hit))
-        if self.steps_left > 0:
-            self.steps_left -= 1
         msg = state_msg(
             self.state,
             ids,
             sim_time_ns=self.sim_time_ns(n),
             revision=self.revision,
-            speed_mps=speeds(prop, profile=profile, bodies=self.bodies, period_ms=self.cfg.period_ms),
+            speed_mps=speeds(prop, profile=self._profile, bodies=self.bodies, period_ms=self.cfg.period_ms),
             held_reason=None if hold is None else self.presence.holding,
             tick_wall_ns=self._tick_wall_ns,
         )
@@ -377,6 +373,31 @@ class WorldCore:
             self.stopped = True
             out.append(self.event(EventKind.STOPPED, f"duration reached: {n} ticks"))
         return out
+
+    def commit_next(self, collided: np.ndarray | None) -> tuple[int, Proposal, np.ndarray | None, np.ndarray]:
+        """Commits the pending proposal given (N,) collision flags (None: no verdict came, every
+        robot is held): what :meth:`finish_tick` does before its messages.
+
+        Returns:
+            The tick, its proposal, the robots held (None: none) and the collision flags before.
+        """
+        assert self._pending is not None
+        n, prop = self._pending
+        self._pending = None
+        hold: np.ndarray | None = None
+        if collided is None:
+            hold = np.ones(len(self.registry.arrayed), dtype=bool)
+            col = Collisions.none(len(hold))
+        else:
+            empty = np.zeros((0, 2), dtype=np.int64)
+            col = Collisions(collided, collided.copy(), collided.copy(), empty, empty.copy())
+        was = self.state.collided.copy()
+        self.state = commit(self.state, prop, col, profile=self._profile, hold=hold)
+        if self.state.tick != n:  # commit counts the tick already
+            self.state = replace(self.state, tick=n)
+        if self.steps_left > 0:
+            self.steps_left -= 1
+        return n, prop, hold, was
 
     def tick_msg(self) -> Tick:
         """The clock message for the current tick."""

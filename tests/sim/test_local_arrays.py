@@ -1,0 +1,111 @@
+"""LocalWorld's array path (``step_arrays``, the learning environments' fast path) runs the same
+world, collision check, sensors and noise as its message path (``step``, bit-identical to a
+lock-step ``iwz run``): the same seed and commands give the same states and readings, bit for bit,
+through collisions, noise, a laser and robots coming and going, and the two paths mix."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from iw_zenoh.core.lab import Grid, GridPosition, Lab
+from iw_zenoh.core.spec import LaserSpec, NoiseSpec, RobotSpec, RobotType, prototype_chair
+from iw_zenoh.errors import IwError
+from iw_zenoh.messages import SensorReading, WorldState
+from iw_zenoh.sim.local import ArrayStep, LocalWorld
+from tests.conftest import box_wall
+
+LASER = LaserSpec(id=0, x_m=0.5, angle_deg=0.0, fov_deg=270.0, beams=32, range_m=10.0)
+
+
+def _chair(name: str) -> RobotSpec:
+    c = prototype_chair(name, lasers=(LASER,))
+    # noisy motion and lasers too (the prototype's own noise covers its sonars, compass and encoders)
+    return replace(c, noise=replace(c.noise, motion=NoiseSpec(0.0, 0.02), laser_m=NoiseSpec(0.0, 0.01)))
+
+
+def _world() -> LocalWorld:
+    lab = Lab("t", 20.0, 10.0, (box_wall(9.0, 0.0, 10.0, 10.0),))
+    grid = Grid((GridPosition(2, 5, 0), GridPosition(5, 5, 180), GridPosition(3, 2, 90)))
+    w = LocalWorld(lab, grid, seed=11)
+    w.add(_chair("a"))
+    w.add(_chair("b"))
+    return w
+
+
+def _powers(g: np.random.Generator, n: int) -> np.ndarray:
+    p = g.uniform(-0.05, 0.15, (n, 2))
+    p[:2] = (0.15, 0.15)  # the first two drive head-on: they meet
+    return p
+
+
+def _as_message(a: ArrayStep) -> tuple[list[float], list[float], list[float], list[bool]]:
+    x, y, h = a.pose.T.tolist()
+    return x, y, h, a.collided.tolist()
+
+
+def _state(s: WorldState) -> tuple[list[float], list[float], list[float], list[bool]]:
+    return s.x, s.y, s.heading, s.collided
+
+
+def _reading(a: ArrayStep, i: int) -> tuple[object, ...]:
+    r = a.readings
+    assert r is not None
+    own = a.bodies.ir_owner == i
+    prox = [None if v == math.inf else v for v in r.proximity_m[own].tolist()]
+    beams = [None if v == math.inf else v for v in r.laser_m[a.bodies.lasers.beam_owner == i].tolist()]
+    enc = r.encoder_ticks[i].tolist()
+    return prox, beams, float(r.compass_deg[i]), (enc[0], enc[1]), bool(r.collision[i])
+
+
+def _message(m: SensorReading) -> tuple[object, ...]:
+    beams = [v for scan in m.lasers or [] for v in scan.ranges]
+    return m.proximity_m, beams, m.compass_deg, m.encoders, m.collision
+
+
+def test_the_array_path_gives_the_message_paths_states_and_readings_bit_for_bit() -> None:
+    slow, fast = _world(), _world()
+    g = np.random.default_rng(5)
+    collisions = 0
+    for t in range(80):
+        if t == 30:  # a robot comes, another goes: the roster changes under both paths
+            for w in (slow, fast):
+                w.add(_chair("c"))
+                w.remove(2)
+        ids = fast.array_ids()
+        p = _powers(g, len(ids))
+        s = slow.step({rid: (float(p[i, 0]), float(p[i, 1])) for i, rid in enumerate(ids)})
+        a = fast.step_arrays(p)
+        assert a.ids == s.state.ids
+        assert _as_message(a) == _state(s.state), f"tick {a.tick}"
+        for i, rid in enumerate(a.ids):
+            assert _reading(a, i) == _message(s.readings[rid]), f"tick {a.tick}, robot {rid}"
+        collisions += sum(a.collided.tolist())
+    assert collisions > 0
+    assert fast.world.collisions == slow.world.collisions > 0
+
+
+def test_the_two_paths_mix_and_a_command_given_on_arrays_stands_in_step() -> None:
+    slow, mixed = _world(), _world()
+    g = np.random.default_rng(6)
+    for t in range(20):
+        p = _powers(g, 2)
+        s = slow.step({1: tuple(p[0]), 2: tuple(p[1])} if t % 3 else {})
+        if t % 3:
+            a = mixed.step_arrays(p)
+            assert _as_message(a) == _state(s.state)
+        else:  # no command: both keep the last ones
+            assert _state(mixed.step().state) == _state(s.state)
+
+
+def test_step_arrays_refuses_wrong_shapes_and_real_robots_with_reasons() -> None:
+    w = _world()
+    with pytest.raises(IwError, match=r"\(2, 2\) wheel powers"):
+        w.step_arrays(np.zeros(3))
+    w.add(replace(prototype_chair("real"), type=RobotType.REAL))
+    with pytest.raises(IwError, match="Real robot"):
+        w.step_arrays(np.zeros((3, 2)))
+    assert w.step().state.tick == 1  # the world is unharmed: step() goes on
