@@ -3,6 +3,7 @@
 import { View2D, laserAngle } from "./view2d.js";
 import { View3D } from "./view3d.js";
 import { Timeline } from "./timeline.js";
+import * as drive from "./drive.js";
 
 const TRAIL_POINTS = 80;      // positions kept per robot
 const TRAIL_EVERY = 3;        // frames between two trail points
@@ -82,6 +83,7 @@ function onFrame(m) {
     const have = new Set(m.ids);
     for (const id of [...world.trails.keys()]) if (!have.has(id)) world.trails.delete(id);
     if (world.selected && world.selected.kind === "robot" && !have.has(world.selected.id)) select(null);
+    drive.onRoster(m.ids);
   }
   world.x = m.x; world.y = m.y; world.heading = m.heading; world.state = m.state;
   world.tick = m.tick; world.t_ns = m.t_ns; world.heldReason = m.held_reason;
@@ -122,7 +124,9 @@ const handlers = {
     document.body.classList.toggle("watch", m.steer === false);  // a watch key: no control is shown
     $("timeline").hidden = m.live;
     $("title").textContent = `iwz view \u00b7 ${m.live ? "live" : "replay"} \u00b7 ${m.sim}`;
+    drive.onHello(m);
   },
+  drive(m) { drive.onDrive(m); driveButton(); },
   scene: onScene,
   frame: onFrame,
   status(m) { world.status = m; hud(); },
@@ -185,10 +189,17 @@ export function select(sel) {
   p.hidden = sel === null;
   $("btn-remove").hidden = !sel || sel.kind !== "robot";
   $("btn-obstacle-delete").hidden = !sel || sel.kind !== "obstacle";
+  driveButton();
   if (sel && sel.kind === "robot") send({ cmd: "reading", robot_id: sel.id });
   tellScans();
   panel();
   world.version += 1;
+}
+
+// the robot panel's drive button: for a chair whose agent accepts a driver (it tells its drive state)
+function driveButton() {
+  const sel = world.selected;
+  $("btn-drive").hidden = !sel || sel.kind !== "robot" || !drive.accepts(sel.id) || drive.driveState.robot === sel.id;
 }
 
 function row(k, v) { return `<tr><td>${k}</td><td>${v}</td></tr>`; }
@@ -285,6 +296,7 @@ function controls() {
     }
   };
   $("panel-close").onclick = () => select(null);
+  $("btn-drive").onclick = () => { if (world.selected && world.selected.kind === "robot") drive.startDriving(world.selected.id); };
   $("view-mode").onchange = viewMode;
   for (const id of ["opt-trails", "opt-cones", "opt-labels"]) $(id).onchange = () => { world.version += 1; };
   $("opt-scans").onchange = () => { scansChosen = true; tellScans(); world.version += 1; };
@@ -311,6 +323,18 @@ function main() {
     drawingStarted: () => $("btn-obstacle").classList.add("active"),
   });
   timeline = new Timeline($("timeline"), send);
+  drive.initDrive({
+    send, toast,
+    toWorld: (sx, sy) => ($("view2d").hidden ? null : view2d.toWorld(sx, sy)),
+    robotName: (id) => (world.robots.get(id) ? world.robots.get(id).name : ""),
+    started: (id) => {  // driving: the driver's seat is first person, from this chair
+      if (!world.selected || world.selected.kind !== "robot" || world.selected.id !== id) select({ kind: "robot", id });
+      $("view-mode").value = "first";
+      viewMode();
+      driveButton();
+    },
+  }, $("view2d"));
+  drive.onDriveChange(() => driveButton());
   controls();
   connect();
   requestAnimationFrame(draw);
