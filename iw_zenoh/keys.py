@@ -22,6 +22,8 @@ one network::
     iw/{sim}/robot/{id}/sensors      readings of one tick
     iw/{sim}/robot/{id}/say          a radio message to send
     iw/{sim}/robot/{id}/hear         radio messages heard this tick
+    iw/{sim}/robot/{id}/drive        a driver's input to a chair (docs/driving.md)
+    iw/{sim}/robot/{id}/driving      the chair's drive state (its own agent publishes it)
     iw/{sim}/alive/{role}/{name}     liveliness tokens
 """
 
@@ -42,6 +44,8 @@ __all__ = [
     "all_agent_actions",
     "all_alive",
     "all_chairs",
+    "all_drive",
+    "all_driving",
     "all_events",
     "all_hear",
     "all_pose_reports",
@@ -53,6 +57,8 @@ __all__ = [
     "chair",
     "chunk",
     "control",
+    "drive",
+    "driving",
     "event",
     "everything",
     "hear",
@@ -305,6 +311,26 @@ def all_hear(sim: str) -> str:
     return f"iw/{chunk(sim)}/robot/*/hear"
 
 
+def drive(sim: str, robot_id: int) -> str:
+    """A driver's input to a chair (``DriveInput``)."""
+    return f"iw/{chunk(sim)}/robot/{valid_robot_id(robot_id)}/drive"
+
+
+def all_drive(sim: str) -> str:
+    """Every chair's driver input."""
+    return f"iw/{chunk(sim)}/robot/*/drive"
+
+
+def driving(sim: str, robot_id: int) -> str:
+    """A chair's drive state (``DriveState``, its own agent publishes it)."""
+    return f"iw/{chunk(sim)}/robot/{valid_robot_id(robot_id)}/driving"
+
+
+def all_driving(sim: str) -> str:
+    """Every chair's drive state."""
+    return f"iw/{chunk(sim)}/robot/*/driving"
+
+
 def alive(sim: str, role: str, name: str) -> str:
     """A process's liveliness token."""
     if role not in ROLES:
@@ -335,6 +361,9 @@ _TOPICS = {
 }
 
 
+_ROBOT_KINDS = ("spec", "actions", "pose_report", "chair", "sensors", "say", "hear", "drive", "driving")
+
+
 def topic_kind(key: str) -> str | None:
     """What a key carries: ``state``, ``actions``, ``event``... (``None`` for a foreign key).
 
@@ -352,7 +381,7 @@ def topic_kind(key: str) -> str | None:
     if len(parts) == 5 and parts[2] == "agent" and parts[4] == "actions":
         return "action_batch"
     if len(parts) == 5 and parts[2] == "robot" and parts[3].isdigit():
-        return parts[4] if parts[4] in ("spec", "actions", "pose_report", "chair", "sensors", "say", "hear") else None
+        return parts[4] if parts[4] in _ROBOT_KINDS else None
     return None
 
 

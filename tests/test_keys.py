@@ -23,6 +23,8 @@ from iw_zenoh import keys
         (keys.radio("s"), keys.everything("s")),
         (keys.sensor_batch("s", (2, 3)), keys.all_sensor_batches("s")),
         (keys.agent_actions("s", "host1"), keys.all_agent_actions("s")),
+        (keys.drive("s", 3), keys.all_drive("s")),
+        (keys.driving("s", 3), keys.all_driving("s")),
     ],
 )
 def test_every_builder_matches_its_pattern(key: str, pattern: str) -> None:
@@ -64,3 +66,14 @@ def test_a_control_key_is_known_whatever_the_simulation() -> None:
     assert keys.is_control(keys.control("hospital"))
     assert not keys.is_control(keys.state("demo"))
     assert not keys.is_control("iw/demo/robot/1/world/control")
+
+
+def test_the_drive_keys_carry_the_drive_protocol() -> None:
+    from iw_zenoh.messages import TOPIC_TYPES, DriveInput, DriveState
+
+    assert keys.drive("s", 2) == "iw/s/robot/2/drive"
+    assert keys.driving("s", 2) == "iw/s/robot/2/driving"
+    assert keys.robot_id_of(keys.drive("s", 2)) == 2
+    assert TOPIC_TYPES[keys.topic_kind(keys.drive("s", 2)) or ""] is DriveInput
+    assert TOPIC_TYPES[keys.topic_kind(keys.driving("s", 2)) or ""] is DriveState
+    assert not zenoh.KeyExpr(keys.all_drive("s")).intersects(zenoh.KeyExpr(keys.driving("s", 1)))

@@ -23,6 +23,8 @@ from iw_zenoh.messages import (
     Actions,
     ChairReading,
     Control,
+    DriveInput,
+    DriveState,
     Event,
     Hear,
     Heard,
@@ -131,6 +133,24 @@ SAMPLES: dict[type[Message], Message] = {
     ),
     Control: Control(command="step", steps=2),
     Event: Event(kind="collision", reason="r", robot_id=1, data={"x": 1.0, "y": 2.0}),
+    DriveInput: DriveInput(
+        tick=3, robot_id=1, driver="page-1", seq=4, x=-0.5, y=1.0, buttons=1, level=3, goto=(2.0, 3.5), assist="safe"
+    ),
+    DriveState: DriveState(
+        tick=3,
+        robot_id=1,
+        driver="page-1",
+        seq=4,
+        level=3,
+        assist="safe",
+        v_mps=0.2,
+        w_radps=-0.1,
+        input_v_mps=0.4,
+        input_w_radps=-0.1,
+        intervened=True,
+        nearest_m=0.8,
+        goal=(2.0, 3.5),
+    ),
 }
 
 KINDS = list(MESSAGE_TYPES)

@@ -10,6 +10,7 @@ that sees one it does not know asks ``world/info`` again.
 
 from __future__ import annotations
 
+from iw_zenoh.messages.drive import ASSIST_LEVELS, DEADMAN, DriveInput, DriveState
 from iw_zenoh.messages.events import (
     EVENT_PAYLOADS,
     AgentLostData,
@@ -67,7 +68,11 @@ from iw_zenoh.messages.world import (
 )
 
 __all__ = [
+    "ASSIST_LEVELS",
     "COORD_LIMIT",
+    "DEADMAN",
+    "DriveInput",
+    "DriveState",
     "MESSAGE_TYPES",
     "Actions",
     "Control",
@@ -145,6 +150,8 @@ MESSAGE_TYPES: tuple[type[Message], ...] = (
     RadioBatch,
     Control,
     Event,
+    DriveInput,
+    DriveState,
 )
 
 TOPIC_TYPES: dict[str, type[Message]] = {
@@ -165,4 +172,6 @@ TOPIC_TYPES: dict[str, type[Message]] = {
     "sensors": SensorReading,
     "say": Say,
     "hear": Hear,
+    "drive": DriveInput,
+    "driving": DriveState,
 }  # the message type of each kind of key (see keys.topic_kind)
