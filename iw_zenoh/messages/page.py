@@ -227,9 +227,10 @@ class PageDrive(_Out, frozen=True, kw_only=True, tag="drive"):
 
 
 class PageError(_Out, frozen=True, kw_only=True, tag="error"):
-    """A command the server refused, and why."""
+    """A command the server refused, and why (``drive_robot``: the chair a refused ``drive`` was for)."""
 
     error: str
+    drive_robot: int | None = None
 
 
 PageMessage = (

@@ -10,27 +10,23 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
-import msgspec
-
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus
 from iw_zenoh.errors import ConfigError, IwError
-from iw_zenoh.messages import encode
-from iw_zenoh.messages.drive import DriveInput, DriveState
+from iw_zenoh.messages import decode, encode
+from iw_zenoh.messages.drive import DRIVER_MAX, DriveInput, DriveState
 from iw_zenoh.messages.page import PageDrive, PageDriveInput, PageMessage
 
-__all__ = ["DRIVER_NAME_MAX", "DriveGrant", "Drives", "driver_name", "relay"]
+__all__ = ["DriveGrant", "Drives", "decode_state", "driver_name", "relay"]
 
 logger = logging.getLogger(__name__)
-
-DRIVER_NAME_MAX = 64  # characters of a driver's name (the viewer's name, '#', the page's number)
 
 
 def driver_name(viewer: str, page: int) -> str:
     """The driver name of the viewer's ``page``-th page: ``viewer#page`` (the viewer's name cut
-    so that the whole fits :data:`DRIVER_NAME_MAX`)."""
+    so that the whole fits :data:`~iw_zenoh.messages.drive.DRIVER_MAX`)."""
     tail = f"#{page}"
-    return viewer[: DRIVER_NAME_MAX - len(tail)] + tail
+    return viewer[: DRIVER_MAX - len(tail)] + tail
 
 
 class DriveGrant:
@@ -82,6 +78,7 @@ class DriveGrant:
 def relay(bus: Bus, sim: str, robot_id: int, driver: str, d: PageDriveInput) -> None:
     """Publishes a page's input on chair ``robot_id``'s drive key as ``driver``'s."""
     msg = DriveInput(
+        robot_id=robot_id,
         driver=driver,
         seq=d.seq,
         x=d.x,
@@ -121,10 +118,15 @@ class Drives:
         return [PageDrive(robot_id=r, state=s) for r, s in self.states.items()]
 
 
-def decode_state(data: bytes) -> DriveState | None:
-    """A drive state off the bus (``None``, logged, when it is not one)."""
+def decode_state(key: str, data: bytes) -> tuple[int, DriveState] | None:
+    """A chair's drive state off its key (``None``, logged, when it is not one, or another chair's)."""
+    rid = keys.robot_id_of(key)
     try:
-        return msgspec.json.decode(data, type=DriveState)
-    except msgspec.DecodeError as e:
-        logger.warning("dropped a bad drive state: %s", e)
+        st = decode(data, DriveState)
+    except IwError as e:
+        logger.warning("dropped a bad drive state on %s: %s", key, e)
         return None
+    if rid != st.robot_id:
+        logger.warning("dropped a drive state of chair %d on %s", st.robot_id, key)
+        return None
+    return rid, st

@@ -167,7 +167,9 @@ class Pump(threading.Thread):
         if cmd.cmd == "drive":
             assert cmd.drive is not None  # checked at the edge
             why = self.source.drive(cmd.robot_id, client.driver, cmd.drive)
-            return [PageError(error=f"cannot drive chair {cmd.robot_id}: {why}")] if why else []
+            if why:
+                return [PageError(error=f"cannot drive chair {cmd.robot_id}: {why}", drive_robot=cmd.robot_id)]
+            return []
         why = self.source.command(cmd)
         return [PageError(error=why)] if why else []
 

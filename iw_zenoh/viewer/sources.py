@@ -159,8 +159,8 @@ class LiveSource:
         for d in _latest_states(self.inbox.drain()):
             kind = keys.topic_kind(d[0])
             if kind == "driving":
-                rid, dst = keys.robot_id_of(d[0]), decode_state(d[1])
-                out += self.drives.on_state(rid, dst) if rid is not None and dst is not None else []
+                got = decode_state(d[0], d[1])
+                out += self.drives.on_state(*got) if got is not None else []
                 continue
             if kind == "state" and self._asked is None:
                 st = _decode(d, WorldState)

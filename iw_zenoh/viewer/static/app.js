@@ -141,7 +141,7 @@ const handlers = {
     if (timeline) timeline.update(world.timeline);
     hud();
   },
-  error(m) { toast(m.error); },
+  error(m) { toast(m.error); drive.onError(m); },
 };
 
 function connect() {
@@ -327,6 +327,7 @@ function main() {
     send, toast,
     toWorld: (sx, sy) => ($("view2d").hidden ? null : view2d.toWorld(sx, sy)),
     robotName: (id) => (world.robots.get(id) ? world.robots.get(id).name : ""),
+    showMap: () => { $("view-mode").value = "2d"; viewMode(); },
     started: (id) => {  // driving: the driver's seat is first person, from this chair
       if (!world.selected || world.selected.kind !== "robot" || world.selected.id !== id) select({ kind: "robot", id });
       $("view-mode").value = "first";

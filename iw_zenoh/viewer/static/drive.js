@@ -21,7 +21,7 @@
 /**
  * What the page gives this module.
  * @typedef {{send: (cmd: object) => void, toWorld: (sx: number, sy: number) => number[] | null,
- *   started: (robot: number) => void, toast: (text: string) => void,
+ *   started: (robot: number) => void, showMap: () => void, toast: (text: string) => void,
  *   robotName: (robot: number) => string}} DriveHooks
  */
 
@@ -65,6 +65,7 @@ const stick = { x: 0, y: 0, active: false };
 let padIndex = /** @type {number | null} */ (null);
 let padButtons = /** @type {boolean[]} */ ([]);
 let lastSent = "";
+let refusedWhy = "";            // why the viewer refused this page's last drive (shown until it drives again)
 
 const $ = (/** @type {string} */ id) => document.getElementById(id);
 
@@ -88,6 +89,7 @@ export function accepts(id) { return states.has(id); }
 /** Starts driving chair ``id`` (its drive panel opens; the first person view is the page's choice). */
 export function startDriving(id) {
   if (driveState.robot !== null && driveState.robot !== id) stopDriving();
+  refusedWhy = "";
   const s = states.get(id);
   driveState.robot = id;
   driveState.level = s ? s.level : driveState.level;
@@ -181,10 +183,11 @@ function level(step) {
 
 function setKey(e, down) {
   const t = /** @type {HTMLElement | null} */ (e.target);
-  if (t && (t.tagName === "INPUT" || t.tagName === "SELECT" || t.tagName === "TEXTAREA")) return;
+  if (t && (t.tagName === "INPUT" || t.tagName === "TEXTAREA")) return;  // typing, not driving
   if (driveState.robot === null) return;
   const dir = KEYS[e.code];
   if (dir) {
+    if (t && t.tagName === "SELECT") t.blur();  // the arrows drive, not a menu that has the focus
     e.preventDefault();
     e.stopImmediatePropagation();  // WASD drive the chair, not the free camera
     const had = held.has(dir);
@@ -199,7 +202,11 @@ function setKey(e, down) {
   else if (e.code === "Escape" && armedGoto) { armedGoto = false; panel(); }
 }
 
-function armGoto() { armedGoto = !armedGoto; panel(); }
+function armGoto() {
+  armedGoto = !armedGoto;
+  if (armedGoto && hooks) hooks.showMap();  // the spot is clicked on the 2D map
+  panel();
+}
 
 function setHidden(now) {
   if (now === hidden) return;
@@ -230,7 +237,7 @@ const PANEL = `
 function panel() {
   const p = $("drive");
   if (!p) return;
-  p.hidden = driveState.robot === null;
+  p.hidden = driveState.robot === null && !refusedWhy;
   if (driveState.robot === null) return;
   const id = driveState.robot;
   const name = hooks ? hooks.robotName(id) : "";
@@ -264,7 +271,7 @@ function makePanel() {
   p.hidden = true;
   p.innerHTML = PANEL;
   stage.appendChild(p);
-  $("drive-leave").onclick = () => stopDriving();
+  $("drive-leave").onclick = () => { refusedWhy = ""; stopDriving(); panel(); };
   $("drive-take").onclick = () => takeOver();
   $("drive-up").onclick = () => level(+1);
   $("drive-down").onclick = () => level(-1);
@@ -331,6 +338,15 @@ export function onDrive(m) {
   else for (const fn of listeners) fn(driveState);
 }
 
+/** A refused command: a refused drive of the chair driven ends the driving (the panel says why). */
+export function onError(m) {
+  if (m.drive_robot === null || m.drive_robot === undefined || m.drive_robot !== driveState.robot) return;
+  stopDriving();
+  refusedWhy = m.error;
+  const p = $("drive");
+  if (p) { p.hidden = false; $("drive-status").textContent = m.error; $("drive-take").hidden = true; }
+}
+
 /** The roster changed: chairs no longer in the world are forgotten (and left, if driven). */
 export function onRoster(ids) {
   const have = new Set(ids);
@@ -350,7 +366,8 @@ export function initDrive(/** @type {DriveHooks} */ h, /** @type {HTMLElement | 
   document.addEventListener("visibilitychange", () => setHidden(document.visibilityState === "hidden"));
   window.addEventListener("pagehide", () => { if (mine()) send({ x: 0, y: 0, buttons: 0, release: true }); });
   window.addEventListener("gamepaddisconnected", (e) => {
-    if (padIndex !== null && /** @type {GamepadEvent} */ (e).gamepad.index === padIndex) unplugged();
+    const g = /** @type {GamepadEvent} */ (e).gamepad;
+    if (padIndex !== null && (!g || g.index === padIndex)) unplugged();
   });
   if (map) map.addEventListener("mousedown", mapClick, true);
 }
