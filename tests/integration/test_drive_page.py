@@ -6,6 +6,7 @@ stops it within 300 ms; of two pages one drives and the other sees who, taking o
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from collections.abc import Iterator
@@ -234,3 +235,21 @@ def test_two_pages_one_drives_the_other_sees_who_and_takes_over_only_when_asked(
     assert first.is_visible("#drive-take")
     first.close()
     second.close()
+
+
+def test_the_viewer_releases_the_chair_of_a_page_whose_socket_is_lost(run: Run) -> None:
+    """A page that never says goodbye (its socket simply goes): the viewer releases its chair."""
+    from websockets.sync.client import connect
+
+    rid = run.ids["bob"]
+    inputs = subscribe(run.bus, keys.drive(run.net.sim, rid))
+    driving = subscribe(run.bus, keys.driving(run.net.sim, rid))
+    ws = connect(run.url.replace("http://", "ws://") + "ws")
+    cmd = {"cmd": "drive", "robot_id": rid, "drive": {"seq": 1, "y": 0.0, "buttons": 0, "level": 1, "take": True}}
+    ws.send(json.dumps(cmd))
+    who = wait_msg(inputs, DriveInput, lambda d: d.take).driver
+    wait_msg(driving, DriveState, lambda d: d.driver == who)
+    ws.close()
+    gone = wait_msg(inputs, DriveInput, lambda d: d.release)
+    assert gone.driver == who
+    wait_msg(driving, DriveState, lambda d: d.driver == "")

@@ -58,7 +58,7 @@ def test_a_watch_page_may_not_drive_and_a_drive_needs_its_input_and_a_finite_goa
     assert "finite" in check_command(far, "steer")
 
 
-HOSTILE = [None, True, -2, 2, 1e308, float("inf"), "1", [], {}, 2**63, -1]
+HOSTILE: list[object] = [None, True, -2, 2, 1e308, float("inf"), "1", [], {}, 2**63, -1]
 DRIVE_FIELDS = ["seq", "x", "y", "buttons", "level", "take", "release", "goto", "assist", "extra"]
 
 
@@ -121,7 +121,7 @@ def test_a_drive_state_on_another_chairs_key_or_malformed_is_dropped() -> None:
 
 def test_a_live_source_tells_a_joining_page_every_chairs_drive_state() -> None:
     source, _ = _live()
-    source.bus.publish(keys.driving("s", 5), encode(_state(5)))
+    source.inbox.put((keys.driving("s", 5), encode(_state(5)), 0))  # as the bus delivers it
     out = source.poll(Feed("s"), 0)
     assert out == [PageDrive(robot_id=5, state=_state(5))]
     assert source.extra() == [PageDrive(robot_id=5, state=_state(5))]

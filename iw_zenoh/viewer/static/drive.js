@@ -364,7 +364,11 @@ export function initDrive(/** @type {DriveHooks} */ h, /** @type {HTMLElement | 
   window.addEventListener("keyup", (e) => setKey(e, false), true);
   window.addEventListener("blur", () => { if (held.size) { held.clear(); tick(); } });
   document.addEventListener("visibilitychange", () => setHidden(document.visibilityState === "hidden"));
-  window.addEventListener("pagehide", () => { if (mine()) send({ x: 0, y: 0, buttons: 0, release: true }); });
+  window.addEventListener("pagehide", () => {  // the page closes: the chair is released, and nothing more is sent
+    if (mine()) send({ x: 0, y: 0, buttons: 0, release: true });
+    taking = false; driveState.you = false;
+    if (timer !== null) { clearInterval(timer); timer = null; }
+  });
   window.addEventListener("gamepaddisconnected", (e) => {
     const g = /** @type {GamepadEvent} */ (e).gamepad;
     if (padIndex !== null && (!g || g.index === padIndex)) unplugged();
