@@ -267,3 +267,27 @@ def test_the_viewer_releases_the_chair_of_a_page_whose_socket_is_lost(run: Run) 
     gone = wait_msg(inputs, DriveInput, lambda d: d.release)
     assert gone.driver == who
     wait_msg(driving, DriveState, lambda d: d.driver == "")
+
+
+def test_a_page_flooding_drive_commands_is_relayed_at_most_its_rate_and_told_why(run: Run) -> None:
+    """500 drive commands at once: at most a burst of 50 (and 50 a second after) reach the chair;
+    the page is told once that the rest were dropped; the viewer and the chair go on."""
+    from websockets.sync.client import connect
+
+    rid = run.ids["bob"]
+    inputs = subscribe(run.bus, keys.drive(run.net.sim, rid))
+    t0 = time.monotonic()
+    with connect(run.url.replace("http://", "ws://") + "ws") as ws:
+        for k in range(500):
+            ws.send(json.dumps({"cmd": "drive", "robot_id": rid, "drive": {"seq": k, "level": 1, "take": True}}))
+        told = ""
+        while "dropped" not in told:
+            told = str(ws.recv(timeout=20))
+        ws.send(json.dumps({"cmd": "drive", "robot_id": rid, "drive": {"seq": 999, "release": True}}))
+    relayed = 1
+    while not wait_msg(inputs, DriveInput).release:
+        relayed += 1
+    elapsed = time.monotonic() - t0
+    assert relayed <= 50 + 50 * elapsed, (relayed, elapsed)
+    assert "commands a second from this page" in told
+    wait_msg(subscribe(run.bus, keys.driving(run.net.sim, rid)), DriveState, lambda d: d.driver == "")
