@@ -271,7 +271,7 @@ def test_the_viewer_releases_the_chair_of_a_page_whose_socket_is_lost(run: Run) 
 
 def test_a_page_flooding_drive_commands_is_relayed_at_most_its_rate_and_told_why(run: Run) -> None:
     """500 drive commands at once: at most a burst of 50 (and 50 a second after) reach the chair;
-    the page is told once that the rest were dropped; the viewer and the chair go on."""
+    the page is told that the rest were dropped; when it goes, the viewer releases the chair."""
     from websockets.sync.client import connect
 
     rid = run.ids["bob"]
@@ -283,7 +283,6 @@ def test_a_page_flooding_drive_commands_is_relayed_at_most_its_rate_and_told_why
         told = ""
         while "dropped" not in told:
             told = str(ws.recv(timeout=20))
-        ws.send(json.dumps({"cmd": "drive", "robot_id": rid, "drive": {"seq": 999, "release": True}}))
     relayed = 1
     while not wait_msg(inputs, DriveInput).release:
         relayed += 1
