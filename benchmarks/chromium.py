@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from playwright.sync_api import Browser, Playwright
 
-__all__ = ["CHROMIUM", "FLAGS", "INSTALL", "launch"]
+__all__ = ["CHROMIUM", "FLAGS", "INSTALL", "hooked", "launch"]
 
 CHROMIUM = Path("/usr/bin/chromium")
 # as the machine's notes say works headless here, plus software WebGL so the 3D view renders
@@ -31,6 +31,18 @@ FLAGS = (
     "--enable-unsafe-swiftshader",
 )
 INSTALL = "apt-get update -q && apt-get install -y -q chromium"
+
+
+def hooked(url: str) -> str:
+    """The page's address with ``hooks=1``: the page then loads ``hooks.js`` and gives scripts
+    ``window.iwz`` (its world, map <-> screen, what it drew and sent); without it the page has no
+    test or benchmark hook.
+
+    Example:
+        >>> hooked("http://127.0.0.1:8080/?key=abc")
+        'http://127.0.0.1:8080/?key=abc&hooks=1'
+    """
+    return f"{url}{'&' if '?' in url else '?'}hooks=1"
 
 
 def launch(pw: Playwright) -> Browser:

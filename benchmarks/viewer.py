@@ -35,7 +35,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks import exit_on_sigterm, stop_all  # noqa: E402
-from benchmarks.chromium import CHROMIUM, INSTALL, launch  # noqa: E402
+from benchmarks.chromium import CHROMIUM, INSTALL, hooked, launch  # noqa: E402
 from iw_zenoh import keys  # noqa: E402
 from iw_zenoh.bus import ZenohBus  # noqa: E402
 from iw_zenoh.messages import LabMsg, RobotSpecMsg, Tick, WorldInfo, WorldState, encode  # noqa: E402
@@ -125,7 +125,7 @@ def _measure(browser: object, url: str, n: int, window_s: float) -> dict[str, fl
     """Opens the page, waits for ``n`` chairs, then counts frames and delays over the window."""
     page = browser.new_page(viewport={"width": 1280, "height": 800})  # type: ignore[attr-defined]
     try:
-        page.goto(url)
+        page.goto(hooked(url))
         page.wait_for_function(f"window.iwz && window.iwz.world.ids.length === {n}", timeout=60_000)
         page.evaluate("window.iwz.animate(true)")
         page.wait_for_timeout(1000)  # warm up: the page's code compiled, its canvas sized

@@ -36,14 +36,16 @@ EPILOG = """Examples:
   iwz view --foxglove-port 9765                Foxglove / Lichtblick live on ws://127.0.0.1:9765
   iwz view --no-foxglove                       the page only
   iwz view --max-pages 100                     up to 100 pages at once (default 32)
+  iwz view --models ~/chairs                   3D models per robot type (~/chairs/simulated.stl, door.glb)
 
 A live viewer also serves the Foxglove WebSocket protocol (default
 ws://127.0.0.1:8765): Foxglove or Lichtblick connects to it and sees the same
 channels as in a recording (docs/foxglove.md).
 
 On the page: drag to pan, wheel to zoom, click a robot for its panel; the
-buttons start, pause, step, stop; docs/viewer.md explains every control and
-the WebSocket messages.
+buttons start, pause, step, stop; keys 2 (the map), 1 (first person), 3 (third
+person), 4 (free camera), M (map <-> 3D); a replay opens paused at its start.
+docs/viewer.md explains every control and the WebSocket messages.
 
 Driving: a chair whose agent accepts a driver (iwz agent manual, or a
 scenario's program = "manual") has a drive button in its panel; arrows / WASD,
@@ -88,7 +90,12 @@ def _arguments(p: argparse.ArgumentParser) -> None:
         default="127.0.0.1",
         help="address to serve on (default 127.0.0.1: this machine only; 0.0.0.0: the network, with keys)",
     )
-    p.add_argument("--rate", type=float, default=1.0, help="replay: the speed to start at (default 1)")
+    p.add_argument(
+        "--rate",
+        type=float,
+        default=1.0,
+        help="replay: the speed it plays at once started (it opens paused at its first state; default 1)",
+    )
     p.add_argument(
         "--foxglove-port",
         type=int,
@@ -102,6 +109,12 @@ def _arguments(p: argparse.ArgumentParser) -> None:
         default=[],
         metavar="ORIGIN",
         help="live: also let web pages of ORIGIN read Foxglove live (repeatable; docs/foxglove.md)",
+    )
+    p.add_argument(
+        "--models",
+        metavar="DIR",
+        help="3D models of the robots: DIR/<type>.stl, .gltf or .glb per robot type, e.g. simulated.stl "
+        "(default: the built-in low-poly chair; docs/viewer.md)",
     )
     p.add_argument(
         "--max-pages",
@@ -120,6 +133,8 @@ def _check(args: argparse.Namespace) -> argparse.Namespace:
         raise IwError(f"--max-pages {args.max_pages}: give 1 or more (pages open at once)")
     if args.rate < 0:
         raise IwError("--rate must be >= 0 (0: as fast as possible)")
+    if args.models is not None and not Path(args.models).is_dir():
+        raise IwError(f"--models {args.models}: no such directory (give one holding <type>.stl, .gltf or .glb files)")
     if args.recording is not None and not Path(args.recording).exists():
         raise IwError(f"{args.recording}: no such file (give an MCAP recording, e.g. recordings/demo-sample.mcap)")
     return args
@@ -173,7 +188,8 @@ def _foxglove(proc: Process) -> FoxgloveLive | bool:
 
 async def _serve(proc: Process, source: Source, feed: Feed, wake: threading.Event) -> int:
     access = Access(proc.args.host)
-    app = make_app(source, feed, wake, max_pages=proc.args.max_pages, access=access, name=proc.name)
+    models = Path(proc.args.models) if proc.args.models else None
+    app = make_app(source, feed, wake, max_pages=proc.args.max_pages, access=access, models=models, name=proc.name)
     runner = web.AppRunner(app, access_log=None)
     await runner.setup()
     site = web.TCPSite(runner, proc.args.host, proc.args.port)

@@ -40,7 +40,7 @@ from iw_zenoh.viewer.feed import Feed, ScansWanted
 from iw_zenoh.viewer.guard import Access, Rate, check_command
 from iw_zenoh.viewer.sources import Source
 
-__all__ = ["MAX_PAGES", "STATIC", "Client", "Pump", "Scans", "make_app"]
+__all__ = ["MAX_PAGES", "MODEL_SUFFIXES", "STATIC", "Client", "Pump", "Scans", "make_app", "model_files"]
 
 logger = logging.getLogger(__name__)
 
@@ -174,6 +174,16 @@ class Pump(threading.Thread):
         return [PageError(error=why)] if why else []
 
 
+MODEL_SUFFIXES = (".stl", ".gltf", ".glb")  # a robot type's model file (the page reads these; .bin: a glTF's buffers)
+
+
+def model_files(models: Path | None) -> list[str]:
+    """The model files in ``models`` the page may load (``<type>.stl``, ``.gltf`` or ``.glb``), sorted."""
+    if models is None:
+        return []
+    return sorted(p.name for p in models.iterdir() if p.is_file() and p.suffix.lower() in MODEL_SUFFIXES)
+
+
 def make_app(
     source: Source,
     feed: Feed,
@@ -181,9 +191,11 @@ def make_app(
     *,
     max_pages: int = MAX_PAGES,
     access: Access | None = None,
+    models: Path | None = None,
     name: str = "view",
 ) -> web.Application:
-    """The web application: ``/`` the page, ``/static/`` its files, ``/ws`` its WebSocket.
+    """The web application: ``/`` the page, ``/static/`` its files, ``/ws`` its WebSocket,
+    ``/models/`` the robot types' model files (``/models/index.json`` lists them: none without ``models``).
 
     The pump starts with the application and stops with it.
 
@@ -193,6 +205,7 @@ def make_app(
         wake: Set when the source has something.
         max_pages: Pages open at once; the next WebSocket is refused (HTTP 503).
         access: Who gets in (default: loopback names with their port, once the app serves).
+        models: A directory of model files per robot type (``iwz view --models``), or None.
         name: The viewer's name: its pages drive as ``NAME#1``, ``NAME#2``...
     """
     pages = _Pages(source, feed, wake, max_pages, access or Access("127.0.0.1"), name)
@@ -202,6 +215,14 @@ def make_app(
     app.router.add_get("/", pages.index)
     app.router.add_get("/ws", pages.socket)
     app.router.add_static("/static/", STATIC)
+    listed = model_files(models)
+
+    async def model_index(_: web.Request) -> web.StreamResponse:
+        return web.json_response(listed)
+
+    app.router.add_get("/models/index.json", model_index)
+    if models is not None:
+        app.router.add_static("/models/", models)
     return app
 
 

@@ -261,7 +261,9 @@ class ReplaySource:
     Args:
         path: The recording (any of its parts).
         wake: Set whenever something is played.
-        rate: The speed to start at.
+        rate: The speed to play at once started.
+        paused: Start paused at the recording's first state, shown (a page's start plays it);
+            False: play at once.
 
     Raises:
         RecordingError: The file cannot be read.
@@ -270,7 +272,7 @@ class ReplaySource:
 
     live = False
 
-    def __init__(self, path: Path, wake: threading.Event, *, rate: float = 1.0) -> None:
+    def __init__(self, path: Path, wake: threading.Event, *, rate: float = 1.0, paused: bool = True) -> None:
         self._files = ExitStack()
         try:
             reader = self._files.enter_context(open_recording(path))
@@ -279,7 +281,8 @@ class ReplaySource:
                 for i in find_incidents(reader)
             ]
             self.inbox = Inbox(wake=wake)
-            self.player = Player(reader, LocalBus(self.inbox), ReplayOptions(rate=rate, hold=True))
+            self.player = Player(reader, LocalBus(self.inbox), ReplayOptions(rate=rate, hold=True, paused=paused))
+            self.player.steps = 1 if paused else 0  # paused on the first state, which is shown
         except BaseException:
             self._files.close()
             raise

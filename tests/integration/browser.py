@@ -13,8 +13,10 @@ from pathlib import Path
 import pytest
 from playwright.sync_api import Browser, sync_playwright
 
-from benchmarks.chromium import CHROMIUM, INSTALL, launch
+from benchmarks.chromium import CHROMIUM, INSTALL, hooked, launch
 from tests.integration.harness import Net, Proc, iwz_run_argv, stop_run
+
+__all__ = ["RUN_S", "WALL_LAB", "chromium", "hooked", "record_run", "replay_page", "viewer_url"]
 
 RUN_S = 180  # a lock-step run of a few seconds, recorded, on a loaded machine
 WALL_LAB = """<Lab Name="scan" Width="20" Height="10">

@@ -21,7 +21,7 @@ from websockets.sync.client import ClientConnection, connect
 
 from benchmarks.chromium import CHROMIUM, FLAGS, INSTALL
 from tests.integration import netns
-from tests.integration.browser import viewer_url
+from tests.integration.browser import hooked, viewer_url
 from tests.integration.harness import ROOT, Net, start_world
 
 pytestmark = [pytest.mark.timeout(180)]
@@ -87,7 +87,7 @@ def test_in_chromium_the_pages_own_origin_steers_a_rebound_name_and_another_site
             )
             try:
                 page = browser.new_page()
-                page.goto(url)  # its own origin: the page joins, may steer, and its pause is obeyed
+                page.goto(hooked(url))  # its own origin: the page joins, may steer, and its pause is obeyed
                 page.wait_for_function("window.iwz && window.iwz.world.timeline", timeout=60_000)
                 assert page.is_visible("#btn-pause")
                 page.click("#btn-start")

@@ -13,7 +13,7 @@ from playwright.sync_api import Browser, Page
 
 from iw_zenoh.messages import SensorBatch, SensorReading, WorldInfo, WorldState
 from iw_zenoh.record.reader import open_recording
-from tests.integration.browser import record_run, replay_page
+from tests.integration.browser import hooked, record_run, replay_page
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(300)]
 
@@ -92,7 +92,7 @@ def test_a_run_recorded_now_replays_with_every_robot_its_agents_seek_and_step(
         "plain": "plain-agent",
     }
     page = browser.new_page(viewport={"width": 1200, "height": 800})
-    page.goto(replay)
+    page.goto(hooked(replay))
     page.wait_for_function("window.iwz && window.iwz.world.ids.length === 2", timeout=WAIT_MS * 2)
     shown = page.evaluate("[...window.iwz.world.robots.values()].map((r) => [r.id, r.name, r.agent])")
     assert sorted(map(tuple, shown)) == [(1, "scanner", "scanner-agent"), (2, "plain", "plain-agent")]
@@ -116,7 +116,7 @@ def test_the_timeline_ends_at_the_last_recorded_state_and_seeking_to_its_end_sho
     _, states, _ = _contents(recorded)
     last = states[-1]
     page = browser.new_page(viewport={"width": 1200, "height": 800})
-    page.goto(replay)
+    page.goto(hooked(replay))
     page.wait_for_function("window.iwz && window.iwz.world.timeline", timeout=WAIT_MS * 2)
     assert page.evaluate("window.iwz.world.timeline.end_ns") == last.sim_time_ns
     assert page.inner_text("#tl-end") == f"{last.sim_time_ns / 1e9:.1f} s"
@@ -148,7 +148,7 @@ def test_the_replayed_scan_is_drawn_where_its_beams_hit_and_the_panel_gives_its_
 ) -> None:
     _, states, scans = _contents(recorded)
     page = browser.new_page(viewport={"width": 1200, "height": 800})
-    page.goto(replay)
+    page.goto(hooked(replay))
     page.wait_for_function("window.iwz && window.iwz.world.ids.length === 2", timeout=WAIT_MS * 2)
     for opt in ("#opt-trails", "#opt-cones", "#opt-labels"):  # nothing drawn over the scan
         page.uncheck(opt)

@@ -14,7 +14,7 @@ from playwright.sync_api import Browser, Page, WebSocket
 
 from iw_zenoh.messages import WorldState
 from iw_zenoh.record.reader import open_recording
-from tests.integration.browser import record_run, replay_page
+from tests.integration.browser import hooked, record_run, replay_page
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(300)]
 
@@ -86,7 +86,7 @@ def test_the_server_sends_a_page_only_the_scans_it_draws(recorded: Path, replay:
     got: list[dict[str, Any]] = []
     page = browser.new_page(viewport={"width": 1200, "height": 800})
     _listen(page, got)
-    page.goto(replay)
+    page.goto(hooked(replay))
     page.wait_for_function("window.iwz && window.iwz.world.ids.length === 2", timeout=WAIT_MS * 2)
     for opt in ("#opt-trails", "#opt-cones", "#opt-labels"):
         page.uncheck(opt)

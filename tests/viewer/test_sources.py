@@ -56,6 +56,7 @@ def test_a_replay_plays_to_its_end_holds_there_and_seeks_back_to_show_that_momen
     source = ReplaySource(SAMPLE, threading.Event(), rate=0)
     try:
         feed = Feed(source.sim)
+        source.command(PageCommand(cmd="start"))  # a replay starts paused
         [timeline] = source.extra()
         assert isinstance(timeline, PageTimeline)
         assert timeline.marks
@@ -93,5 +94,26 @@ def test_a_replays_timeline_ends_at_the_last_state_and_seeking_there_shows_it() 
         assert feed.state is not None
         assert feed.state.x == pytest.approx(states[-1].x)
         assert source.timeline().position_ns == states[-1].sim_time_ns
+    finally:
+        source.close()
+
+
+def test_a_replay_starts_paused_showing_its_first_state_and_a_step_shows_the_next() -> None:
+    # a replay opened in the page used to play at once: a person saw it already under way
+    with open_recording(SAMPLE) as rec:
+        states = [r.message for r in rec.records(("state",)) if isinstance(r.message, WorldState)]
+    source = ReplaySource(SAMPLE, threading.Event(), rate=0)  # as fast as it goes, once started
+    try:
+        feed = Feed(source.sim)
+        _until(source, feed, lambda _: feed.state is not None and source.player.steps == 0)
+        assert feed.state is not None
+        assert feed.state.tick == states[0].tick
+        timeline = source.timeline()
+        assert not timeline.playing
+        assert timeline.position_ns == timeline.start_ns == states[0].sim_time_ns
+        source.command(PageCommand(cmd="step"))
+        _until(source, feed, lambda _: feed.state is not None and feed.state.tick != states[0].tick)
+        assert feed.state.tick == states[1].tick
+        assert not source.timeline().playing
     finally:
         source.close()

@@ -5,6 +5,8 @@
 // changes); zero when the tab is hidden or the gamepad is unplugged; a release when the page closes.
 // The chair's agent decides who drives (one driver, explicit takeover) and stops the chair by itself
 // when no input came for 300 ms: the page's zero and release only make that sooner.
+// It reads the world (world.js) and never writes it; app.js wires it in one place (initDrive).
+import { world, on } from "./world.js";
 
 /**
  * What the chair's agent says of its driving (a `drive` message's `state`: iw.DriveState).
@@ -19,10 +21,10 @@
  *   goal: number[] | null, accepting: boolean}} PageDriveState
  */
 /**
- * What the page gives this module.
- * @typedef {{send: (cmd: object) => void, toWorld: (sx: number, sy: number) => number[] | null,
- *   started: (robot: number) => void, showMap: () => void, toast: (text: string) => void,
- *   robotName: (robot: number) => string}} DriveHooks
+ * What the page (app.js) gives this module.
+ * @typedef {{send: (cmd: any) => void, toast: (text: string) => void,
+ *   setView: (mode: "2d" | "first" | "third" | "free") => void,
+ *   onMapClick: (fn: (x: number, y: number) => boolean) => void}} DriveHooks
  */
 
 export const SEND_MS = 50;          // the steady rate of input while driving: 20 Hz
@@ -95,7 +97,7 @@ export function startDriving(id) {
   driveState.level = s ? s.level : driveState.level;
   taking = !s || s.driver === "";  // a free chair is taken at once; another's only by "take over"
   if (timer === null) timer = window.setInterval(tick, SEND_MS);
-  if (hooks) hooks.started(id);
+  if (hooks) hooks.setView("first");  // the driver's seat: first person, following this chair
   changed();
   tick();
 }
@@ -204,7 +206,7 @@ function setKey(e, down) {
 
 function armGoto() {
   armedGoto = !armedGoto;
-  if (armedGoto && hooks) hooks.showMap();  // the spot is clicked on the 2D map
+  if (armedGoto && hooks) hooks.setView("2d");  // the spot is clicked on the 2D map
   panel();
 }
 
@@ -240,7 +242,8 @@ function panel() {
   p.hidden = driveState.robot === null && !refusedWhy;
   if (driveState.robot === null) return;
   const id = driveState.robot;
-  const name = hooks ? hooks.robotName(id) : "";
+  const r = world.robots.get(id);
+  const name = r ? r.name : "";
   const t = $("drive-title");
   if (t) t.textContent = `driving chair ${id}${name ? ` \u00b7 ${name}` : ""}`;
   let status = "waiting for the chair's agent (does it accept a driver?)";
@@ -309,28 +312,23 @@ function makePanel() {
   pad.addEventListener("lostpointercapture", end);
 }
 
-/** A click on the 2D map while "go there" is armed: that spot is where to go (nothing else happens). */
-function mapClick(e) {
-  if (!armedGoto || driveState.robot === null || !hooks) return;
-  const c = /** @type {HTMLElement} */ (e.currentTarget);
-  const r = c.getBoundingClientRect();
-  const at = hooks.toWorld(e.clientX - r.left, e.clientY - r.top);
-  e.stopImmediatePropagation();
-  e.preventDefault();
-  if (!at) return;
+/** A click on the 2D map (no robot there) while "go there" is armed: where to go. @returns {boolean} taken */
+function mapClick(/** @type {number} */ x, /** @type {number} */ y) {
+  if (!armedGoto || driveState.robot === null) return false;
   armedGoto = false;
-  pendingGoto = [Math.round(at[0] * 1000) / 1000, Math.round(at[1] * 1000) / 1000];
+  pendingGoto = [Math.round(x * 1000) / 1000, Math.round(y * 1000) / 1000];
   send({});
   panel();
+  return true;
 }
 
 // --- what the server says ------------------------------------------------------------------------
 
 /** The server's hello: this page's driver name. */
-export function onHello(m) { me = m.driver || ""; changed(); }
+function onHello(m) { me = m.driver || ""; changed(); }
 
 /** A chair's drive state (``drive`` message): ``state`` null when its agent no longer accepts a driver. */
-export function onDrive(m) {
+function onDrive(m) {
   const id = m.robot_id;
   if (m.state) states.set(id, m.state); else states.delete(id);
   if (wantFromUrl === id && m.state) { wantFromUrl = null; startDriving(id); return; }
@@ -339,7 +337,7 @@ export function onDrive(m) {
 }
 
 /** A refused command: a refused drive of the chair driven ends the driving (the panel says why). */
-export function onError(m) {
+function onError(m) {
   if (m.drive_robot === null || m.drive_robot === undefined || m.drive_robot !== driveState.robot) return;
   stopDriving();
   refusedWhy = m.error;
@@ -348,16 +346,33 @@ export function onError(m) {
 }
 
 /** The roster changed: chairs no longer in the world are forgotten (and left, if driven). */
-export function onRoster(ids) {
+function onRoster(ids) {
   const have = new Set(ids);
   for (const id of [...states.keys()]) if (!have.has(id)) states.delete(id);
   if (driveState.robot !== null && !have.has(driveState.robot)) stopDriving();
 }
 
+/** The robot panel's drive button: for a chair whose agent accepts a driver, not driven from here already. */
+function driveButton() {
+  const b = $("btn-drive");
+  if (!b) return;
+  const sel = world.selected;
+  b.hidden = !sel || sel.kind !== "robot" || !states.has(sel.id) || driveState.robot === sel.id;
+}
+
 /** Wires the inputs; ``?drive=ID`` in the address drives chair ID as soon as its agent says it accepts a driver. */
-export function initDrive(/** @type {DriveHooks} */ h, /** @type {HTMLElement | null} */ map) {
+export function initDrive(/** @type {DriveHooks} */ h) {
   hooks = h;
   makePanel();
+  on("hello", onHello);
+  on("drive", onDrive);
+  on("error", onError);
+  on("frame", (m) => { if (m.ids !== null) onRoster(m.ids); });
+  on("select", driveButton);
+  onDriveChange(driveButton);
+  h.onMapClick(mapClick);
+  const b = $("btn-drive");
+  if (b) b.onclick = () => { const sel = world.selected; if (sel && sel.kind === "robot") startDriving(sel.id); };
   const want = new URLSearchParams(location.search).get("drive");
   if (want !== null && /^\d+$/.test(want)) wantFromUrl = Number(want);
   window.addEventListener("keydown", (e) => setKey(e, true), true);
@@ -373,7 +388,6 @@ export function initDrive(/** @type {DriveHooks} */ h, /** @type {HTMLElement | 
     const g = /** @type {GamepadEvent} */ (e).gamepad;
     if (padIndex !== null && (!g || g.index === padIndex)) unplugged();
   });
-  if (map) map.addEventListener("mousedown", mapClick, true);
 }
 
 /** What was last sent (for the page's own checks): "x,y,buttons,level". */

@@ -1,45 +1,82 @@
+// @ts-check
 // The 2D top view: walls, targets, beacons, obstacles, robots as their true outlines coloured by
-// state, cones with their readings, laser scans, trails, flashing incidents. Drag to pan, wheel
-// to zoom, click to select; in obstacle mode drag draws an obstacle; a selected obstacle is
-// dragged to move it. It draws only when something changed (a message, the view, a flash).
+// state, cones with their readings, laser scans, trails, flashing incidents, a scale bar. Drag to
+// pan, wheel to zoom, click to select; in obstacle mode drag draws an obstacle; a selected
+// obstacle is dragged to move it. It draws only when something changed (a message, the view, a
+// flash). It reads the world and never writes it (world.js owns it).
+import { STATE_COLOURS, COLOUR } from "./palette.js";
 
-export const COLOURS = { d: "#2e9e44", h: "#e0a000", w: "#9c4dcc", c: "#e53935" };
-const DOOR = "#8d6e63";
-export const SCAN_POINT = "#ff4081";  // where a laser beam hit
+/** @typedef {import("./palette.js").RobotState} RobotState */
+/** @typedef {import("./types.js").Obstacle} Obstacle */
+/**
+ * @typedef {object} Hooks2D  what the view asks of the page
+ * @property {(sel: import("./world.js").Selection | null) => void} select
+ * @property {(cmd: import("./types.js").PageCommand) => void} send
+ * @property {(x: number, y: number) => boolean} mapClick  a click on no robot: true when taken
+ * @property {(x: number | null, y: number | null) => void} cursor  where the mouse is (m), null: off the map
+ * @property {() => {trails: boolean, cones: boolean, labels: boolean, scans: boolean}} options
+ * @property {() => void} drawingDone
+ * @property {() => void} drawingStarted
+ */
+
+const DOOR = COLOUR.door;
+export const SCAN_POINT = COLOUR.scan;  // where a laser beam hit
+const SCALE_PX = 120;         // the scale bar is a round length about this long
 const SCAN_POINT_PX = 4;
 const LABEL_MIN_PX = 14;      // a robot smaller than this on screen gets no label
 const CONES_MAX = 400;        // beyond this many robots the cones are drawn only for the selected one
 const TRAILS_MAX = 200;       // likewise for trails
 const LATENCIES_KEPT = 2000;
 
-// beam k's direction from the robot's heading, degrees (LaserSpec's rule: the first beam looks
-// angle - fov/2, the last angle + fov/2; a single beam looks along angle)
+/** a round length (1, 2 or 5 times a power of ten) of about `m` metres @param {number} m */
+export function roundLength(m) {
+  const p = Math.pow(10, Math.floor(Math.log10(m)));
+  const f = m / p;
+  return (f >= 5 ? 5 : f >= 2 ? 2 : 1) * p;
+}
+
+/**
+ * Beam k's direction from the robot's heading, degrees (LaserSpec's rule: the first beam looks
+ * angle - fov/2, the last angle + fov/2; a single beam looks along angle).
+ * @param {import("./types.js").PageLaser} l @param {number} k
+ */
 export function laserAngle(l, k) {
   return l.beams > 1 ? l.angle_deg - l.fov_deg / 2 + k * l.fov_deg / (l.beams - 1) : l.angle_deg;
 }
 
 export class View2D {
+  /**
+   * @param {HTMLCanvasElement} canvas
+   * @param {typeof import("./world.js").world} world  read only
+   * @param {Hooks2D} hooks
+   */
   constructor(canvas, world, hooks) {
     this.canvas = canvas;
-    this.ctx = canvas.getContext("2d");
+    this.ctx = /** @type {CanvasRenderingContext2D} */ (canvas.getContext("2d"));
     this.world = world;
     this.hooks = hooks;
     this.scale = 40; this.ox = 20; this.oy = 400;   // px per m; screen position of the map's origin
     this.fitted = false;
     this.drawn = 0;
-    this.latencies = [];      // ms from the world's tick start to its drawing
     this.seenVersion = -1;
+    this.lastFrames = -1;
     this.drawing = false;     // drawing an obstacle
+    /** @type {any} */
     this.drag = null;
     this.animate = false;     // redraw every animation frame, drifting (benchmarks/viewer.py measures so)
     this.dpr = window.devicePixelRatio || 1;
-    this.scanPoints = [];     // [x, y] m of every scan hit drawn last (for tests)
+    /** @type {{latencies: number[], scanPoints: number[][]} | null} what hooks.js measures (null: nothing) */
+    this.measure = null;
+    this.scaleShown = 0;      // the length (m) the scale bar shows
     this.listen();
   }
 
+  /** @param {number} x @param {number} y @returns {[number, number]} */
   toScreen(x, y) { return [this.ox + x * this.scale, this.oy - y * this.scale]; }
+  /** @param {number} sx @param {number} sy @returns {[number, number]} */
   toWorld(sx, sy) { return [(sx - this.ox) / this.scale, (this.oy - sy) / this.scale]; }
 
+  /** The whole lab in view (again: the page calls it when the panel opens or closes). */
   fit() {
     const s = this.world.scene;
     const r = this.canvas.getBoundingClientRect();
@@ -61,6 +98,7 @@ export class View2D {
 
   listen() {
     const c = this.canvas;
+    /** @param {MouseEvent} e @returns {[number, number]} */
     const pos = (e) => { const r = c.getBoundingClientRect(); return [e.clientX - r.left, e.clientY - r.top]; };
     c.addEventListener("wheel", (e) => {
       e.preventDefault();
@@ -77,11 +115,13 @@ export class View2D {
       else if (ob && this.world.live) this.drag = { kind: "move", ob, wx, wy, dx: 0, dy: 0, moved: false };
       else this.drag = { kind: "pan", sx, sy, moved: false };
     });
+    c.addEventListener("mouseleave", () => this.hooks.cursor(null, null));
     window.addEventListener("mousemove", (e) => {
       const d = this.drag;
-      if (!d) return;
       const [sx, sy] = pos(e);
       const [wx, wy] = this.toWorld(sx, sy);
+      if (e.target === c) this.hooks.cursor(wx, wy);
+      if (!d) return;
       if (d.kind === "draw") { d.x1 = wx; d.y1 = wy; }
       else if (d.kind === "move") { d.dx = wx - d.wx; d.dy = wy - d.wy; d.moved = d.moved || Math.hypot(d.dx, d.dy) > 0.02; }
       else {
@@ -106,6 +146,7 @@ export class View2D {
     window.addEventListener("resize", () => this.dirty());
   }
 
+  /** @param {{x0: number, y0: number, x1: number, y1: number}} d */
   finishDrawing(d) {
     this.toggleDrawing();
     if (Math.abs(d.x1 - d.x0) < 0.05 || Math.abs(d.y1 - d.y0) < 0.05) return;  // a click, not a box
@@ -116,12 +157,14 @@ export class View2D {
     this.hooks.send({ cmd: "add_obstacle", obstacle: ob });
   }
 
+  /** @param {number} x @param {number} y @returns {Obstacle | null} */
   obstacleAt(x, y) {
     const s = this.world.scene;
     if (!s) return null;
     return s.obstacles.find((o) => x >= o.x0 && x <= o.x1 && y >= o.y0 && y <= o.y1) || null;
   }
 
+  /** @param {number} x @param {number} y @returns {number | null} */
   robotAt(x, y) {
     const w = this.world;
     let best = null;
@@ -135,10 +178,12 @@ export class View2D {
     return best;
   }
 
+  /** @param {number} sx @param {number} sy */
   click(sx, sy) {
     const [x, y] = this.toWorld(sx, sy);
     const id = this.robotAt(x, y);
     if (id !== null) { this.hooks.select({ kind: "robot", id }); return; }
+    if (this.hooks.mapClick(x, y)) return;
     const ob = this.obstacleAt(x, y);
     this.hooks.select(ob ? { kind: "obstacle", name: ob.name } : null);
   }
@@ -152,6 +197,7 @@ export class View2D {
     return false;
   }
 
+  /** @param {number} now */
   draw(now) {
     const w = this.world;
     const resized = this.resize();
@@ -172,19 +218,41 @@ export class View2D {
     this.drawRobots(g, opts.labels);
     this.drawFlashes(g, now);
     if (this.drag && this.drag.kind === "draw") this.drawBox(g, this.drag, "rgba(255,255,255,.35)");
+    this.drawScale(g);
     this.drawn += 1;
-    if (newFrame && w.tickWallMs > 0 && w.live) {
-      this.latencies.push(Date.now() - w.tickWallMs);
-      if (this.latencies.length > LATENCIES_KEPT) this.latencies.shift();
+    const m = this.measure;
+    if (m && newFrame && w.tickWallMs > 0 && w.live) {
+      m.latencies.push(Date.now() - w.tickWallMs);
+      if (m.latencies.length > LATENCIES_KEPT) m.latencies.shift();
     }
   }
 
+  // a scale bar at the bottom right: a round length in metres, with its ticks
+  /** @param {CanvasRenderingContext2D} g */
+  drawScale(g) {
+    const r = this.canvas.getBoundingClientRect();
+    const m = roundLength(SCALE_PX / this.scale);
+    const px = m * this.scale;
+    const x1 = r.width - 16;
+    const x0 = x1 - px;
+    const y = r.height - 16;
+    g.fillStyle = "rgba(21,24,29,.75)";
+    g.fillRect(x0 - 8, y - 20, px + 16, 28);
+    g.strokeStyle = "#fff"; g.lineWidth = 2;
+    g.beginPath(); g.moveTo(x0, y - 5); g.lineTo(x0, y); g.lineTo(x1, y); g.lineTo(x1, y - 5); g.stroke();
+    g.fillStyle = "#fff"; g.font = "12px system-ui"; g.textAlign = "center";
+    g.fillText(m >= 1 ? `${m} m` : `${Math.round(m * 100)} cm`, (x0 + x1) / 2, y - 7);
+    this.scaleShown = m;
+  }
+
+  /** @param {CanvasRenderingContext2D | Path2D} g @param {number[][]} pts */
   poly(g, pts) {
     g.moveTo(...this.toScreen(pts[0][0], pts[0][1]));
     for (let i = 1; i < pts.length; i++) g.lineTo(...this.toScreen(pts[i][0], pts[i][1]));
     g.closePath();
   }
 
+  /** @param {CanvasRenderingContext2D} g @param {{x0: number, y0: number, x1: number, y1: number}} b @param {string} fill */
   drawBox(g, b, fill) {
     const [ax, ay] = this.toScreen(Math.min(b.x0, b.x1), Math.max(b.y0, b.y1));
     const [bx, by] = this.toScreen(Math.max(b.x0, b.x1), Math.min(b.y0, b.y1));
@@ -192,6 +260,7 @@ export class View2D {
     g.fillRect(ax, ay, bx - ax, by - ay);
   }
 
+  /** @param {CanvasRenderingContext2D} g @param {import("./types.js").PageScene} s */
   drawMap(g, s) {
     const [x0, y0] = this.toScreen(0, s.height);
     g.fillStyle = "#23272e";
@@ -203,12 +272,12 @@ export class View2D {
       g.fillStyle = `rgb(${shade},${shade},${shade + 10})`;
       g.beginPath(); this.poly(g, wall.corners); g.fill();
     }
-    g.strokeStyle = "#4fc3f7"; g.lineWidth = 1.5;
+    g.strokeStyle = COLOUR.target; g.lineWidth = 1.5;
     for (const [x, y, r] of s.targets) {
       const [sx, sy] = this.toScreen(x, y);
       g.beginPath(); g.arc(sx, sy, Math.max(2, r * this.scale), 0, 2 * Math.PI); g.stroke();
     }
-    g.fillStyle = "#ffd54f";
+    g.fillStyle = COLOUR.beacon;
     for (const [x, y] of s.beacons) {
       const [sx, sy] = this.toScreen(x, y);
       g.beginPath(); g.arc(sx, sy, 5, 0, 2 * Math.PI); g.fill();
@@ -218,10 +287,11 @@ export class View2D {
       const moving = d && d.kind === "move" && d.ob.name === o.name;
       const b = moving ? { x0: o.x0 + d.dx, x1: o.x1 + d.dx, y0: o.y0 + d.dy, y1: o.y1 + d.dy } : o;
       const sel = this.world.selected && this.world.selected.kind === "obstacle" && this.world.selected.name === o.name;
-      this.drawBox(g, b, sel ? "#ff7043" : "#a1887f");
+      this.drawBox(g, b, sel ? COLOUR.obstacleSelected : COLOUR.obstacle);
     }
   }
 
+  /** @param {CanvasRenderingContext2D} g */
   drawTrails(g) {
     const w = this.world;
     const sel = w.selected && w.selected.kind === "robot" ? w.selected.id : null;
@@ -236,6 +306,7 @@ export class View2D {
     g.stroke();
   }
 
+  /** @param {CanvasRenderingContext2D} g */
   drawCones(g) {
     const w = this.world;
     const sel = w.selected && w.selected.kind === "robot" ? w.selected.id : null;
@@ -270,12 +341,14 @@ export class View2D {
 
   // each scanner's beams: faint to its range where it saw nothing, brighter to the hit, and the hit
   // as a dot; every robot's, or only the selected one's when `all` is off
+  /** @param {CanvasRenderingContext2D} g @param {boolean} all */
   drawScans(g, all) {
     const w = this.world;
     const sel = w.selected && w.selected.kind === "robot" ? w.selected.id : null;
     const free = new Path2D();
     const rays = new Path2D();
     const dots = new Path2D();
+    /** @type {number[][]} */
     const points = [];
     const half = SCAN_POINT_PX / 2;
     for (let i = 0; i < w.ids.length; i++) {
@@ -301,29 +374,26 @@ export class View2D {
         }
       });
     }
-    this.scanPoints = points;
+    if (this.measure) this.measure.scanPoints = points;
     g.lineWidth = 1;
     g.strokeStyle = "rgba(255,64,129,.07)"; g.stroke(free);
     g.strokeStyle = "rgba(255,64,129,.3)"; g.stroke(rays);
     g.fillStyle = SCAN_POINT; g.fill(dots);
   }
 
-  pixel(x, y) {
-    const [sx, sy] = this.toScreen(x, y);
-    return Array.from(this.ctx.getImageData(Math.round(sx * this.dpr), Math.round(sy * this.dpr), 1, 1).data);
-  }
-
+  /** @param {CanvasRenderingContext2D} g @param {boolean} labels */
   drawRobots(g, labels) {
     const w = this.world;
-    const paths = { d: new Path2D(), h: new Path2D(), w: new Path2D(), c: new Path2D(), door: new Path2D() };
+    /** @type {Record<RobotState | "door", Path2D>} */
+    const paths = { driving: new Path2D(), held: new Path2D(), watchdog: new Path2D(), collided: new Path2D(), door: new Path2D() };
     const noses = new Path2D();
     for (let i = 0; i < w.ids.length; i++) {
       const r = w.robots.get(w.ids[i]);
       const out = r && r.outline.length ? r.outline : [[0.3, -0.3], [0.3, 0.3], [-0.3, 0.3], [-0.3, -0.3]];
       const c = Math.cos(w.heading[i]);
       const s = Math.sin(w.heading[i]);
-      const st = w.state[i] || "d";
-      const p = r && r.type === "Door" && st === "d" ? paths.door : paths[st] || paths.d;
+      const st = w.states[i] || "driving";
+      const p = r && r.type === "Door" && st === "driving" ? paths.door : paths[st] || paths.driving;
       for (let k = 0; k < out.length; k++) {
         const [sx, sy] = this.toScreen(w.x[i] + c * out[k][0] - s * out[k][1], w.y[i] + s * out[k][0] + c * out[k][1]);
         if (k === 0) p.moveTo(sx, sy); else p.lineTo(sx, sy);
@@ -334,7 +404,7 @@ export class View2D {
       noses.moveTo(ax, ay);
       noses.lineTo(...this.toScreen(w.x[i] + c * front * 1.2, w.y[i] + s * front * 1.2));
     }
-    for (const [k, p] of Object.entries(paths)) { g.fillStyle = k === "door" ? DOOR : COLOURS[k]; g.fill(p); }
+    for (const [k, p] of Object.entries(paths)) { g.fillStyle = k === "door" ? DOOR : STATE_COLOURS[/** @type {RobotState} */ (k)]; g.fill(p); }
     g.strokeStyle = "#fff"; g.lineWidth = 1.5; g.stroke(noses);
     const sel = w.selected && w.selected.kind === "robot" ? w.ids.indexOf(w.selected.id) : -1;
     if (sel >= 0) {
@@ -345,6 +415,7 @@ export class View2D {
     if (labels) this.drawLabels(g);
   }
 
+  /** @param {CanvasRenderingContext2D} g */
   drawLabels(g) {
     const w = this.world;
     g.fillStyle = "#fff"; g.font = "11px system-ui"; g.textAlign = "center";
@@ -357,12 +428,13 @@ export class View2D {
     }
   }
 
+  /** @param {CanvasRenderingContext2D} g @param {number} now */
   drawFlashes(g, now) {
     for (const f of this.world.flashes) {
       const on = Math.floor(now / 200) % 2 === 0;
       if (!on) continue;
       const [sx, sy] = this.toScreen(f.x, f.y);
-      g.strokeStyle = f.kind === "collision" ? "#ff1744" : "#ffea00"; g.lineWidth = 3;
+      g.strokeStyle = f.kind === "collision" ? COLOUR.collision : COLOUR.incident; g.lineWidth = 3;
       g.beginPath(); g.arc(sx, sy, 16, 0, 2 * Math.PI); g.stroke();
     }
   }

@@ -1,67 +1,71 @@
-// The 3D view in raw WebGL (walls, obstacles, chairs and doors are boxes, so no library is needed):
-// walls extruded to their heights, chairs and doors as bodies coloured by state; first person from
-// a chair (the selected one, else the first), third person behind it, or a free camera (drag to
-// turn, shift-drag or right-drag to pan, wheel to zoom, W A S D to move).
-import { COLOURS } from "./view2d.js";
+// @ts-check
+// The 3D view in raw WebGL (no library): a lit scene a person can drive by. A sun and a sky light
+// shade every face, distance fades into the sky; the floor carries a 1 m grid (every 5 m brighter),
+// so speed and distance show; walls, obstacles, doors, beacons and targets are solids of their own
+// colours; each chair is a low-poly wheelchair in its state's colour (or its type's model file,
+// models.js). First person from a chair (the one followed: driven, else selected, else the first),
+// third person behind it (pulled in front of any wall between, camera.js), or a free camera (drag
+// to turn, shift-drag or right-drag to pan, wheel to zoom, W A S D to move), never inside a wall.
+import { STATE_COLOURS, COLOUR, rgb } from "./palette.js";
+import { perspective, lookAt, mul, solids, unblocked, clearOf } from "./camera.js";
+import { CHAIR_BOXES, CHAIR_WHEELS, fitted, loadModels } from "./models.js";
 
-const CHAIR_M = 1.0;           // a chair's body height
-const DOOR_M = 2.0;            // a door's
+/** @typedef {import("./camera.js").V3} V3 */
+/** @typedef {{buf: WebGLBuffer | null, count: number}} Buf */
+
 const EYE_M = 1.2;             // first person: eyes this high, at the chair's centre of movement
 const BEHIND_M = 4.0;          // third person: this far behind
 const ABOVE_M = 3.0;           // and this high
-const CLEAR = [0.08, 0.09, 0.11];
-const FLOOR = [0.16, 0.17, 0.2];
-const WALL = [0.62, 0.63, 0.68];
-const OBSTACLE = [0.63, 0.53, 0.5];
-const BEACON = [1.0, 0.84, 0.31];
-const BORDER = [0.45, 0.47, 0.55];
-const BORDER_M = 1.0;          // the lab's edge (a wall to the collision check) drawn this high
-const BORDER_THICK_M = 0.1;
-const DOOR_RGB = [0.55, 0.43, 0.39];
+const DOOR_M = 2.0;            // a door's height
+const SIMPLE_PAST = 150;       // past this many robots, each is its outline extruded (not a chair model)
+const SKY = [0.55, 0.66, 0.78];
+const FLOOR = [0.42, 0.44, 0.47];
+const GRID = [0.3, 0.32, 0.35];
+const GRID_MAJOR = [0.62, 0.64, 0.67];
+const WALL = [0.78, 0.75, 0.68];
+const OBSTACLE = [0.85, 0.45, 0.18];
+const BEACON = rgb(COLOUR.beacon);
+const TARGET = rgb(COLOUR.target);
+const DOOR_RGB = rgb(COLOUR.door);
+const EDGE = [0.6, 0.62, 0.68];
+const SEAT = [0.16, 0.17, 0.2];
+const WHEEL = [0.1, 0.1, 0.11];
+const EDGE_M = 1.0;            // the lab's edge (a wall to the collision check) drawn this high
+const EDGE_THICK_M = 0.1;
+const STATE_RGB = /** @type {Record<string, number[]>} */ (Object.fromEntries(Object.entries(STATE_COLOURS).map(([k, v]) => [k, rgb(v)])));
 
 const VS = `
 attribute vec3 p; attribute vec3 n; attribute vec3 c;
-uniform mat4 m; varying vec3 vc;
+uniform mat4 m; uniform vec3 eye;
+varying vec3 vc; varying float dist;
 void main() {
   gl_Position = m * vec4(p, 1.0);
-  vc = c * (0.35 + 0.65 * abs(dot(normalize(n), normalize(vec3(0.4, 0.3, 0.85)))));
+  vec3 N = normalize(n);
+  float sun = max(dot(N, normalize(vec3(0.45, 0.3, 0.84))), 0.0);
+  float sky = 0.5 + 0.5 * N.z;
+  vc = c * (0.3 + 0.25 * sky + 0.6 * sun);
+  dist = distance(p, eye);
 }`;
-const FS = `precision mediump float; varying vec3 vc; void main() { gl_FragColor = vec4(vc, 1.0); }`;
+const FS = `precision mediump float;
+uniform vec3 skyc; uniform float fog;
+varying vec3 vc; varying float dist;
+void main() { gl_FragColor = vec4(mix(vc, skyc, 0.55 * clamp(dist / fog, 0.0, 1.0)), 1.0); }`;
 
-function hex(h) { return [1, 3, 5].map((i) => parseInt(h.slice(i, i + 2), 16) / 255); }
-const STATE_RGB = Object.fromEntries(Object.entries(COLOURS).map(([k, v]) => [k, hex(v)]));
-
-function perspective(fovy, aspect, near, far) {
-  const f = 1 / Math.tan(fovy / 2);
-  const nf = 1 / (near - far);
-  return [f / aspect, 0, 0, 0, 0, f, 0, 0, 0, 0, (far + near) * nf, -1, 0, 0, 2 * far * near * nf, 0];
-}
-
-function lookAt(e, t, up) {
-  const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-  const norm = (a) => { const l = Math.hypot(...a) || 1; return [a[0] / l, a[1] / l, a[2] / l]; };
-  const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
-  const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-  const z = norm(sub(e, t));
-  const x = norm(cross(up, z));
-  const y = cross(z, x);
-  return [x[0], y[0], z[0], 0, x[1], y[1], z[1], 0, x[2], y[2], z[2], 0, -dot(x, e), -dot(y, e), -dot(z, e), 1];
-}
-
-function mul(a, b) {
-  const o = new Array(16).fill(0);
-  for (let c = 0; c < 4; c++) for (let r = 0; r < 4; r++) for (let k = 0; k < 4; k++) o[c * 4 + r] += a[k * 4 + r] * b[c * 4 + k];
-  return o;
-}
-
-// a polygon (counter-clockwise or not) extruded from z0 to z1, into position/normal/colour arrays
-function prism(out, pts, z0, z1, rgb) {
-  const push = (x, y, z, nx, ny, nz) => { out.push(x, y, z, nx, ny, nz, rgb[0], rgb[1], rgb[2]); };
+/**
+ * A polygon extruded from z0 to z1 (sides facing out whatever its winding; top facing up).
+ * @param {number[]} out @param {number[][]} pts @param {number} z0 @param {number} z1 @param {number[]} c
+ */
+function prism(out, pts, z0, z1, c) {
+  /** @param {number} x @param {number} y @param {number} z @param {number} nx @param {number} ny @param {number} nz */
+  const push = (x, y, z, nx, ny, nz) => { out.push(x, y, z, nx, ny, nz, c[0], c[1], c[2]); };
+  let area = 0;
+  for (let i = 0; i < pts.length; i++) { const a = pts[i]; const b = pts[(i + 1) % pts.length]; area += a[0] * b[1] - b[0] * a[1]; }
+  const s = area >= 0 ? 1 : -1;
   for (let i = 0; i < pts.length; i++) {
     const [ax, ay] = pts[i];
     const [bx, by] = pts[(i + 1) % pts.length];
-    const nx = by - ay;
-    const ny = ax - bx;
+    const nx = s * (by - ay);
+    const ny = s * (ax - bx);
     push(ax, ay, z0, nx, ny, 0); push(bx, by, z0, nx, ny, 0); push(bx, by, z1, nx, ny, 0);
     push(ax, ay, z0, nx, ny, 0); push(bx, by, z1, nx, ny, 0); push(ax, ay, z1, nx, ny, 0);
   }
@@ -70,44 +74,119 @@ function prism(out, pts, z0, z1, rgb) {
   }
 }
 
+/** @param {number} x0 @param {number} y0 @param {number} x1 @param {number} y1 */
 function box(x0, y0, x1, y1) { return [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]; }
 
+/** @param {number} x @param {number} y @param {number} r @param {number} sides */
+function disc(x, y, r, sides) {
+  return Array.from({ length: sides }, (_, k) => [x + r * Math.cos((2 * Math.PI * k) / sides), y + r * Math.sin((2 * Math.PI * k) / sides)]);
+}
+
+/** triangles (x, y, z nine a triangle) into the buffer, with their face normals @param {number[]} out @param {ArrayLike<number>} t @param {number[]} c */
+function triangles(out, t, c) {
+  for (let i = 0; i + 8 < t.length; i += 9) {
+    const ux = t[i + 3] - t[i]; const uy = t[i + 4] - t[i + 1]; const uz = t[i + 5] - t[i + 2];
+    const vx = t[i + 6] - t[i]; const vy = t[i + 7] - t[i + 1]; const vz = t[i + 8] - t[i + 2];
+    const n = [uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx];
+    for (let k = 0; k < 9; k += 3) out.push(t[i + k], t[i + k + 1], t[i + k + 2], n[0], n[1], n[2], c[0], c[1], c[2]);
+  }
+}
+
+/**
+ * The built-in wheelchair for a footprint, as triangles (x, y, z) per part, in the robot's frame.
+ * @param {number} length @param {number} width @param {number} com @returns {Record<string, number[]>}
+ */
+export function chairTriangles(length, width, com) {
+  /** @type {Record<string, number[]>} */
+  const parts = { frame: [], seat: [], wheel: [] };
+  const rear = -(1 - com) * length;
+  /** @param {number} u */
+  const X = (u) => rear + (u + 0.5) * length;
+  /** @param {number} v */
+  const Y = (v) => v * width;
+  /** a prism as bare triangles @param {number[]} dst @param {number[][]} pts @param {number} z0 @param {number} z1 */
+  const bare = (dst, pts, z0, z1) => {
+    /** @type {number[]} */
+    const tmp = [];
+    prism(tmp, pts, z0, z1, [0, 0, 0]);
+    for (let i = 0; i < tmp.length; i += 9) dst.push(tmp[i], tmp[i + 1], tmp[i + 2]);
+    for (let i = 0; i + 2 < pts.length; i++) dst.push(pts[0][0], pts[0][1], z0, pts[i + 2][0], pts[i + 2][1], z0, pts[i + 1][0], pts[i + 1][1], z0);
+  };
+  for (const [u0, v0, z0, u1, v1, z1, part] of CHAIR_BOXES) bare(parts[part], box(X(u0), Y(v0), X(u1), Y(v1)), z0, z1);
+  for (const [u, v, r, t, part] of CHAIR_WHEELS) {
+    const x = part === "wheel" && r > 0.2 ? 0 : X(u);  // the drive wheels on the axis (the centre of movement)
+    const y = Y(v);
+    // a wheel: a disc in the x-z plane, extruded across y (built in x-y, then turned)
+    /** @type {number[]} */
+    const flat = [];
+    bare(flat, disc(0, 0, r, 12), y - t / 2, y + t / 2);
+    for (let i = 0; i < flat.length; i += 3) parts.wheel.push(x + flat[i], flat[i + 2], r + flat[i + 1]);
+  }
+  return parts;
+}
+
 export class View3D {
+  /**
+   * @param {HTMLCanvasElement} canvas
+   * @param {typeof import("./world.js").world} world  read only
+   */
   constructor(canvas, world) {
     this.canvas = canvas;
     this.world = world;
-    this.gl = canvas.getContext("webgl", { preserveDrawingBuffer: true, antialias: false });
+    this.gl = /** @type {WebGLRenderingContext | null} */ (canvas.getContext("webgl", { preserveDrawingBuffer: true, antialias: true }));
     this.drawn = 0;
     this.mode = "first";
     this.free = { tx: 10, ty: 5, yaw: -Math.PI / 2, pitch: 0.9, dist: 25 };
     this.staticVersion = -1;
     this.seen = "";
+    this.camVersion = 0;
+    /** @type {number | null} the chair the cameras follow (drive.js: the one driven); null: the selected, else the first */
+    this.followId = null;
+    /** @type {V3} where the eye was last drawn from (tests look) */
+    this.eye = [0, 0, 0];
+    /** @type {{pts: number[][], h: number}[]} */
+    this.solid = [];
+    /** @type {Map<string, import("./models.js").Model>} */
+    this.models = new Map();
+    /** @type {Map<string, Record<string, number[]>>} a chair's triangles by its footprint and type */
+    this.shapes = new Map();
+    /** @type {Buf} */ this.staticBuf = { buf: null, count: 0 };
+    /** @type {Buf} */ this.dynBuf = { buf: null, count: 0 };
+    /** @type {Record<string, any>} */
+    this.loc = {};
     if (!this.gl) { console.error("iwz view: this browser gives no WebGL; the 3D view is off"); return; }
     this.setup();
     this.listen();
+    loadModels().then((m) => { this.models = m; this.shapes.clear(); this.moved(); });
   }
 
   setup() {
-    const gl = this.gl;
+    const gl = /** @type {WebGLRenderingContext} */ (this.gl);
+    /** @param {number} type @param {string} src */
     const shader = (type, src) => {
-      const s = gl.createShader(type);
+      const s = /** @type {WebGLShader} */ (gl.createShader(type));
       gl.shaderSource(s, src); gl.compileShader(s);
-      if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) throw new Error(gl.getShaderInfoLog(s));
+      if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) throw new Error(String(gl.getShaderInfoLog(s)));
       return s;
     };
-    const prog = gl.createProgram();
+    const prog = /** @type {WebGLProgram} */ (gl.createProgram());
     gl.attachShader(prog, shader(gl.VERTEX_SHADER, VS));
     gl.attachShader(prog, shader(gl.FRAGMENT_SHADER, FS));
     gl.linkProgram(prog);
     gl.useProgram(prog);
-    this.loc = { p: gl.getAttribLocation(prog, "p"), n: gl.getAttribLocation(prog, "n"), c: gl.getAttribLocation(prog, "c"), m: gl.getUniformLocation(prog, "m") };
-    this.staticBuf = { buf: gl.createBuffer(), count: 0 };
-    this.dynBuf = { buf: gl.createBuffer(), count: 0 };
+    this.loc = {
+      p: gl.getAttribLocation(prog, "p"), n: gl.getAttribLocation(prog, "n"), c: gl.getAttribLocation(prog, "c"),
+      m: gl.getUniformLocation(prog, "m"), eye: gl.getUniformLocation(prog, "eye"),
+      skyc: gl.getUniformLocation(prog, "skyc"), fog: gl.getUniformLocation(prog, "fog"),
+    };
+    this.staticBuf.buf = gl.createBuffer();
+    this.dynBuf.buf = gl.createBuffer();
     gl.enable(gl.DEPTH_TEST);
   }
 
   listen() {
     const c = this.canvas;
+    /** @type {{x: number, y: number, pan: boolean} | null} */
     let drag = null;
     c.addEventListener("contextmenu", (e) => e.preventDefault());
     c.addEventListener("mousedown", (e) => { drag = { x: e.clientX, y: e.clientY, pan: e.shiftKey || e.button === 2 }; });
@@ -126,36 +205,48 @@ export class View3D {
         f.yaw -= dx * 0.005;
         f.pitch = Math.min(1.5, Math.max(0.05, f.pitch + dy * 0.005));
       }
-      this.world.version += 1;
+      this.moved();
     });
     c.addEventListener("wheel", (e) => {
       e.preventDefault();
       this.free.dist = Math.min(500, Math.max(1, this.free.dist * Math.exp(e.deltaY * 0.001)));
-      this.world.version += 1;
+      this.moved();
     }, { passive: false });
     window.addEventListener("keydown", (e) => {
       if (this.mode !== "free" || this.canvas.hidden) return;
       const f = this.free;
       const step = Math.max(0.2, f.dist * 0.03);
-      const fwd = { w: 1, s: -1 }[e.key] || 0;
-      const side = { a: 1, d: -1 }[e.key] || 0;
+      const fwd = /** @type {Record<string, number>} */ ({ w: 1, s: -1 })[e.key] || 0;
+      const side = /** @type {Record<string, number>} */ ({ a: 1, d: -1 })[e.key] || 0;
+      if (!fwd && !side) return;
       f.tx += (-Math.cos(f.yaw) * fwd + Math.cos(f.yaw + Math.PI / 2) * side) * step;
       f.ty += (-Math.sin(f.yaw) * fwd + Math.sin(f.yaw + Math.PI / 2) * side) * step;
-      this.world.version += 1;
+      this.moved();
     });
   }
 
+  /** the camera moved: draw again */
+  moved() { this.camVersion += 1; }
+
+  /** the sky's colour (what hooks.js counts as not drawn) */
+  clearRgb() { return SKY; }
+
+  /** @param {string} mode  "first", "third" or "free" */
   setCamera(mode) {
     this.mode = mode;
     const s = this.world.scene;
     if (mode === "free" && s) { this.free.tx = s.width / 2; this.free.ty = s.height / 2; this.free.dist = Math.max(s.width, s.height); }
-    this.seen = "";
+    this.moved();
   }
+
+  /** follow this chair (null: the selected one, else the first) @param {number | null} id */
+  follow(id) { this.followId = id; this.moved(); }
 
   sceneChanged() { this.staticVersion = -1; }
 
+  /** @param {Buf} target @param {number[]} data */
   upload(target, data) {
-    const gl = this.gl;
+    const gl = /** @type {WebGLRenderingContext} */ (this.gl);
     gl.bindBuffer(gl.ARRAY_BUFFER, target.buf);
     gl.bufferData(gl.ARRAY_BUFFER, new Float32Array(data), gl.DYNAMIC_DRAW);
     target.count = data.length / 9;
@@ -163,74 +254,131 @@ export class View3D {
 
   buildStatic() {
     const s = this.world.scene;
+    /** @type {number[]} */
     const out = [];
     if (s) {
-      prism(out, box(0, 0, s.width, s.height), -0.02, 0, FLOOR);
-      const t = BORDER_THICK_M;
+      prism(out, box(0, 0, s.width, s.height), -0.05, 0, FLOOR);
+      const step = Math.max(s.width, s.height) > 300 ? 5 : 1;  // a 1 m grid, 5 m in a huge lab
+      for (let x = 0; x <= s.width + 1e-9; x += step) {
+        const major = Math.round(x) % 5 === 0;
+        const hw = major ? 0.025 : 0.012;
+        prism(out, box(x - hw, 0, x + hw, s.height), 0, 0.004, major ? GRID_MAJOR : GRID);
+      }
+      for (let y = 0; y <= s.height + 1e-9; y += step) {
+        const major = Math.round(y) % 5 === 0;
+        const hw = major ? 0.025 : 0.012;
+        prism(out, box(0, y - hw, s.width, y + hw), 0, 0.004, major ? GRID_MAJOR : GRID);
+      }
+      this.solid = solids(s, EDGE_THICK_M, EDGE_M);
+      const t = EDGE_THICK_M;
       for (const b of [[-t, -t, s.width + t, 0], [-t, s.height, s.width + t, s.height + t], [-t, 0, 0, s.height], [s.width, 0, s.width + t, s.height]]) {
-        prism(out, box(...b), 0, BORDER_M, BORDER);
+        prism(out, box(b[0], b[1], b[2], b[3]), 0, EDGE_M, EDGE);
       }
       for (const w of s.walls) prism(out, w.corners, 0, w.height, WALL);
-      for (const o of s.obstacles) prism(out, box(o.x0, o.y0, o.x1, o.y1), 0, o.height, OBSTACLE);
-      for (const [x, y, h] of s.beacons) prism(out, box(x - 0.05, y - 0.05, x + 0.05, y + 0.05), 0, h, BEACON);
+      for (const o of s.obstacles) prism(out, box(o.x0, o.y0, o.x1, o.y1), 0, o.height === undefined ? 1 : o.height, OBSTACLE);
+      for (const [x, y, h] of s.beacons) {
+        prism(out, disc(x, y, 0.04, 8), 0, h, BEACON);
+        prism(out, disc(x, y, 0.12, 8), h, h + 0.12, BEACON);
+      }
+      for (const [x, y, r] of s.targets) prism(out, disc(x, y, Math.max(0.1, r), 24), 0, 0.012, TARGET);
       this.staticVersion = s.revision;
     }
     this.upload(this.staticBuf, out);
   }
 
+  /** the index in world.ids of the chair the cameras follow, or -1 */
   chair() {
     const w = this.world;
+    if (this.followId !== null) { const i = w.ids.indexOf(this.followId); if (i >= 0) return i; }
     const sel = w.selected && w.selected.kind === "robot" ? w.ids.indexOf(w.selected.id) : -1;
     return sel >= 0 ? sel : w.ids.length ? 0 : -1;
   }
 
+  /** a chair's parts in its own frame (cached by footprint and type) @param {import("./types.js").PageRobot} r */
+  shape(r) {
+    const L = Number(r.spec.width) || 1;
+    const W = Number(r.spec.height) || 1;
+    const com = Number(r.spec.com) || 0.5;
+    const key = `${r.type}:${L}:${W}:${com}`;
+    let got = this.shapes.get(key);
+    if (!got) {
+      const m = this.models.get(r.type.toLowerCase());
+      got = m ? { frame: Array.from(fitted(m, L, W, com * L)), seat: [], wheel: [] } : chairTriangles(L, W, com);
+      this.shapes.set(key, got);
+    }
+    return got;
+  }
+
+  /** @param {number} skip  the robot not drawn (the first person's own chair), or -1 */
   buildRobots(skip) {
     const w = this.world;
+    /** @type {number[]} */
     const out = [];
+    const simple = w.ids.length > SIMPLE_PAST;
     for (let i = 0; i < w.ids.length; i++) {
       if (i === skip) continue;
       const r = w.robots.get(w.ids[i]);
-      const outline = r && r.outline.length ? r.outline : box(-0.3, -0.3, 0.3, 0.3);
       const c = Math.cos(w.heading[i]);
       const s = Math.sin(w.heading[i]);
-      const pts = outline.map(([px, py]) => [w.x[i] + c * px - s * py, w.y[i] + s * px + c * py]);
+      const x = w.x[i];
+      const y = w.y[i];
+      const st = w.states[i] || "driving";
       const door = r && r.type === "Door";
-      const st = w.state[i] || "d";
-      prism(out, pts, 0, door ? DOOR_M : CHAIR_M, door && st === "d" ? DOOR_RGB : STATE_RGB[st] || STATE_RGB.d);
-      if (!door) {  // a nose, so the heading shows
-        const f = r ? r.spec.width * r.spec.com : 0.3;
-        prism(out, box(-0.05, -0.05, 0.05, 0.05).map(([px, py]) => [w.x[i] + c * (f + px) - s * py, w.y[i] + s * (f + px) + c * py]), CHAIR_M, CHAIR_M + 0.1, [1, 1, 1]);
+      if (door || simple || !r) {
+        const outline = r && r.outline.length ? r.outline : box(-0.3, -0.3, 0.3, 0.3);
+        const pts = outline.map(([px, py]) => [x + c * px - s * py, y + s * px + c * py]);
+        prism(out, pts, 0, door ? DOOR_M : 1.0, door && st === "driving" ? DOOR_RGB : STATE_RGB[st] || STATE_RGB.driving);
+        continue;
+      }
+      const parts = this.shape(r);
+      for (const [part, tris] of Object.entries(parts)) {
+        const colour = part === "seat" ? SEAT : part === "wheel" ? WHEEL : STATE_RGB[st] || STATE_RGB.driving;
+        const moved = new Array(tris.length);
+        for (let k = 0; k < tris.length; k += 3) {
+          moved[k] = x + c * tris[k] - s * tris[k + 1];
+          moved[k + 1] = y + s * tris[k] + c * tris[k + 1];
+          moved[k + 2] = tris[k + 2];
+        }
+        triangles(out, moved, colour);
       }
     }
     this.upload(this.dynBuf, out);
   }
 
+  /** @param {number} aspect */
   camera(aspect) {
     const w = this.world;
-    const proj = perspective(this.mode === "first" ? 1.2 : 0.9, aspect, 0.05, 1000);
+    const s = w.scene;
+    const span = s ? Math.hypot(s.width, s.height) : 100;
+    const proj = perspective(this.mode === "first" ? 1.2 : 0.9, aspect, 0.1, Math.max(200, 3 * span));
     const i = this.chair();
+    /** @type {V3} */
     let eye;
+    /** @type {V3} */
     let target;
     if (this.mode !== "free" && i >= 0) {
       const c = Math.cos(w.heading[i]);
-      const s = Math.sin(w.heading[i]);
+      const sn = Math.sin(w.heading[i]);
       if (this.mode === "first") {
         eye = [w.x[i], w.y[i], EYE_M];
-        target = [w.x[i] + c, w.y[i] + s, EYE_M - 0.15];
+        target = [w.x[i] + c, w.y[i] + sn, EYE_M - 0.15];
       } else {
-        eye = [w.x[i] - BEHIND_M * c, w.y[i] - BEHIND_M * s, ABOVE_M];
-        target = [w.x[i], w.y[i], CHAIR_M * 0.8];
+        target = [w.x[i], w.y[i], 0.8];
+        const e = unblocked(this.solid, [w.x[i], w.y[i], 1.0], [w.x[i] - BEHIND_M * c, w.y[i] - BEHIND_M * sn, ABOVE_M]);
+        eye = clearOf(this.solid, [e[0], e[1], ABOVE_M]);  // pulled in: still above the chair, looking down on it
       }
     } else {
       const f = this.free;
-      eye = [f.tx + f.dist * Math.cos(f.pitch) * Math.cos(f.yaw), f.ty + f.dist * Math.cos(f.pitch) * Math.sin(f.yaw), f.dist * Math.sin(f.pitch)];
+      eye = clearOf(this.solid, [f.tx + f.dist * Math.cos(f.pitch) * Math.cos(f.yaw), f.ty + f.dist * Math.cos(f.pitch) * Math.sin(f.yaw), f.dist * Math.sin(f.pitch)]);
       target = [f.tx, f.ty, 0];
     }
-    return { m: mul(proj, lookAt(eye, target, [0, 0, 1])), skip: this.mode === "first" ? i : -1 };
+    this.eye = eye;
+    return { m: mul(proj, lookAt(eye, target, [0, 0, 1])), skip: this.mode === "first" ? i : -1, fog: Math.max(30, span) };
   }
 
+  /** @param {Buf} target */
   bind(target) {
-    const gl = this.gl;
+    const gl = /** @type {WebGLRenderingContext} */ (this.gl);
     const L = this.loc;
     gl.bindBuffer(gl.ARRAY_BUFFER, target.buf);
     for (const [a, off] of [[L.p, 0], [L.n, 12], [L.c, 24]]) {
@@ -248,7 +396,7 @@ export class View3D {
     const dpr = window.devicePixelRatio || 1;
     const wpx = Math.max(1, Math.round(r.width * dpr));
     const hpx = Math.max(1, Math.round(r.height * dpr));
-    const key = `${this.world.version}:${wpx}x${hpx}:${this.mode}`;
+    const key = `${this.world.version}:${this.camVersion}:${wpx}x${hpx}:${this.mode}`;
     if (key === this.seen) return;
     this.seen = key;
     if (c.width !== wpx || c.height !== hpx) { c.width = wpx; c.height = hpx; }
@@ -256,29 +404,14 @@ export class View3D {
     const cam = this.camera(wpx / hpx);
     this.buildRobots(cam.skip);
     gl.viewport(0, 0, wpx, hpx);
-    gl.clearColor(CLEAR[0], CLEAR[1], CLEAR[2], 1);
+    gl.clearColor(SKY[0], SKY[1], SKY[2], 1);
     gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
     gl.uniformMatrix4fv(this.loc.m, false, new Float32Array(cam.m));
+    gl.uniform3fv(this.loc.eye, new Float32Array(this.eye));
+    gl.uniform3fv(this.loc.skyc, new Float32Array(SKY));
+    gl.uniform1f(this.loc.fog, cam.fog);
     this.bind(this.staticBuf);
     this.bind(this.dynBuf);
     this.drawn += 1;
-  }
-
-  // how much of the canvas is not the clear colour, and how many colours it shows (for tests)
-  coverage() {
-    const gl = this.gl;
-    if (!gl) return { drawn: 0, covered: 0, colours: 0 };
-    const w = this.canvas.width;
-    const h = this.canvas.height;
-    const px = new Uint8Array(w * h * 4);
-    gl.readPixels(0, 0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, px);
-    const bg = CLEAR.map((v) => Math.round(v * 255));
-    let covered = 0;
-    const colours = new Set();
-    for (let i = 0; i < px.length; i += 4) {
-      if (Math.abs(px[i] - bg[0]) + Math.abs(px[i + 1] - bg[1]) + Math.abs(px[i + 2] - bg[2]) > 6) covered += 1;
-      if (i % 64 === 0) colours.add((px[i] << 16) | (px[i + 1] << 8) | px[i + 2]);
-    }
-    return { drawn: this.drawn, covered: covered / (w * h), colours: colours.size };
   }
 }
