@@ -132,7 +132,7 @@ def run(presses: int, window_s: float) -> dict[str, float]:
                 try:
                     page = browser.new_page(viewport={"width": 1280, "height": 800})
                     page.add_init_script(STAMP)
-                    page.goto(f"{url}?drive={rid}")
+                    page.goto(f"{url}?hooks=1&drive={rid}")
                     page.wait_for_function(
                         "document.getElementById('drive-status').textContent.startsWith('you drive')", timeout=60_000
                     )
