@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from iw_zenoh.agent_programs import ProgramError, find_program, is_file_program, program_label
+from iw_zenoh.agent.programs import ProgramError, find_program, is_file_program, program_label
 
 AGENT = '''"""Goes forward."""
 from iw_zenoh.agent import Command

@@ -18,6 +18,7 @@ import pytest
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Inbox, ZenohBus
+from iw_zenoh.bus.net import NetConfig, free_port, port_in_use
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import (
     ActionBatch,
@@ -31,7 +32,6 @@ from iw_zenoh.messages import (
     decode,
     encode,
 )
-from iw_zenoh.net import NetConfig, free_port, port_in_use
 from iw_zenoh.secure.certs import init_ca, issue
 from iw_zenoh.secure.cli import add_identity
 from tests.integration.harness import Net, Proc, state_of, wait_msg

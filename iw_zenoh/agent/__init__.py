@@ -34,12 +34,12 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 from iw_zenoh import keys
+from iw_zenoh.agent.hosting import Command, InlineAnswers, Outbox, WorldRegistration
 from iw_zenoh.bus import Asked, Bus, Handle, Inbox
 from iw_zenoh.convert import spec_from_msg, spec_to_msg
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import DecodeError, IwError, ProtocolError
-from iw_zenoh.hosting import Command, InlineAnswers, Outbox, WorldRegistration
 from iw_zenoh.messages import (
     ChairReading,
     Event,
@@ -52,7 +52,7 @@ from iw_zenoh.messages import (
     decode,
     readings_of,
 )
-from iw_zenoh.runtime import NodeIO
+from iw_zenoh.process.runtime import NodeIO
 from iw_zenoh.ticks import TickWindow
 
 __all__ = ["BATCH_FROM", "Agent", "AgentHost", "Command", "RegistrationRefused"]
@@ -415,7 +415,7 @@ class AgentHost:
 
     def run(self) -> None:
         """Answers ticks until stopped: on the thread that delivers a tick's last input
-        (:class:`~iw_zenoh.hosting.InlineAnswers`), or on this one when that thread found it busy;
+        (:class:`~iw_zenoh.agent.hosting.InlineAnswers`), or on this one when that thread found it busy;
         an agent's error on a delivering thread is raised here."""
         self.inline.active = True
         try:
