@@ -39,8 +39,8 @@ from benchmarks import exit_on_sigterm, stop_all  # noqa: E402
 from benchmarks.chromium import CHROMIUM, INSTALL, launch  # noqa: E402
 from iw_zenoh import keys  # noqa: E402
 from iw_zenoh.bus import Inbox, ZenohBus  # noqa: E402
+from iw_zenoh.bus.net import NetConfig, free_port, port_in_use  # noqa: E402
 from iw_zenoh.messages import ActionBatch, DriveState, decode  # noqa: E402
-from iw_zenoh.net import NetConfig, free_port, port_in_use  # noqa: E402
 
 SIM = "drivebench"
 AGENT = "driven"

@@ -16,8 +16,8 @@ from playwright.sync_api import Browser
 
 from iw_zenoh import keys
 from iw_zenoh.bus import ZenohBus
+from iw_zenoh.bus.net import NetConfig, free_port, port_in_use
 from iw_zenoh.messages import DriveInput, DriveState, WorldState, encode
-from iw_zenoh.net import NetConfig, free_port, port_in_use
 from iw_zenoh.secure.certs import init_ca, issue
 from iw_zenoh.secure.cli import add_identity
 from tests.integration.browser import viewer_url
