@@ -42,6 +42,8 @@ from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import DecodeError, IwError, ProtocolError
 from iw_zenoh.messages import (
     ChairReading,
+    DriveInput,
+    DriveState,
     Event,
     EventKind,
     Heard,
@@ -50,6 +52,7 @@ from iw_zenoh.messages import (
     SensorReading,
     WorldInfo,
     decode,
+    encode,
     readings_of,
 )
 from iw_zenoh.process.runtime import NodeIO
@@ -65,6 +68,7 @@ UNANSWERED_S = 0.3  # and asks again this soon when no world answered
 # sensor batches waiting at most (a shard's batch a tick, each up to a few hundred robots' readings):
 # only each robot's newest reading is answered, so a host that fell behind needs the newest ticks'
 BATCHES_KEPT = 1024
+DRIVES_KEPT = 256  # drivers' inputs waiting at most (a flood costs this much; 20 Hz per driver is the norm)
 HEARD_KEPT = 64  # radio batches, fresh counts kept for ticks not answered yet (robots gone answer none)
 
 
@@ -138,6 +142,9 @@ class AgentHost:
         self._retry_at = 0.0  # when to try the orphans again
         self.chairs: Inbox | None = None  # real chairs' own readings, for agents that drive one (attach)
         self._chair_keys: set[int] = set()  # the robots whose chair readings are subscribed
+        # drivers' inputs, for agents that accept a driver (``on_drive``; docs/driving.md)
+        self.drives = Inbox(maxlen=DRIVES_KEPT, wake=self.io.wake, newest_only=True)
+        self._drive_subs: dict[int, Handle] = {}
         bus.watch_alive(keys.all_alive(sim), self._on_alive)
         self.io.alive()
 
@@ -193,10 +200,24 @@ class AgentHost:
             self._subscribed[reply.robot_id] = early
         elif not self.batched and reply.robot_id not in self._subscribed:
             self._subscribed[reply.robot_id] = self._subscribe_sensors(reply.robot_id)
+        self._accept_driver(agent, reply.robot_id)
         on_reg = getattr(agent, "on_registered", None)
         if callable(on_reg):
             on_reg(reply.robot_id, spec)
         return reply.robot_id
+
+    def _accept_driver(self, agent: Agent, robot_id: int) -> None:
+        """Listens for drivers' inputs to a robot whose agent accepts a driver (``on_drive``)."""
+        if callable(getattr(agent, "on_drive", None)) and robot_id not in self._drive_subs:
+            self._drive_subs[robot_id] = self.io.bus.subscribe(keys.drive(self.sim, robot_id), self.drives)
+
+    def _publish_drive(self, h: _Hosted) -> None:
+        """A driven chair's drive messages of this tick (``drive_messages()``): its drive state, and
+        the inputs a replayed trace gave (recorded as a live driver's would be)."""
+        messages = getattr(h.agent, "drive_messages", None)
+        for m in messages() if callable(messages) else []:
+            key = keys.driving if isinstance(m, DriveState) else keys.drive
+            self.io.bus.publish(key(self.sim, h.robot_id), encode(m))
 
     def _subscribe_sensors(self, robot_id: int) -> Handle:
         """Subscribes a robot's own sensors key into :attr:`readings`."""
@@ -273,6 +294,9 @@ class AgentHost:
         sub = self._subscribed.pop(robot_id, None)
         if sub is not None:
             sub.undeclare()
+        drive = self._drive_subs.pop(robot_id, None)
+        if drive is not None:
+            drive.undeclare()
 
     def _register_again(self, now: float) -> None:
         """Registers the orphans again; one refused (its start place taken) is tried again later."""
@@ -316,6 +340,7 @@ class AgentHost:
             self.chairs = self.chairs or Inbox(wake=self.io.wake)
             self._chair_keys.add(robot_id)
             self.io.bus.subscribe(keys.chair(self.sim, robot_id), self.chairs)
+        self._accept_driver(agent, robot_id)
         on_reg = getattr(agent, "on_registered", None)
         if callable(on_reg):
             on_reg(robot_id, spec)
@@ -327,6 +352,14 @@ class AgentHost:
             h = self.hosted.get(c.robot_id) if c is not None else None
             if c is not None and h is not None:
                 h.agent.on_chair(c)  # type: ignore[attr-defined]
+        for d in self.drives.drain():
+            m = self.io.decode(d, DriveInput)
+            rid = keys.robot_id_of(d[0])
+            h = self.hosted.get(rid) if rid is not None else None
+            if m is not None and m.robot_id != rid:
+                self.io.bad_message(d[0], ProtocolError(f"a drive input for robot {m.robot_id} on robot {rid}'s key"))
+            elif m is not None and h is not None:
+                h.agent.on_drive(m)  # type: ignore[attr-defined]
         for d in self.radio.drain():
             b = self.io.decode(d, RadioBatch)
             if b is not None and self._in_window(d[0], b.tick):
@@ -404,6 +437,8 @@ class AgentHost:
                 continue
             cmd = h.agent.on_sensors(r, heard_now.get(h.robot_id, []))
             self.outbox.command(h.robot_id, cmd, tick=r.tick, sim_time_ns=r.sim_time_ns)
+            if h.robot_id in self._drive_subs:  # a chair a person drives: what it did with the input
+                self._publish_drive(h)
             h.answered = r.tick
         self.outbox.flush()
         if self._heard:  # tick n's stays: a robot whose reading of n comes later is answered with it

@@ -20,6 +20,17 @@ def default_recording(name: str) -> Path:
     return Path("recordings") / f"{name}-{time.strftime('%Y%m%d-%H%M%S')}.mcap"
 
 
+def _add_trace(p: argparse.ArgumentParser) -> None:
+    """``--lockstep`` and ``--input-trace``: a run reproduced, and a recorded driver replayed."""
+    p.add_argument("--lockstep", action="store_true", help="run in lock-step whatever the scenario says (reproducible)")
+    p.add_argument(
+        "--input-trace",
+        metavar="FILE",
+        help="replay this recorded input trace as the driver of every `manual` agent (docs/driving.md), e.g. "
+        "iwz run slalom-manual --lockstep --input-trace maps/scenarios/slalom-manual.trace.jsonl",
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The arguments of ``iwz run``."""
     p = argparse.ArgumentParser(
@@ -57,7 +68,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-status", action="store_true", help="no live status line")
     p.add_argument("--record", metavar="FILE", help="record the run here (default recordings/SCENARIO-DATE-TIME.mcap)")
     p.add_argument("--no-record", action="store_true", help="do not record the run")
-    p.add_argument("--lockstep", action="store_true", help="run in lock-step whatever the scenario says (reproducible)")
+    _add_trace(p)
     g = p.add_argument_group("security and several hosts (docs/security.md)")
     g.add_argument(
         "--secure",
@@ -82,9 +93,25 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _with_trace(sc: Scenario, trace: Path) -> Scenario:
+    """The scenario with ``trace`` replayed as the driver of every ``manual`` agent.
+
+    Raises:
+        ConfigError: The file is missing, or no agent of the scenario accepts a driver.
+    """
+    if not trace.is_file():
+        raise ConfigError("--input-trace", f"no such file: {trace}")
+    manual = [a for a in sc.agents if a.program == "manual"]
+    if not manual:
+        raise ConfigError("--input-trace", f"scenario {sc.name!r} has no `manual` agent to drive")
+    arg = ("--input-trace", str(trace.resolve()))
+    agents = tuple(msgspec.structs.replace(a, args=(*a.args, *arg)) if a in manual else a for a in sc.agents)
+    return msgspec.structs.replace(sc, agents=agents)
+
+
 def scenario_from_args(sc: Scenario, args: argparse.Namespace) -> Scenario:
     """The scenario as ``iwz run``'s options change it: ``--lockstep`` its mode, ``--no-audit``
-    its ``[security] audit``.
+    its ``[security] audit``, ``--input-trace`` its ``manual`` agents' driver.
 
     Args:
         sc: The scenario as its file says.
@@ -99,6 +126,8 @@ def scenario_from_args(sc: Scenario, args: argparse.Namespace) -> Scenario:
     replace = msgspec.structs.replace
     if args.lockstep:
         sc = replace(sc, world=replace(sc.world, mode=Mode.LOCKSTEP))
+    if getattr(args, "input_trace", None):
+        sc = _with_trace(sc, Path(args.input_trace))
     if not args.audit:
         if not (args.secure or (sc.security is not None and sc.security.enabled)):
             raise ConfigError(

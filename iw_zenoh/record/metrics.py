@@ -39,6 +39,7 @@ from iw_zenoh.core.geometry import body_outline, to_world
 from iw_zenoh.core.lab import Scene
 from iw_zenoh.core.spec import BodyShape, RobotSpec, RobotType
 from iw_zenoh.messages import Event, EventKind, WorldInfo, WorldState
+from iw_zenoh.record.drive_metrics import DriveFigures, DriveMeter
 
 __all__ = [
     "DOOR_NEAR_M",
@@ -131,6 +132,10 @@ class ChairReport:
     rms_jerk_mps3: float
     peak_jerk_mps3: float
     door_wait_s: float
+    # a chair a person drove (docs/driving.md; None: not driven by hand)
+    driver_inputs: int | None = None
+    commands_given: int | None = None
+    assist_intervened_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -166,6 +171,7 @@ class RunMeter:
         self.ticks = 0
         self._t0: int | None = None
         self._t_last = 0
+        self.drive = DriveMeter()  # a person's driving: on_input and on_state of the drive channels
 
     def on_info(self, info: WorldInfo) -> None:
         """A world description: the lab, its obstacles and the robots' specs."""
@@ -258,7 +264,15 @@ class RunMeter:
             rms_jerk_mps3=float(np.sqrt(np.mean(k.j**2))) if len(k.j) else 0.0,
             peak_jerk_mps3=_peak(k.j),
             door_wait_s=float(np.sum(k.dt[waiting])),
+            **_driving(self.drive.figures(rid)),  # type: ignore[arg-type]
         )
+
+
+def _driving(f: DriveFigures | None) -> dict[str, float | int]:
+    """A chair's driving figures as ChairReport fields (none when nobody drove it)."""
+    if f is None:
+        return {}
+    return {"driver_inputs": f.inputs, "commands_given": f.commands, "assist_intervened_s": f.intervened_s}
 
 
 def _nearest(polys: npt.NDArray[np.object_], others: npt.NDArray[np.object_], *, exclusive: bool = False) -> FloatArray:

@@ -1,9 +1,11 @@
-"""``iwz report RUN.mcap [OTHER.mcap]``: what a study measures of a run, per chair and for the run.
+"""``iwz report RUN.mcap [OTHER.mcap ...]``: what a study measures of a run, per chair and for the run.
 
 Time to goal, path length, minimum clearance to walls and to people or chairs, collisions and
 near misses, watchdog stops, mean and peak speed and acceleration, jerk, time waiting at doors
-(:mod:`iw_zenoh.record.metrics` defines each); as a table, as JSON (``--json``) or as an HTML
-page with plots (``--html OUT.html``); two recordings side by side.
+(:mod:`iw_zenoh.record.metrics` defines each), and for a chair a person drove the driver's inputs,
+commands and the time shared control intervened (:mod:`iw_zenoh.record.drive_metrics`); as a
+table, as JSON (``--json``) or as an HTML page with plots (``--html OUT.html``); up to four
+recordings side by side (manual, assisted, autonomous...; the page takes two).
 """
 
 from __future__ import annotations
@@ -16,13 +18,14 @@ from dataclasses import asdict
 from pathlib import Path
 
 from iw_zenoh.errors import IwError, RecordingError
-from iw_zenoh.messages import Event, WorldInfo, WorldState
+from iw_zenoh.messages import DriveInput, DriveState, Event, WorldInfo, WorldState
 from iw_zenoh.record.incidents import clearance_arg
 from iw_zenoh.record.metrics import Goal, RunMeter, RunReport, parse_goals
 from iw_zenoh.record.reader import discard_cut_off, file_error, open_recording, print_notes
 
 __all__ = ["GOALS_META", "ROWS", "main", "report_of", "table"]
 
+MAX_RUNS = 4  # recordings side by side (manual, safe, assist, autonomous: the seed's Table 7.3)
 GOALS_META = ("iw.user", "goals")  # where the launcher writes the scenario's [[criteria.reach]]
 
 ROWS = (  # (field, label, format) of the table, in order
@@ -41,6 +44,9 @@ ROWS = (  # (field, label, format) of the table, in order
     ("rms_jerk_mps3", "jerk (RMS), m/s3", "{:.2f}"),
     ("peak_jerk_mps3", "peak |jerk|, m/s3", "{:.2f}"),
     ("door_wait_s", "waiting at doors, s", "{:.1f}"),
+    ("driver_inputs", "driver inputs", "{}"),  # a chair a person drove (docs/driving.md)
+    ("commands_given", "commands given", "{}"),
+    ("assist_intervened_s", "assistance intervened, s", "{:.1f}"),
 )
 RUN_ROWS = (
     ("chairs", "chairs", "{}"),
@@ -78,8 +84,12 @@ def report_of(path: str | Path, goals: dict[int, Goal] | None = None, *, near_m:
     with open_recording(path) as rec:
         recorded = rec.metadata().get(GOALS_META[0], {}).get(GOALS_META[1], "")
         meter = RunMeter({**parse_goals(recorded), **(goals or {})}, near_m=near_m)
-        for r in rec.records(("info", "state", "event")):
+        for r in rec.records(("info", "state", "event", "drive", "driving")):
             match r.message:
+                case DriveInput() as inp:
+                    meter.drive.on_input(inp)
+                case DriveState() as ds:
+                    meter.drive.on_state(ds)
                 case WorldInfo() as info:
                     meter.on_info(info)
                 case WorldState() as st:
@@ -125,6 +135,7 @@ EPILOG = """examples:
   iwz report run.mcap --json > run.json                the same figures as JSON
   iwz report run.mcap --html run.html                  a page with plots (paths, speed, clearance)
   iwz report before.mcap after.mcap --html cmp.html    two runs side by side
+  iwz report manual.mcap safe.mcap auto.mcap           manual, assisted and autonomous, side by side
   iwz report run.mcap --goal 1=20,6.1,0.5              time to goal for chair 1 (scenarios record theirs)
 """
 
@@ -137,14 +148,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("files", nargs="+", metavar="FILE", help="one MCAP recording, or two to compare")
+    p.add_argument("files", nargs="+", metavar="FILE", help="one MCAP recording, or up to four to compare")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     p.add_argument("--html", metavar="OUT", help="also write an HTML page with plots (self-contained)")
     p.add_argument("--near", type=clearance_arg, default=0.2, help="near-miss clearance, m (default 0.2)")
     p.add_argument("--goal", action="append", default=[], metavar="ID=X,Y[,WITHIN]", help="a chair's goal (repeatable)")
     args = p.parse_args(argv)
-    if len(args.files) > 2:
-        p.error(f"at most two recordings side by side, got {len(args.files)}")
+    if len(args.files) > MAX_RUNS:
+        p.error(f"at most {MAX_RUNS} recordings side by side, got {len(args.files)}")
+    if args.html and len(args.files) > 2:
+        p.error(f"--html compares at most two recordings, got {len(args.files)}; leave --html out for the table")
     try:
         goals = _goals(args.goal)
     except argparse.ArgumentTypeError as e:

@@ -51,7 +51,7 @@ class Grants(NamedTuple):
 
 
 def _role_puts(role: str, sim: str, name: str, robots: tuple[int, ...], shard: tuple[int, int] | None) -> list[str]:
-    own = [k(sim, r) for r in robots for k in (keys.actions, keys.say, keys.pose_report, keys.driving)]
+    own = [k(sim, r) for r in robots for k in (keys.actions, keys.say, keys.pose_report, keys.driving, keys.drive)]
     return {
         "world": [
             keys.tick(sim),

@@ -49,7 +49,7 @@ def test_an_agent_publishes_only_for_its_own_robots_and_its_own_batch() -> None:
     assert puts == {
         "iw/s/agent/alice/actions",
         "iw/s/events/bad-message",
-        *(f"iw/s/robot/{r}/{k}" for r in (1, 2) for k in ("actions", "say", "pose_report", "driving")),
+        *(f"iw/s/robot/{r}/{k}" for r in (1, 2) for k in ("actions", "say", "pose_report", "driving", "drive")),
     }
 
 
@@ -143,8 +143,8 @@ def test_a_viewers_pages_drive_only_the_chairs_its_policy_entry_grants() -> None
         drives = {k for k in _puts((role,), robots=(2, 5)) if k.endswith("/drive")}
         assert drives == {"iw/s/robot/2/drive", "iw/s/robot/5/drive"}
         assert not {k for k in _puts((role,)) if k.endswith("/drive")}  # no robots: it drives none
-    for role in POLICY_ROLES:  # nobody else publishes a driver's input
-        if role not in ("viewer", "operator"):
+    for role in POLICY_ROLES:  # nobody else publishes a driver's input (an agent: its own chairs' trace)
+        if role not in ("viewer", "operator", "agent"):
             assert not {k for k in _puts((role,), robots=(2,)) if k.endswith("/drive")}, role
     p = parse_policy('[identities.seat]\nrole = "viewer"\nrobots = [2]\n[identities.a]\nrole = "agent"\nrobots = [2]')
     assert p.identities["seat"].robots == [2]  # a chair an agent drives and a viewer's pages may drive
