@@ -22,6 +22,7 @@ from pathlib import Path
 import msgspec
 
 from iw_zenoh.agent import Command
+from iw_zenoh.agent.places import pose_arg
 from iw_zenoh.core.assist import DriveLimits, SharedControl, ramp, seen_points, stick_twist
 from iw_zenoh.core.lab import Lab
 from iw_zenoh.core.motor import powers_for_twist
@@ -29,8 +30,7 @@ from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import DecodeError
 from iw_zenoh.maps import load_lab
 from iw_zenoh.messages import ASSIST_LEVELS, DriveInput, DriveState, Heard, SensorReading, decode
-from iw_zenoh.places import pose_arg
-from iw_zenoh.specfile import spec_with_args
+from iw_zenoh.scenario.specfile import spec_with_args
 
 from .autopilot import Autopilot, mapping_chair
 from .seat import DriverSeat
