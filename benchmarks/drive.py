@@ -11,7 +11,7 @@ WebGL, as the tests) opens ``?drive=ID``, so the page drives the chair in first 
 benchmark then presses and releases the up and down arrows in turn (the chair goes forward, stops,
 goes back, stops); for each key event it takes the event's own time in the page (its
 ``timeStamp`` on the wall clock) and the arrival, at this process's own subscriber, of the first
-``ActionBatch`` of the chair's agent that obeys it (moving after a press, zero after a release):
+``Actions`` of the chair's agent that obeys it (moving after a press, zero after a release):
 the latency from the key to the command the world is given (page, WebSocket, viewer, bus, the
 agent's next tick; the world ticks every 50 ms, so a tick's wait is part of it). Printed: p50 and
 p99 over every key event. Then, still driving in first person, the frames the page draws a second
@@ -40,7 +40,7 @@ from benchmarks.chromium import CHROMIUM, INSTALL, launch  # noqa: E402
 from iw_zenoh import keys  # noqa: E402
 from iw_zenoh.bus import Inbox, ZenohBus  # noqa: E402
 from iw_zenoh.bus.net import NetConfig, free_port, port_in_use  # noqa: E402
-from iw_zenoh.messages import ActionBatch, DriveState, decode  # noqa: E402
+from iw_zenoh.messages import Actions, DriveState, decode  # noqa: E402
 
 SIM = "drivebench"
 AGENT = "driven"
@@ -110,9 +110,9 @@ def _obeys(box: Inbox, rid: int, moving: bool, timeout_s: float = 5.0) -> float:
         got = box.get(timeout_s=0.5)
         if got is None:
             continue
-        for a in decode(got[1], ActionBatch).actions:
-            if a.robot_id == rid and (abs(a.left) + abs(a.right) > 1e-4) == moving:
-                return got[2] / 1e6
+        a = decode(got[1], Actions)
+        if a.robot_id == rid and (abs(a.left) + abs(a.right) > 1e-4) == moving:
+            return got[2] / 1e6
     raise AssertionError(f"the chair's agent did not {'move' if moving else 'stop'} within {timeout_s} s")
 
 
@@ -126,8 +126,8 @@ def run(presses: int, window_s: float) -> dict[str, float]:
             endpoint, url = _start(Path(d), procs)
             with ZenohBus(NetConfig(connect=(endpoint,))) as bus, sync_playwright() as p:
                 rid = _chair(bus)
-                actions = Inbox()
-                bus.subscribe(keys.agent_actions(SIM, AGENT), actions)
+                actions = Inbox()  # one robot's agent sends its actions on the robot's own key
+                bus.subscribe(keys.actions(SIM, rid), actions)
                 browser = launch(p)
                 try:
                     page = browser.new_page(viewport={"width": 1280, "height": 800})

@@ -16,7 +16,7 @@ from playwright.sync_api import Browser, Page
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Inbox, ZenohBus
-from iw_zenoh.messages import ActionBatch, DriveInput, DriveState, WorldInfo, WorldState, decode
+from iw_zenoh.messages import Actions, DriveInput, DriveState, WorldInfo, WorldState, decode
 from tests.integration.browser import viewer_url
 from tests.integration.harness import Net, start_world, subscribe, wait_msg
 
@@ -43,8 +43,9 @@ class Run:
         self.net, self.bus, self.url, self.ids = net, bus, url, ids
 
     def actions(self, name: str) -> Inbox:
-        """An inbox of the actions chair ``name``'s agent sends the world (its command)."""
-        return subscribe(self.bus, keys.agent_actions(self.net.sim, name))
+        """An inbox of the actions chair ``name``'s agent sends the world (its command: one robot's
+        agent sends them on the robot's own key)."""
+        return subscribe(self.bus, keys.actions(self.net.sim, self.ids[name]))
 
     def states(self) -> Inbox:
         return subscribe(self.bus, keys.state(self.net.sim))
@@ -98,15 +99,14 @@ def _pose(run: Run, states: Inbox, chair: str) -> tuple[float, float, float]:
     return st.x[i], st.y[i], st.heading[i]
 
 
-def _moving(a: ActionBatch, rid: int, *, forward: bool | None = None) -> bool:
-    for act in a.actions:
-        if act.robot_id == rid and (abs(act.left) > 1e-3 or abs(act.right) > 1e-3):
-            return forward is None or ((act.left + act.right > 0) == forward)
+def _moving(act: Actions, rid: int, *, forward: bool | None = None) -> bool:
+    if act.robot_id == rid and (abs(act.left) > 1e-3 or abs(act.right) > 1e-3):
+        return forward is None or ((act.left + act.right > 0) == forward)
     return False
 
 
-def _still(a: ActionBatch, rid: int) -> bool:
-    return any(act.robot_id == rid and act.left == 0 and act.right == 0 for act in a.actions)
+def _still(act: Actions, rid: int) -> bool:
+    return act.robot_id == rid and act.left == 0 and act.right == 0
 
 
 def _forward_by(run: Run, chair: str, before: tuple[float, float, float], metres: float) -> None:
@@ -123,7 +123,7 @@ def _forward_by(run: Run, chair: str, before: tuple[float, float, float], metres
 
 def _stopped_within(run: Run, actions: Inbox, chair: str, since: float) -> float:
     """Seconds from ``since`` (monotonic) until the chair's command is zero."""
-    wait_msg(actions, ActionBatch, lambda a: _still(a, run.ids[chair]), timeout_s=10)
+    wait_msg(actions, Actions, lambda a: _still(a, run.ids[chair]), timeout_s=10)
     return time.monotonic() - since
 
 
@@ -133,7 +133,7 @@ def test_keyboard_forward_drives_the_chair_forward_and_releasing_the_key_stops_i
     actions = run.actions("ann")
     before = _pose(run, run.states(), "ann")
     page.keyboard.down("ArrowUp")
-    wait_msg(actions, ActionBatch, lambda a: _moving(a, run.ids["ann"], forward=True))
+    wait_msg(actions, Actions, lambda a: _moving(a, run.ids["ann"], forward=True))
     _forward_by(run, "ann", before, 0.2)
     actions = run.actions("ann")
     page.keyboard.up("ArrowUp")
@@ -151,7 +151,7 @@ def test_the_on_screen_joystick_dragged_by_mouse_drives_the_chair(run: Run, brow
     page.mouse.move(cx, cy)
     page.mouse.down()
     page.mouse.move(cx, cy - box["height"] * 0.45, steps=4)  # pushed forward
-    wait_msg(actions, ActionBatch, lambda a: _moving(a, run.ids["ann"], forward=True))
+    wait_msg(actions, Actions, lambda a: _moving(a, run.ids["ann"], forward=True))
     _forward_by(run, "ann", before, 0.2)
     actions = run.actions("ann")
     page.mouse.up()
@@ -165,11 +165,11 @@ def test_a_gamepad_drives_with_its_dead_man_held_and_unplugging_it_stops_the_cha
     page.evaluate("window.__pad.axes[1] = -1")  # stick forward, dead-man not held: nothing moves
     wait_msg(inputs, DriveInput)
     actions = run.actions("bob")
-    wait_msg(actions, ActionBatch, lambda a: _still(a, run.ids["bob"]))
+    wait_msg(actions, Actions, lambda a: _still(a, run.ids["bob"]))
     before = _pose(run, run.states(), "bob")
     page.evaluate("window.__pad.buttons[0].pressed = true")
     wait_msg(inputs, DriveInput, lambda d: d.buttons & 1 == 1 and d.y == 1.0)
-    wait_msg(actions, ActionBatch, lambda a: _moving(a, run.ids["bob"], forward=True))
+    wait_msg(actions, Actions, lambda a: _moving(a, run.ids["bob"], forward=True))
     _forward_by(run, "bob", before, 0.2)
     actions = run.actions("bob")
     page.evaluate("window.__padOn = false; window.dispatchEvent(new Event('gamepaddisconnected'))")
