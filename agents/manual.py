@@ -10,6 +10,11 @@ never drives into what the chair's sensors see, ``assist`` also steers round obs
 through doorways (``iw_zenoh/core/assist.py``). Go there (``goto`` in the input): the chair's
 planner (the wheelchair's autopilot, on ``--map``) takes it there while the driver's input keeps
 coming. One driver at a time; no input for 300 ms and the chair stops (``agents/seat.py``).
+
+Examples::
+
+    iwz agent manual --id 1 --start 3,5,0 --assist safe --map maps/open-room.xml
+    iwz agent manual --id 1 --start 10,6.1,0 --input-trace maps/scenarios/slalom-manual.trace.jsonl
 """
 
 from __future__ import annotations

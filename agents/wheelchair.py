@@ -7,7 +7,9 @@ when something blocks the way (see ``agents/autopilot.py``).
 Manual (``--teleop``): the terminal is the joystick. Arrows drive (up/down forward and back,
 left/right turn), space stops, + and - change the speed limit, q quits. A key held down repeats;
 when no key has come for ``--stale`` seconds the chair stops. A status line shows the speed limit
-and the nearest reading of each sensor.
+and the nearest reading of each sensor. ``--assist safe`` or ``assist`` puts the keys' command
+through the chair's shared control (docs/driving.md). ``--teleop page`` takes a driver from the
+page instead (the drive key: the ``manual`` program's chair, with this chair's map and spec).
 
 Doors (``--door ID,X,Y``): a negotiated door on the way. Within 4 m the chair asks it for
 passage over the radio (``agents/passage.py``), and without a grant it stops 2.3 m from it.
@@ -33,8 +35,9 @@ from dataclasses import dataclass, replace
 
 from iw_zenoh.agent import Command
 from iw_zenoh.agent.places import parse_boxes, point_arg, pose_arg
+from iw_zenoh.core.assist import DriveLimits, SharedControl, seen_points
 from iw_zenoh.core.lab import Lab
-from iw_zenoh.core.motor import MAX_POWER
+from iw_zenoh.core.motor import MAX_POWER, powers_for_twist
 from iw_zenoh.core.spec import RobotSpec, RobotType, SensorNoise
 from iw_zenoh.maps import load_lab
 from iw_zenoh.messages import ChairReading, Heard, SensorReading
@@ -43,6 +46,7 @@ from iw_zenoh.scenario.specfile import spec_with_args
 from .autopilot import Autopilot, mapping_chair
 from .chairlink import SerialChair
 from .emulated import EmulatedChair
+from .manual import ManualChair
 from .passage import Client, parse_all
 from .teleop import Teleop, terminal_teleop
 from .waypoint import FINE_GPS
@@ -102,8 +106,11 @@ class Wheelchair:
         teleop: Teleop | None = None,
         doors: list[tuple[int, float, float]] | None = None,
         careful: bool = False,
+        assist: str = "off",
     ) -> None:
         self._spec = spec
+        self.assist = assist
+        self.shared = SharedControl(spec, DriveLimits.of(spec))
         self.mode = mode
         self.hardware = hardware
         self.teleop = teleop
@@ -160,6 +167,20 @@ class Wheelchair:
                 wait_for = g.client.door
         return say, wait_for
 
+    def _assisted(
+        self, left: float, right: float, reading: SensorReading, dists: list[float | None]
+    ) -> tuple[float, float]:
+        """The keys' powers through shared control (``--assist``), as (v, w) and back."""
+        s = self._spec
+        k = s.max_speed_mps / MAX_POWER
+        want = (0.5 * (left + right) * k, (right - left) * k / s.height_m)
+        seen = [d for d in dists if d is not None]
+        points = seen_points(s, list(reading.proximity_ids), dists)
+        out = self.shared.step(self.assist, want, points, 0.1, min(seen) if seen else None)
+        if out.intervened:
+            self.status = f"{self.status} ({self.assist})"
+        return powers_for_twist(out.v_mps, out.w_radps, s.max_speed_mps, s.height_m)
+
     def spec(self) -> RobotSpec:
         """The chair to register (a Real robot when a real chair drives)."""
         return self._spec
@@ -181,6 +202,8 @@ class Wheelchair:
         say: str | None = None
         if self.teleop is not None:
             left, right, self.status = self.teleop.command(time.monotonic())
+            if self.assist != "off":
+                left, right = self._assisted(left, right, reading, dists)
             near = " ".join("-" if d is None else f"{d:.2f}" for d in dists)
             print(
                 f"\r{self.status:8} limit {self.teleop.limit:.2f}  sensors {near}   ",
@@ -210,7 +233,20 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--map", required=True, help="the map the chair knows (Lab XML); obstacles not in it are found")
     p.add_argument("--start", required=True, type=pose_arg, help="start pose x,y,dir_deg")
     p.add_argument("--goal", type=point_arg, help="autonomous: drive to x,y")
-    p.add_argument("--teleop", action="store_true", help="manual: drive with the arrow keys in this terminal")
+    p.add_argument(
+        "--teleop",
+        nargs="?",
+        const="terminal",
+        choices=["terminal", "page"],
+        help="manual: drive with the arrow keys in this terminal (--teleop), or take a driver from the page "
+        "(--teleop page: the drive key, docs/driving.md)",
+    )
+    p.add_argument(
+        "--assist",
+        choices=["off", "safe", "assist"],
+        default="off",
+        help="teleop: shared control (off; safe: never into what the sensors see; assist: also steers round)",
+    )
     p.add_argument(
         "--stale", type=float, default=0.5, help="teleop: stop when no key came for this long, s (default 0.5)"
     )
@@ -249,7 +285,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0, help="emulated hardware noise seed")
 
 
-def make(args: argparse.Namespace) -> list[Wheelchair]:
+def make(args: argparse.Namespace) -> list[Wheelchair] | list[ManualChair]:
     """The chair the arguments ask for."""
     if not args.teleop and args.goal is None:
         raise ValueError("say where to go (--goal X,Y) or drive by hand (--teleop)")
@@ -267,6 +303,10 @@ def make(args: argparse.Namespace) -> list[Wheelchair]:
     elif args.chair != "simulated":
         hardware = EmulatedChair(spec, known.with_walls(parse_boxes(args.room)), seed=args.seed)
         spec = replace(spec, type=RobotType.REAL, noise=SensorNoise())
+    if args.teleop == "page":
+        if args.chair != "simulated":
+            raise ValueError("--teleop page drives a simulated chair (--chair simulated)")
+        return [ManualChair(spec, known, assist=args.assist)]
     teleop = terminal_teleop(limit=args.limit, stale_s=args.stale) if args.teleop else None
     goal = args.goal
     doors = []
@@ -277,6 +317,14 @@ def make(args: argparse.Namespace) -> list[Wheelchair]:
         doors.append((int(parts[0]), float(parts[1]), float(parts[2])))
     return [
         Wheelchair(
-            spec, known, goal=goal, mode=args.chair, hardware=hardware, teleop=teleop, doors=doors, careful=args.careful
+            spec,
+            known,
+            goal=goal,
+            mode=args.chair,
+            hardware=hardware,
+            teleop=teleop,
+            doors=doors,
+            careful=args.careful,
+            assist=args.assist,
         )
     ]

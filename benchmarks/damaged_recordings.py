@@ -16,7 +16,7 @@ import time
 from collections import Counter
 from pathlib import Path
 
-from tests.record.damage import KINDS, damaged, judge, small_recording
+from tests.support.damage import KINDS, damaged, judge, small_recording
 
 
 def main() -> int:

@@ -48,8 +48,8 @@ from iw_zenoh.sim.obstacles import MAX_OBSTACLES, Obstacles
 from iw_zenoh.sim.view import ROSTERS_KEPT, WorldView
 from iw_zenoh.sim.world import WorldCore
 from iw_zenoh.viewer.sources import LIVE_KEPT, LiveSource
-from tests.bridges.fakes import FakeBus
-from tests.conftest import world_state
+from tests.support.builders import world_state
+from tests.support.fakes import FakeBus
 
 COMERS = 5000  # robots, sessions or keys that come and go in a long run
 

@@ -28,8 +28,8 @@ from iw_zenoh.sim.sensors import SensorsNode
 from iw_zenoh.sim.view import WorldView
 from iw_zenoh.sim.world import ANSWERS_KEPT, WorldCore
 from iw_zenoh.viewer.feed import Feed
-from tests.bridges.fakes import FakeTransport
-from tests.conftest import world_state
+from tests.support.builders import world_state
+from tests.support.fakes import FakeTransport
 
 COMERS = 5000  # robots, requests or keys that come and go in a long run
 

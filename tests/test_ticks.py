@@ -25,8 +25,8 @@ from iw_zenoh.messages import (
     encode,
 )
 from iw_zenoh.ticks import MAX_TICKS_PER_S, WINDOW_TICKS, TickWindow, ViewWindow, too_far_ahead
-from tests.bridges.fakes import FakeBus
-from tests.conftest import agent_host, world_state
+from tests.support.builders import agent_host, world_state
+from tests.support.fakes import FakeBus
 
 S = 1_000_000_000
 

@@ -12,7 +12,7 @@ for operation, so every distance is the same bit for bit
 Compiled once per machine and cached next to this file (numba's ``cache=True``), or, where the
 package is installed read-only, in numba's per-user cache (``~/.cache/numba``) or the folder
 ``NUMBA_CACHE_DIR`` names; the first call in a fresh install takes a few seconds, later processes
-load the cache (``tests/test_kernel_cache.py``, docs/runtime.md "Memory").
+load the cache (``tests/core/test_kernel_cache.py``, docs/runtime.md "Memory").
 """
 
 from __future__ import annotations

@@ -14,7 +14,7 @@ from iw_zenoh.core.motor import MAX_POWER
 from iw_zenoh.core.odometry import WheelOdometry
 from iw_zenoh.core.poseplan import Footprint, PoseSpace, occupancy
 from iw_zenoh.core.spec import SensorNoise
-from tests.conftest import DEAD_END, box_wall
+from tests.support.builders import DEAD_END, box_wall
 
 KNOWN = Lab("open", 12.0, 6.0)
 ROOM = KNOWN.with_walls((box_wall(5.5, 2.2, 6.5, 3.8),))  # a box in the way

@@ -4,12 +4,19 @@
 
 from __future__ import annotations
 
+import argparse
+import tempfile
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from iw_zenoh.agents import wheelchair
 from iw_zenoh.agents.manual import ManualChair, load_trace
 from iw_zenoh.agents.mapping_chair import mapping_chair
 from iw_zenoh.agents.seat import DriverSeat
+from iw_zenoh.agents.teleop import KeyReader, Teleop
+from iw_zenoh.agents.wheelchair import Wheelchair
 
 from iw_zenoh.core.lab import Lab, Wall
 from iw_zenoh.messages import DriveInput
@@ -148,3 +155,41 @@ def test_a_bad_trace_is_refused_naming_the_line(tmp_path: Path, text: str, why: 
         load_trace(f)
     with pytest.raises(ValueError, match="No such file"):
         load_trace(tmp_path / "missing.jsonl")
+
+
+def test_the_terminal_teleop_with_safe_stops_short_of_a_wall() -> None:
+    keys = KeyReader(-1)
+    w = LocalWorld(WALL, seed=1)
+    rid = w.add(mapping_chair("m", id=1, x_m=6.0 - 1.0 - FRONT_M, y_m=3.0, dir_deg=0.0))
+    chair = Wheelchair(w.spec(rid), WALL, goal=None, teleop=Teleop(keys, limit=0.15, stale_s=5.0), assist="safe")
+    s, hit = w.step({}), False
+    for _ in range(120):
+        keys.feed(b"\x1b[A")  # the up arrow, held
+        s = w.step({rid: chair.on_sensors(s.readings[rid], [])})
+        hit = hit or s.readings[rid].collision
+    assert w.state is not None
+    assert not hit
+    assert 6.0 - (w.state.x[0] + FRONT_M) >= 0.05
+
+
+def test_the_wheelchairs_page_teleop_is_a_chair_that_takes_a_driver() -> None:
+    p = argparse.ArgumentParser()
+    wheelchair.add_arguments(p)
+    agents = wheelchair.make(p.parse_args(["--map", "maps/open-room.xml", "--start", "1,3,0", "--teleop", "page"]))
+    assert isinstance(agents[0], ManualChair)
+    assert callable(agents[0].on_drive)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.one_of(st.binary(max_size=60), st.text(max_size=60).map(str.encode)), max_size=5))
+def test_any_trace_file_loads_or_is_refused_with_its_line(lines: list[bytes]) -> None:
+    with tempfile.TemporaryDirectory() as d:
+        f = Path(d) / "t.jsonl"
+        f.write_bytes(b"\n".join(line.replace(b"\n", b" ") for line in lines))
+        why = ""
+        try:
+            trace = load_trace(f)
+        except ValueError as e:
+            why, trace = str(e), []
+        assert not why or why.startswith(f"--input-trace {f}")  # refused, saying which file (and line)
+        assert all(isinstance(m, DriveInput) for m in trace)

@@ -10,7 +10,7 @@ from iw_zenoh.agents.outline import HEADING_STEP_RAD, arc_poses, sweeps_onto, wa
 
 from iw_zenoh.core.lab import Lab
 from iw_zenoh.core.poseplan import Footprint, occupancy
-from tests.conftest import box_wall
+from tests.support.builders import box_wall
 
 CELL_M = 0.05
 WALL = occupancy(Lab("wall", 8.0, 4.0, (box_wall(0.0, 0.0, 8.0, 1.0),)), CELL_M)

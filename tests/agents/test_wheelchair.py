@@ -95,7 +95,7 @@ def test_q_quits_and_unknown_bytes_are_ignored(terminal: tuple[int, KeyReader]) 
 
 
 def test_the_emulated_chair_moves_reports_odometry_and_sees_its_own_room() -> None:
-    from tests.conftest import box_wall
+    from tests.support.builders import box_wall
 
     room = Lab("r", 10.0, 6.0, (box_wall(4.0, 2.0, 5.0, 4.0),))
     hw = EmulatedChair(mapping_chair("c", id=7, x_m=1.0, y_m=3.0, dir_deg=0.0), room, seed=3)

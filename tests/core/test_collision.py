@@ -11,7 +11,7 @@ from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.collision import check_collisions, check_collisions_ciberrato
 from iw_zenoh.core.lab import Lab, Scene
 from iw_zenoh.core.spec import RobotSpec
-from tests.conftest import box_wall
+from tests.support.builders import box_wall
 
 
 def _bodies(n: int, **kw: float) -> Bodies:

@@ -14,7 +14,7 @@ from iw_zenoh.core.laser import laser_distances
 from iw_zenoh.core.sensors import noise_bank, read_sensors
 from iw_zenoh.core.spec import LaserSpec, NoiseSpec, RobotSpec, SensorNoise
 from iw_zenoh.errors import SpecError
-from tests.conftest import box_wall, random_poses, random_scene
+from tests.support.builders import box_wall, random_poses, random_scene
 
 
 def reference_ranges(scene: Scene, bodies: Bodies, pose: np.ndarray) -> np.ndarray:

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from iw_zenoh.core.lab import Lab, Scene
 from iw_zenoh.core.legacy_ir import ciberrato_ir_distances
-from tests.conftest import box_wall
+from tests.support.builders import box_wall
 
 ANGLES = np.radians([0.0, 60.0, -60.0, 180.0])
 

@@ -5,7 +5,7 @@ import math
 from iw_zenoh.core.lab import Lab
 from iw_zenoh.core.planning import astar, configuration_space, mark_obstacles, plan
 from iw_zenoh.maps import load_lab
-from tests.conftest import box_wall
+from tests.support.builders import box_wall
 
 
 def test_walls_grow_by_the_radius() -> None:

@@ -7,7 +7,7 @@ import shapely
 from iw_zenoh.core.lab import Lab
 from iw_zenoh.core.poseplan import Footprint, PoseSpace, occupancy, pose_plan
 from iw_zenoh.maps import load_lab
-from tests.conftest import DEAD_END, box_wall
+from tests.support.builders import DEAD_END, box_wall
 
 CHAIR = Footprint.of(1.04, 0.66, 0.81, margin_m=0.04)  # the LIACC prototype
 BARE = Footprint.of(1.04, 0.66, 0.81, margin_m=0.0)

@@ -13,7 +13,7 @@ from iw_zenoh.core.lab import Beacon, Lab, Scene, Target, Wall
 from iw_zenoh.core.noise import NoiseBank, NoiseStreams, Stream, rng_for
 from iw_zenoh.core.sensors import legacy_ir_value, noise_bank, proximity_distances, read_sensors
 from iw_zenoh.core.spec import BumperSpec, IrSensorSpec, NoiseSpec, RobotSpec, SensorNoise
-from tests.conftest import box_wall, random_poses, random_scene
+from tests.support.builders import box_wall, random_poses, random_scene
 
 ARC_POINTS = 512
 

@@ -29,7 +29,7 @@ from iw_zenoh.record.channels import key_channel
 from iw_zenoh.record.foxglove import SCENE_TOPIC, TF_TOPIC
 from iw_zenoh.viewer.sources import LocalBus
 from tests.integration.harness import Net
-from tests.record.consumer import proto_message
+from tests.support.consumer import proto_message
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(180)]
 

@@ -14,8 +14,8 @@ from msgspec.structs import replace
 from iw_zenoh import keys
 from iw_zenoh.bus import Inbox, ZenohBus
 from iw_zenoh.messages import Event, RadioBatch, Say, SensorReading, Verdict, WorldState, decode, encode
-from tests.conftest import proposal_of, world_state
 from tests.integration.harness import Net, start_world, subscribe, wait_msg, watch
+from tests.support.builders import proposal_of, world_state
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
 

@@ -13,7 +13,7 @@ from iw_zenoh.convert import spec_to_msg
 from iw_zenoh.core.spec import LaserSpec, RobotSpec, SensorNoise
 from iw_zenoh.messages import SensorReading
 from tests.integration.harness import Net, register, subscribe, wait_alive, wait_msg
-from tests.record.consumer import proto_decode
+from tests.support.consumer import proto_decode
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(120)]
 

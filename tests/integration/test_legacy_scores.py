@@ -2,7 +2,7 @@
 shipped ciberrato-c1 scenario (its world runs before any robot comes), and a paused world started
 by a viewer. Driving east from the C1 grid position crosses three cells of the control loop (30)
 and ends in the wall at x = 9.9 (CollisionWallPenalty 5: 25), as in the legacy simulator. Every
-mode, registering before and after the world starts: tests/bridges/test_bridge_scores.py."""
+mode, registering before and after the world starts: tests/bridges/ciberrato/test_bridge_scores.py."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Recordings open in the tools people use: a fresh ``iwz run`` recording with a laser chair, a
 continued part and a recorder started beside a running simulation, every channel checked by
-Foxglove's and Lichtblick's rules (tests/record/consumer.py) and every message against its schema
+Foxglove's and Lichtblick's rules (tests/support/consumer.py) and every message against its schema
 with a draft-07 and a 2020-12 validator; the continued part and the late recording are
 self-contained (the world's description in each) and ``iwz render`` draws their walls and chairs."""
 
@@ -20,7 +20,7 @@ from iw_zenoh import keys
 from iw_zenoh.messages import WorldState
 from tests.integration.browser import record_run
 from tests.integration.harness import Net, subscribe, wait_alive, wait_msg
-from tests.record.consumer import check_recording
+from tests.support.consumer import check_recording
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(300)]
 

@@ -11,8 +11,8 @@ from iw_zenoh.core.modes import Profile
 from iw_zenoh.messages import RobotSpecMsg, WorldInfo, encode
 from iw_zenoh.nodes.info import InfoCache
 from iw_zenoh.sim.collision import CollisionNode
-from tests.bridges.fakes import FakeBus
-from tests.conftest import box_wall
+from tests.support.builders import box_wall
+from tests.support.fakes import FakeBus
 
 LAB = Lab("t", 10.0, 6.0, (box_wall(4.0, 0.0, 4.2, 3.0),))
 

@@ -11,7 +11,7 @@ from iw_zenoh.messages import Event, EventKind, Proposed, RadioBatch, Say, Verdi
 from iw_zenoh.nodes.radio import _Loop
 from iw_zenoh.process.runtime import NodeIO
 from iw_zenoh.viewer.sources import LocalBus
-from tests.conftest import proposal_of, world_state
+from tests.support.builders import proposal_of, world_state
 
 SIM = "s"
 

@@ -18,7 +18,7 @@ from iw_zenoh.nodes.world_seal import new_key, seal, sealed
 from iw_zenoh.scenario.file import load_scenario
 from iw_zenoh.sim.config import WorldConfig
 from iw_zenoh.sim.world import WorldCore
-from tests.nodes.test_launcher_states import SCENARIO
+from tests.launch.test_launcher_states import SCENARIO
 
 
 def test_only_the_world_s_own_descriptions_hold_its_seal() -> None:

@@ -13,8 +13,8 @@ from iw_zenoh.messages import Actions, Proposed, RegisterRequest, RobotSpecMsg, 
 from iw_zenoh.nodes.world import _World
 from iw_zenoh.sim.config import WorldConfig
 from iw_zenoh.sim.world import WorldCore
-from tests.bridges.fakes import FakeBus
-from tests.conftest import box_wall
+from tests.support.builders import box_wall
+from tests.support.fakes import FakeBus
 
 ROBOTS = 3
 TICK = 1  # the first tick stepped: its actions are awaited

@@ -14,7 +14,7 @@ import pytest
 from iw_zenoh.errors import RecordingError
 from iw_zenoh.record.reader import open_recording
 from iw_zenoh.record.tools import check, recover_main
-from tests.record.damage import KINDS, damaged, judge, messages, small_recording
+from tests.support.damage import KINDS, damaged, judge, messages, small_recording
 
 CASES = [(kind, seed) for kind in KINDS for seed in range(6)]
 

@@ -9,7 +9,7 @@ from iw_zenoh import keys
 from iw_zenoh.messages import Actions, WorldState, encode
 from iw_zenoh.record.recording import SIM_INDEX, Recorder
 from iw_zenoh.record.tools import check, recover
-from tests.record.consumer import proto_decode
+from tests.support.consumer import proto_decode
 
 
 def _state(tick: int) -> bytes:

@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from iw_zenoh.messages import TOPIC_TYPES, SensorReading, WorldInfo, decode, encode, json_schema
 from iw_zenoh.record.channels import key_channel
 from iw_zenoh.record.schemas import DRAFT_07, portable
-from tests.record.consumer import lichtblick_refusal
+from tests.support.consumer import lichtblick_refusal
 
 TYPES = sorted({cls.schema: cls for cls in TOPIC_TYPES.values()}.items())
 

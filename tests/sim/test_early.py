@@ -11,7 +11,7 @@ from iw_zenoh.messages import Actions, PoseReport, Proposed, RegisterRequest, Ro
 from iw_zenoh.sim.config import MS, WorldConfig
 from iw_zenoh.sim.early import VERDICTS_A_TICK, Verdicts, confirms, state_from_proposal
 from iw_zenoh.sim.world import WorldCore
-from tests.conftest import box_wall, world_state
+from tests.support.builders import box_wall, world_state
 
 
 def _core(*robots: RobotSpecMsg, **kw: object) -> WorldCore:

@@ -9,7 +9,7 @@ from iw_zenoh.core.lab import Grid, GridPosition, Lab
 from iw_zenoh.core.spec import prototype_chair
 from iw_zenoh.errors import IwError
 from iw_zenoh.sim.local import LocalWorld
-from tests.conftest import box_wall
+from tests.support.builders import box_wall
 
 
 def _world(seed: int = 3) -> LocalWorld:

@@ -10,7 +10,7 @@ from iw_zenoh.core.spec import IrSensorSpec, LaserSpec, RobotSpec
 from iw_zenoh.messages import SensorReading, WorldInfo, WorldState, encode
 from iw_zenoh.sim.sensors import SensorsNode
 from iw_zenoh.sim.view import WorldView
-from tests.conftest import box_wall, proposal_of
+from tests.support.builders import box_wall, proposal_of
 
 LAB = Lab("t", 20.0, 10.0, (box_wall(9.0, 0.0, 10.0, 3.0),))
 CONES = tuple(IrSensorSpec(k, 0.3, 0.0, 90.0 * k - 90.0, 60.0, 4.0) for k in range(4))

@@ -19,7 +19,7 @@ from iw_zenoh.sim import registry
 from iw_zenoh.sim.config import MS, WorldConfig
 from iw_zenoh.sim.registry import MAX_ROBOT_ID
 from iw_zenoh.sim.world import WorldCore
-from tests.conftest import box_wall
+from tests.support.builders import box_wall
 
 
 def _core(**kw: object) -> WorldCore:

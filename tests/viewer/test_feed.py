@@ -35,7 +35,7 @@ from iw_zenoh.messages.page import (
 )
 from iw_zenoh.viewer.feed import Feed, ScansWanted
 from iw_zenoh.viewer.server import Scans
-from tests.conftest import world_state
+from tests.support.builders import world_state
 
 WALL = WallMsg(corners=[(1.0, 1.0), (2.0, 1.0), (2.0, 2.0)], height=2.0)
 OB = Obstacle(name="box", x0=5.0, y0=5.0, x1=6.0, y1=6.0)

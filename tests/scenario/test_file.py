@@ -7,7 +7,7 @@ import pytest
 from iw_zenoh.errors import ConfigError
 from iw_zenoh.scenario.file import load_scenario, parse_scenario
 
-MAPS = Path(__file__).resolve().parents[1] / "maps"
+MAPS = Path(__file__).resolve().parents[2] / "maps"
 
 
 def test_the_demo_scenario_loads() -> None:

@@ -8,7 +8,7 @@ import pytest
 from iw_zenoh.bridges.ciberrato.scoring import Mode, PathLength, RobotGame, StepInput, control_loop, target_at
 
 from iw_zenoh.core.lab import Lab, Target
-from tests.conftest import box_wall
+from tests.support.builders import box_wall
 
 OPEN = Lab("open", 10.0, 10.0, (), (), (Target(8.0, 8.0, 1.0), Target(2.0, 2.0, 1.0)))
 

@@ -11,7 +11,7 @@ from iw_zenoh.errors import ConfigError
 from iw_zenoh.scenario import shipped
 from iw_zenoh.scenario.file import load_scenario
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_every_scenario_of_the_repository_ships_and_has_a_summary() -> None:

@@ -21,8 +21,8 @@ from iw_zenoh.messages import (
     decode,
     encode,
 )
-from tests.bridges.fakes import FakeBus
-from tests.conftest import agent_host
+from tests.support.builders import agent_host
+from tests.support.fakes import FakeBus
 
 KEY = keys.sensors("t", 1)
 

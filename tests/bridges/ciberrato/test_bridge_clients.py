@@ -10,7 +10,7 @@ from iw_zenoh.bridges.ciberrato.node import Bridge
 
 from iw_zenoh import keys
 from iw_zenoh.messages import Control, Event, RegisterReply, RegisterRequest, RobotSpecMsg, WorldState, decode, encode
-from tests.bridges.fakes import FakeBus, FakeTransport, Rig
+from tests.support.fakes import FakeBus, FakeTransport, Rig
 
 PEER = ("127.0.0.1", 40001)
 

@@ -13,7 +13,7 @@ from lxml import etree
 
 from iw_zenoh.core.params import SimParameters
 from iw_zenoh.messages import SensorReading
-from tests.bridges.captures import robot_session
+from tests.support.captures import robot_session
 
 
 def _reading(measures: bytes, tick: int) -> SensorReading:

@@ -7,7 +7,7 @@ from iw_zenoh.bridges.ciberrato.registration import parse_registration
 
 from iw_zenoh.core.params import SimParameters
 from iw_zenoh.messages import RegisterReply, RegisterRequest, decode, encode
-from tests.bridges.fakes import FakeBus
+from tests.support.fakes import FakeBus
 
 PEER = ("127.0.0.1", 40001)
 ROBOT = b'<Robot Id="1" Name="bot1" />'

@@ -10,7 +10,7 @@ import pytest
 from iw_zenoh.errors import DecodeError
 from iw_zenoh.messages import Event, decode
 from iw_zenoh.process import runtime
-from tests.bridges.fakes import FakeBus
+from tests.support.fakes import FakeBus
 
 
 def _counts(bus: FakeBus) -> list[int]:

@@ -9,7 +9,7 @@ import pytest
 from iw_zenoh.bridges.ciberrato.node import Bridge
 
 from iw_zenoh.messages import RegisterReply, RobotSpecMsg, encode
-from tests.bridges.fakes import FakeBus, FakeTransport, Rig, Transports
+from tests.support.fakes import FakeBus, FakeTransport, Rig, Transports
 
 
 @pytest.fixture

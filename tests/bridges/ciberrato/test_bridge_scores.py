@@ -22,11 +22,11 @@ from iw_zenoh.core.modes import Profile
 from iw_zenoh.core.params import SimParameters
 from iw_zenoh.maps import load_lab
 from iw_zenoh.messages import Hit, Message, RegisterReply, RobotSpecMsg, Tick, Verdict, WorldInfo, WorldState, encode
-from tests.bridges.fakes import FakeBus, FakeTransport, Transports
+from tests.support.fakes import FakeBus, FakeTransport, Transports
 
 PEER = ("127.0.0.1", 40001)
 PERIOD_NS = 50_000_000
-LAB = load_lab(str(Path(__file__).resolve().parents[2] / "maps" / "ciberrato" / "C1-lab.xml"))
+LAB = load_lab(str(Path(__file__).resolve().parents[3] / "maps" / "ciberrato" / "C1-lab.xml"))
 START = (3.0, 11.0)
 RID = 1
 # (before the wall, after it): the legacy rules on this drive

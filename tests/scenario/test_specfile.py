@@ -19,7 +19,7 @@ from iw_zenoh.messages import RobotSpecMsg, SensorNoiseMsg
 from iw_zenoh.scenario.file import parse_scenario
 from iw_zenoh.scenario.specfile import apply_spec, load_spec_file
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "maps" / "chair.toml"
 
 

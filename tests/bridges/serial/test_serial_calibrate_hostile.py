@@ -12,7 +12,7 @@ import pytest
 from iw_zenoh.bridges.serial.node import CSV_HEADER
 
 from iw_zenoh.record.calibrate import main as calibrate
-from tests.bridges.test_serial_calibrate import _bridge_log
+from tests.bridges.serial.test_serial_calibrate import _bridge_log
 
 Edit = Callable[[list[str]], list[str]]  # the log's lines (header first) to the malformed ones
 

@@ -7,7 +7,7 @@ from iw_zenoh.bridges.ciberrato.node import Bridge
 
 from iw_zenoh import keys
 from iw_zenoh.messages import Event, SensorBatch, Tick, WorldState, decode, encode
-from tests.bridges.fakes import FakeBus, FakeTransport, Transports
+from tests.support.fakes import FakeBus, FakeTransport, Transports
 
 FAR = 10**15
 

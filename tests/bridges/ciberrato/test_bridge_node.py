@@ -18,8 +18,8 @@ from iw_zenoh.messages import (
     decode,
     encode,
 )
-from tests.bridges.captures import read
-from tests.bridges.fakes import FakeBus, FakeTransport, Rig, Transports
+from tests.support.captures import read
+from tests.support.fakes import FakeBus, FakeTransport, Rig, Transports
 
 PEER = ("127.0.0.1", 40001)
 REFUSAL = next(g.data for g in read("nbots_refused_C1.txt") if g.data.startswith(b'<Reply Status="Refused"'))

@@ -25,8 +25,8 @@ from iw_zenoh.core.spec import BodyShape, RobotType
 from iw_zenoh.errors import ProtocolError, SpecError
 from iw_zenoh.maps import load_parameters
 
-CAPTURES = Path(__file__).resolve().parents[1] / "data" / "legacy"  # copied from shared/reference/captures
-MAPS = Path(__file__).resolve().parents[2] / "maps"
+CAPTURES = Path(__file__).resolve().parents[2] / "data" / "legacy"  # copied from shared/reference/captures
+MAPS = Path(__file__).resolve().parents[3] / "maps"
 LINE = re.compile(r"^\s*([\d.]+) (C->S|S->C) (\d+)->(\d+) len=(\d+) (b'.*')$")
 
 
