@@ -6,7 +6,8 @@ robots' outlines and sensors) travel in a :class:`PageScene`, sent again only wh
 revision changes; each tick a :class:`PageFrame` carries the poses (the robot ids only when the
 roster changed), :class:`PageReadings` the proximity readings that changed, :class:`PageScans`
 the laser scans that changed, :class:`PageHeard` the radio messages heard and :class:`PageEvent`
-each event. ``docs/viewer.md`` draws the whole exchange.
+each event, :class:`PageDrive` a chair's drive state (the chairs whose agent accepts a driver).
+``docs/viewer.md`` draws the whole exchange; ``docs/driving.md`` the driving.
 """
 
 from __future__ import annotations
@@ -15,12 +16,15 @@ from typing import Annotated, Any, Literal
 
 import msgspec
 
+from iw_zenoh.messages.drive import DriveState
 from iw_zenoh.messages.events import WorldCommand
 from iw_zenoh.messages.wire import NonNeg, RobotId
 from iw_zenoh.messages.world import Obstacle
 
 __all__ = [
     "PageCommand",
+    "PageDrive",
+    "PageDriveInput",
     "PageError",
     "PageEvent",
     "PageFrame",
@@ -54,6 +58,7 @@ class PageHello(_Out, frozen=True, kw_only=True, tag="hello"):
     sim: str
     version: str = ""
     steer: bool = True  # False: this page may only watch (its address has the watch key)
+    driver: str = ""  # this page's name as a driver (a chair's drive state names who drives it)
 
 
 class PageSensor(msgspec.Struct, frozen=True, kw_only=True):
@@ -212,10 +217,20 @@ class PageTimeline(_Out, frozen=True, kw_only=True, tag="timeline"):
     marks: list[TimelineMark] | None = None
 
 
+class PageDrive(_Out, frozen=True, kw_only=True, tag="drive"):
+    """A chair's drive state as its agent publishes it (who drives, the command before and after
+    the shared control, ...): sent on change; ``state`` ``None`` when its agent no longer tells it
+    (the chair left). Only chairs whose agent accepts a driver have one (docs/driving.md)."""
+
+    robot_id: int
+    state: DriveState | None
+
+
 class PageError(_Out, frozen=True, kw_only=True, tag="error"):
-    """A command the server refused, and why."""
+    """A command the server refused, and why (``drive_robot``: the chair a refused ``drive`` was for)."""
 
     error: str
+    drive_robot: int | None = None
 
 
 PageMessage = (
@@ -229,20 +244,44 @@ PageMessage = (
     | PageHeard
     | PageEvent
     | PageTimeline
+    | PageDrive
     | PageError
 )
+
+
+Unit = Annotated[float, msgspec.Meta(ge=-1.0, le=1.0)]
+
+
+class PageDriveInput(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """A ``drive`` command's input, relayed to the chair as an ``iw.DriveInput`` under this
+    page's driver name: the stick (``x`` right, ``y`` forward, each -1..1), ``buttons`` (bit 0
+    the dead-man held), the speed ``level`` 1..5, ``take`` (take the chair over), ``release``
+    (leave it), ``goto`` (a point in metres for the chair's planner), ``assist`` (a new shared
+    control level)."""
+
+    seq: Annotated[int, msgspec.Meta(ge=0, le=2**31 - 1)] = 0
+    x: Unit = 0.0
+    y: Unit = 0.0
+    buttons: Annotated[int, msgspec.Meta(ge=0, le=0xFFFF)] = 0
+    level: Annotated[int, msgspec.Meta(ge=1, le=5)] = 1
+    take: bool = False
+    release: bool = False
+    goto: tuple[float, float] | None = None
+    assist: Literal["off", "safe", "assist"] | None = None
 
 
 class PageCommand(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """What the page asks: a world control (``start`` ... ``remove_obstacle``), a robot's
     ``reading``, in a replay ``seek`` (``at_ns``) and ``rate``, or which laser scans it draws
     (``scans``: every robot's with ``scans="all"``, only robot ``robot_id``'s with
-    ``scans="selected"``, no robot's with ``scans="none"``; every robot's until it says)."""
+    ``scans="selected"``, no robot's with ``scans="none"``; every robot's until it says), or
+    ``drive`` chair ``robot_id`` with ``drive`` (docs/driving.md)."""
 
-    cmd: Literal[WorldCommand, "reading", "seek", "rate", "scans"]
+    cmd: Literal[WorldCommand, "reading", "seek", "rate", "scans", "drive"]
     robot_id: RobotId = 0  # within 63 bits, as every id the world uses
     obstacle: Obstacle | None = None
     steps: Annotated[int, msgspec.Meta(ge=1, le=10_000)] = 1
     at_ns: NonNeg = 0
     rate: Annotated[float, msgspec.Meta(ge=0.0, le=1000.0)] = 1.0
     scans: Literal["all", "selected", "none"] = "all"
+    drive: PageDriveInput | None = None

@@ -17,6 +17,7 @@ from iw_zenoh.nodes.foxglove_live import DEFAULT_PORT as FOXGLOVE_PORT
 from iw_zenoh.nodes.foxglove_live import FoxgloveLive, start_foxglove_live
 from iw_zenoh.process.runtime import Process, start_role
 from iw_zenoh.record.reader import file_error
+from iw_zenoh.viewer.drive import DriveGrant
 from iw_zenoh.viewer.feed import Feed
 from iw_zenoh.viewer.guard import Access, is_loopback
 from iw_zenoh.viewer.server import MAX_PAGES, make_app
@@ -45,6 +46,13 @@ On the page: drag to pan, wheel to zoom, click a robot for its panel; the
 buttons start, pause, step, stop; keys 2 (the map), 1 (first person), 3 (third
 person), 4 (free camera), M (map <-> 3D); a replay opens paused at its start.
 docs/viewer.md explains every control and the WebSocket messages.
+
+Driving: a chair whose agent accepts a driver (iwz agent manual, or a
+scenario's program = "manual") has a drive button in its panel; arrows / WASD,
+a gamepad or the on-screen joystick drive it; http://127.0.0.1:8080/?drive=3
+opens the page already driving chair 3. In a secured run (--identity DIR/NAME)
+the page drives only the chairs DIR/policy.toml grants NAME (robots = [...]);
+docs/driving.md.
 
 Who gets in: on loopback (the default), this machine's pages of 127.0.0.1, localhost
 and [::1] with the port, and they steer; a page of another site (its Origin), or a
@@ -142,7 +150,7 @@ def _run(proc: Process, args: argparse.Namespace) -> int:
             print(f"iwz view: {file_error(args.recording, e)}; check it with iwz doctor", flush=True)
             return 2
     else:
-        source = LiveSource(proc.bus, proc.sim, wake)
+        source = LiveSource(proc.bus, proc.sim, wake, DriveGrant(getattr(proc.args, "identity", None)))
         proc.io.alive()
     fox = None if args.recording is not None or args.no_foxglove else _foxglove(proc)
     if fox is False:
@@ -181,7 +189,7 @@ def _foxglove(proc: Process) -> FoxgloveLive | bool:
 async def _serve(proc: Process, source: Source, feed: Feed, wake: threading.Event) -> int:
     access = Access(proc.args.host)
     models = Path(proc.args.models) if proc.args.models else None
-    app = make_app(source, feed, wake, max_pages=proc.args.max_pages, access=access, models=models)
+    app = make_app(source, feed, wake, max_pages=proc.args.max_pages, access=access, models=models, name=proc.name)
     runner = web.AppRunner(app, access_log=None)
     await runner.setup()
     site = web.TCPSite(runner, proc.args.host, proc.args.port)

@@ -61,7 +61,12 @@ def _parser() -> argparse.ArgumentParser:
     roles = [*POLICY_ROLES, "router"]
     s.add_argument("--role", required=True, action="append", choices=roles, help="its role (repeatable)")
     s.add_argument("--dir", default=".", help="the authority's folder (default: here)")
-    s.add_argument("--robots", default="", metavar="ID,ID", help="an agent's robots")
+    s.add_argument(
+        "--robots",
+        default="",
+        metavar="ID,ID",
+        help="an agent's robots; a viewer's or operator's: the chairs its pages may drive",
+    )
     s.add_argument("--shard", default="", metavar="K/N", help="a sensors process's shard (default: any)")
     s.add_argument("--host", action="append", default=[], help="another name or address it is reached at (repeatable)")
     s.add_argument("--policy", help=f"the policy to add it to (default DIR/{POLICY_FILE})")

@@ -78,8 +78,9 @@ def _role_puts(role: str, sim: str, name: str, robots: tuple[int, ...], shard: t
         # door); no actions at all (an agent commands the chair)
         "serial": [k(sim, r) for r in robots for k in (keys.pose_report, keys.chair)] + [keys.all_events(sim)],
         "agent": [keys.agent_actions(sim, name), *own, keys.event(sim, "bad-message")],
-        "viewer": [keys.event(sim, "bad-message")],
-        "operator": [keys.control(sim), keys.event(sim, "bad-message")],
+        # a viewer's pages drive only its ``robots`` (the policy's grant, per chair); so does an operator's
+        "viewer": [keys.event(sim, "bad-message"), *(keys.drive(sim, r) for r in robots)],
+        "operator": [keys.control(sim), keys.event(sim, "bad-message"), *(keys.drive(sim, r) for r in robots)],
     }[role]
 
 
@@ -99,7 +100,8 @@ def grants(
         roles: Some of :data:`POLICY_ROLES`.
         sim: The simulation.
         name: The identity (certificate common name; its liveliness and agent name).
-        robots: The robots it drives (agents), or whose pose it reports (a serial bridge's chair).
+        robots: The robots it drives (agents), whose pose it reports (a serial bridge's chair), or
+            whose drive key its pages may publish on (a viewer's or an operator's: driving from the page).
         shard: The sensors shard ``(K, N)`` it computes (``None``: any).
 
     Raises:

@@ -47,7 +47,8 @@ class IdentityEntry(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_
     Attributes:
         role: One of :data:`iw_zenoh.secure.grants.POLICY_ROLES`, or a list of them (a legacy bridge that
             also starts and pauses the world: ``["bridge", "operator"]``).
-        robots: The robots an agent drives (their ids); the world registers no other for it.
+        robots: The robots an agent drives (their ids); the world registers no other for it. A
+            viewer's (or operator's): the chairs its pages may drive (their ``robot/{id}/drive``).
         shard: A sensors process's shard, ``K/N`` ("": any shard).
         hosts: Names or addresses its certificate is also valid for (``iwz secure issue --host``).
     """
@@ -119,9 +120,11 @@ def parse_policy(text: str, name: str = "policy") -> Policy:
             grants(entry.roles, policy.sim, name=ident, robots=tuple(entry.robots), shard=entry.shard_pair)
         except ValueError as e:
             raise ConfigError(f"{where}.shard", str(e)) from None
-        if entry.robots and "agent" not in entry.roles and "serial" not in entry.roles:
+        if entry.robots and not {"agent", "serial", "viewer", "operator"} & set(entry.roles):
             raise ConfigError(
-                f"{where}.robots", "only an agent drives robots of its own (and a serial bridge reports its chair)"
+                f"{where}.robots",
+                "only an agent drives robots of its own (a serial bridge reports its chair, a viewer's pages drive "
+                "its chairs)",
             )
         for r in entry.robots if "agent" in entry.roles else ():  # a serial bridge's chair is an agent's too
             if r in owner:

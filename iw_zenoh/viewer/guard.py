@@ -124,6 +124,8 @@ class Access:
 def check_command(cmd: PageCommand, right: str) -> str:
     """Why a page with ``right`` may not send ``cmd`` ("" when it may): beyond a watch key, or out
     of bounds (the decoder already bounded its ids, steps, times and rate)."""
+    if cmd.cmd == "drive":
+        return _check_drive(cmd, right)
     if cmd.cmd not in WATCH_COMMANDS and right != "steer":
         return (
             f"{cmd.cmd!r} steers the run: this page may only watch (its key is the watch key; steer with the steer key)"
@@ -138,6 +140,19 @@ def check_command(cmd: PageCommand, right: str) -> str:
             return f"the obstacle's {name} is {v!r}: give a finite number of metres within ±{MAX_COORD_M:g}"
     if not (math.isfinite(ob.height) and 0 < ob.height <= MAX_HEIGHT_M):
         return f"the obstacle's height is {ob.height!r}: give metres in (0, {MAX_HEIGHT_M:g}]"
+    return ""
+
+
+def _check_drive(cmd: PageCommand, right: str) -> str:
+    """Why a page may not send this ``drive`` ("" when it may): it drives a chair, so only with
+    the steer right; its input present, its goal finite (the decoder bounded the rest)."""
+    if right != "steer":
+        return "driving a chair needs the steer right: this page may only watch (its key is the watch key)"
+    d = cmd.drive
+    if d is None:
+        return "a drive command needs its input: {robot_id, drive: {seq, x, y, buttons, level, ...}}"
+    if d.goto is not None and not all(math.isfinite(v) and abs(v) <= MAX_COORD_M for v in d.goto):
+        return f"go there needs a finite point within ±{MAX_COORD_M:g} m, not {d.goto!r}"
     return ""
 
 

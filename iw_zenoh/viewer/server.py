@@ -13,6 +13,10 @@ Every request to the page or its WebSocket passes :class:`~iw_zenoh.viewer.guard
 ``Origin``, ``Host`` and key: HTTP 403 and why when refused), and every command
 :func:`~iw_zenoh.viewer.guard.check_command` and the page's :class:`~iw_zenoh.viewer.guard.Rate`;
 a command that fails on the pump is answered with an error to its page, and the pump goes on.
+
+A page's ``drive`` commands (its own :class:`~iw_zenoh.viewer.guard.Rate`: a driving page sends
+20 a second) are relayed to the chair under the page's driver name (``VIEWER#N``); when the socket
+of a page that drives is lost, the viewer releases its chair (:mod:`iw_zenoh.viewer.drive`).
 """
 
 from __future__ import annotations
@@ -30,7 +34,8 @@ import msgspec
 from aiohttp import WSMsgType, web
 
 from iw_zenoh import __version__
-from iw_zenoh.messages.page import PageCommand, PageError, PageHello, PageMessage, PageScans
+from iw_zenoh.messages.page import PageCommand, PageDriveInput, PageError, PageHello, PageMessage, PageScans
+from iw_zenoh.viewer.drive import driver_name
 from iw_zenoh.viewer.feed import Feed, ScansWanted
 from iw_zenoh.viewer.guard import Access, Rate, check_command
 from iw_zenoh.viewer.sources import Source
@@ -43,6 +48,7 @@ STATIC = Path(__file__).resolve().parent / "static"
 MAX_BACKLOG = 64  # messages waiting for one page; past that it is resynchronised from a snapshot
 MAX_COMMAND_BYTES = 64 * 1024  # a page's command is a small JSON object
 MAX_PAGES = 32  # pages open at once (iwz view --max-pages): a class watching one run, not a crowd
+DRIVE_PER_S = 50.0  # a driving page's commands a second: its 20 Hz input, and one more at each key change
 _ENCODER = msgspec.json.Encoder()
 _COMMAND = msgspec.json.Decoder(PageCommand)
 
@@ -60,6 +66,9 @@ class Client:
     scans: ScansWanted = field(default_factory=ScansWanted)
     right: str = "steer"  # or "watch": what its address's key (or its being on loopback) lets it do
     rate: Rate = field(default_factory=Rate)
+    driver: str = ""  # its name as a driver
+    driving: int | None = None  # the chair it drives (sent input for and did not release)
+    drive_rate: Rate = field(default_factory=lambda: Rate(per_s=DRIVE_PER_S, burst=DRIVE_PER_S))
 
 
 class Scans:
@@ -143,7 +152,11 @@ class Pump(threading.Thread):
     def _answer(self, client: Client, cmd: PageCommand | None, now: int) -> list[PageMessage]:
         if cmd is None:
             hello = PageHello(
-                live=self.source.live, sim=self.source.sim, version=__version__, steer=client.right == "steer"
+                live=self.source.live,
+                sim=self.source.sim,
+                version=__version__,
+                steer=client.right == "steer",
+                driver=client.driver,
             )
             return [hello, *self.feed.snapshot(now), *self.source.extra()]
         if cmd.cmd == "reading":
@@ -151,6 +164,12 @@ class Pump(threading.Thread):
         if cmd.cmd == "scans":  # the page draws other robots' scans now: their last ones (filtered on the loop)
             scans = self.feed.scans_now()
             return [scans] if scans is not None else []
+        if cmd.cmd == "drive":
+            assert cmd.drive is not None  # checked at the edge
+            why = self.source.drive(cmd.robot_id, client.driver, cmd.drive)
+            if why:
+                return [PageError(error=f"cannot drive chair {cmd.robot_id}: {why}", drive_robot=cmd.robot_id)]
+            return []
         why = self.source.command(cmd)
         return [PageError(error=why)] if why else []
 
@@ -173,6 +192,7 @@ def make_app(
     max_pages: int = MAX_PAGES,
     access: Access | None = None,
     models: Path | None = None,
+    name: str = "view",
 ) -> web.Application:
     """The web application: ``/`` the page, ``/static/`` its files, ``/ws`` its WebSocket,
     ``/models/`` the robot types' model files (``/models/index.json`` lists them: none without ``models``).
@@ -186,8 +206,9 @@ def make_app(
         max_pages: Pages open at once; the next WebSocket is refused (HTTP 503).
         access: Who gets in (default: loopback names with their port, once the app serves).
         models: A directory of model files per robot type (``iwz view --models``), or None.
+        name: The viewer's name: its pages drive as ``NAME#1``, ``NAME#2``...
     """
-    pages = _Pages(source, feed, wake, max_pages, access or Access("127.0.0.1"))
+    pages = _Pages(source, feed, wake, max_pages, access or Access("127.0.0.1"), name)
     app = web.Application()
     app.on_startup.append(pages.start)
     app.on_cleanup.append(pages.cleanup)
@@ -209,8 +230,12 @@ class _Pages:
     """The open pages and the pump that feeds them (everything here runs on the server's loop,
     but what the pump hands over through ``call_soon_threadsafe``)."""
 
-    def __init__(self, source: Source, feed: Feed, wake: threading.Event, max_pages: int, access: Access) -> None:
+    def __init__(
+        self, source: Source, feed: Feed, wake: threading.Event, max_pages: int, access: Access, name: str
+    ) -> None:
         self.access = access
+        self.name = name
+        self.opened = 0  # pages ever opened: each gets the next driver name
         self.source = source
         self.feed = feed
         self.wake = wake
@@ -293,7 +318,8 @@ class _Pages:
             logger.warning("refused a page from %s: %s", request.remote, why)
             return web.Response(status=503, text=f"iwz view: {why}\n", headers={"Retry-After": "10"})
         ws = web.WebSocketResponse(max_msg_size=MAX_COMMAND_BYTES, heartbeat=30.0)
-        client = Client(ws, right=right)
+        self.opened += 1
+        client = Client(ws, right=right, driver=driver_name(self.name, self.opened))
         self.clients.add(client)  # counted before the handshake's await: two pages cannot both take the last place
         try:
             await ws.prepare(request)
@@ -309,22 +335,28 @@ class _Pages:
                     continue
                 if msg.type != WSMsgType.TEXT:
                     continue
-                if not client.rate.take(time.monotonic()):
-                    if told := client.rate.tell(time.monotonic()):
-                        _refuse(client, told)
-                    continue
                 try:
                     cmd = _COMMAND.decode(msg.data)
                 except msgspec.DecodeError as e:  # ValidationError is one
-                    _refuse(client, str(e))
+                    cmd = None
+                    why = str(e)
+                rate = client.drive_rate if cmd is not None and cmd.cmd == "drive" else client.rate
+                if not rate.take(time.monotonic()):
+                    if told := rate.tell(time.monotonic()):
+                        _refuse(client, told)
                     continue
-                if why := check_command(cmd, client.right):
+                if cmd is None or (why := check_command(cmd, client.right)):
                     _refuse(client, why)
                     continue
+                if cmd.cmd == "drive":
+                    client.driving = None if cmd.drive is not None and cmd.drive.release else cmd.robot_id
                 if cmd.cmd == "scans":  # from now on: what follows is filtered before it is queued
                     client.scans = ScansWanted.of(cmd)
                 self._ask(client, cmd)
         finally:
+            if client.driving is not None:  # the page is gone: its chair is released at once
+                release = PageDriveInput(release=True)
+                self._ask(client, PageCommand(cmd="drive", robot_id=client.driving, drive=release))
             client.closed = True
             self.clients.discard(client)
             client.ready.set()

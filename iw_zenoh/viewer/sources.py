@@ -34,10 +34,11 @@ from iw_zenoh.messages import (
     encode,
 )
 from iw_zenoh.messages.events import WorldCommand
-from iw_zenoh.messages.page import PageCommand, PageMessage, PageTimeline, TimelineMark
+from iw_zenoh.messages.page import PageCommand, PageDriveInput, PageMessage, PageTimeline, TimelineMark
 from iw_zenoh.record.incidents import find_incidents
 from iw_zenoh.record.reader import open_recording
 from iw_zenoh.record.replay import Player, ReplayOptions
+from iw_zenoh.viewer.drive import DriveGrant, Drives, decode_state, relay
 from iw_zenoh.viewer.feed import Feed
 
 __all__ = ["LiveSource", "LocalBus", "ReplaySource", "Source"]
@@ -62,6 +63,9 @@ class Source(Protocol):
 
     def command(self, cmd: PageCommand) -> str:
         """Carries out a page's command; why it cannot be done ("" when done)."""
+
+    def drive(self, robot_id: int, driver: str, d: PageDriveInput) -> str:
+        """Relays a page's driving of chair ``robot_id``; why it cannot ("" when relayed)."""
 
     def extra(self) -> list[PageMessage]:
         """What a page that joins needs besides the feed's snapshot."""
@@ -118,13 +122,16 @@ class LiveSource:
         bus: The bus.
         sim: The simulation name.
         wake: Set whenever something arrives.
+        grant: The chairs its pages may drive (default: any).
     """
 
     live = True
 
-    def __init__(self, bus: Bus, sim: str, wake: threading.Event) -> None:
+    def __init__(self, bus: Bus, sim: str, wake: threading.Event, grant: DriveGrant | None = None) -> None:
         self.bus = bus
         self.sim = sim
+        self.grant = grant or DriveGrant(None)
+        self.drives = Drives()
         self.inbox = Inbox(maxlen=LIVE_KEPT, wake=wake)
         for key in (
             keys.info(sim),
@@ -133,6 +140,7 @@ class LiveSource:
             keys.all_sensor_batches(sim),
             keys.radio(sim),
             keys.all_events(sim),
+            keys.all_driving(sim),
         ):
             bus.subscribe(key, self.inbox)
         self._asked: Asked | None = bus.ask(keys.info(sim))
@@ -147,13 +155,19 @@ class LiveSource:
                 except IwError as e:
                     logger.warning("world/info answer refused: %s", e)
             self._asked = None
+        ids = feed.ids
         for d in _latest_states(self.inbox.drain()):
-            if keys.topic_kind(d[0]) == "state" and self._asked is None:
+            kind = keys.topic_kind(d[0])
+            if kind == "driving":
+                got = decode_state(d[0], d[1])
+                out += self.drives.on_state(*got) if got is not None else []
+                continue
+            if kind == "state" and self._asked is None:
                 st = _decode(d, WorldState)
                 if isinstance(st, WorldState) and feed.needs_info(st.revision):
                     self._asked = self.bus.ask(keys.info(self.sim))
             out += _feed(feed, d, wall_ns)
-        return out
+        return out + (self.drives.keep(feed.ids) if feed.ids != ids else [])
 
     def command(self, cmd: PageCommand) -> str:
         """Publishes a world control on the simulation's control key."""
@@ -169,9 +183,16 @@ class LiveSource:
         self.bus.publish(keys.control(self.sim), encode(c))
         return ""
 
+    def drive(self, robot_id: int, driver: str, d: PageDriveInput) -> str:
+        """Publishes a page's input on the chair's drive key, if this viewer may drive it."""
+        if why := self.grant.refusal(robot_id):
+            return why
+        relay(self.bus, self.sim, robot_id, driver, d)
+        return ""
+
     def extra(self) -> list[PageMessage]:
-        """Nothing: a live page has no timeline."""
-        return []
+        """Every chair's drive state (a live page has no timeline)."""
+        return self.drives.snapshot()
 
     def close(self) -> None:
         """Nothing to stop (the bus is the process's)."""
@@ -326,6 +347,10 @@ class ReplaySource:
     def _send(self, c: Control) -> None:
         self.player.control.put((self._control, encode(c), time.time_ns()))
         self.player.wake.set()
+
+    def drive(self, robot_id: int, driver: str, d: PageDriveInput) -> str:
+        """Nobody drives a recording."""
+        return "this is a recording: its chairs drove as they were recorded; drive a chair in a live run"
 
     def extra(self) -> list[PageMessage]:
         """The timeline, marks included."""

@@ -136,3 +136,15 @@ def test_a_bridge_publishes_actions_only_in_its_own_batch_and_the_serial_bridge_
     assert grants(("serial",), "s", name="chair").query == ("iw/s/world/info", "iw/s/world/register/chair")
     text = '[identities.chair]\nrole = "serial"\nrobots = [4]\n[identities.alice]\nrole = "agent"\nrobots = [4]'
     assert owners(parse_policy(text)) == {"chair": (4,), "alice": (4,)}  # the chair's agent drives it
+
+
+def test_a_viewers_pages_drive_only_the_chairs_its_policy_entry_grants() -> None:
+    for role in ("viewer", "operator"):
+        drives = {k for k in _puts((role,), robots=(2, 5)) if k.endswith("/drive")}
+        assert drives == {"iw/s/robot/2/drive", "iw/s/robot/5/drive"}
+        assert not {k for k in _puts((role,)) if k.endswith("/drive")}  # no robots: it drives none
+    for role in POLICY_ROLES:  # nobody else publishes a driver's input (an agent: its own chairs' trace)
+        if role not in ("viewer", "operator", "agent"):
+            assert not {k for k in _puts((role,), robots=(2,)) if k.endswith("/drive")}, role
+    p = parse_policy('[identities.seat]\nrole = "viewer"\nrobots = [2]\n[identities.a]\nrole = "agent"\nrobots = [2]')
+    assert p.identities["seat"].robots == [2]  # a chair an agent drives and a viewer's pages may drive

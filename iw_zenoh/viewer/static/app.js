@@ -10,6 +10,7 @@ import { Timeline } from "./timeline.js";
 import { drawPanel } from "./panel.js";
 import { Legend } from "./legend.js";
 import { DriveHud } from "./drivehud.js";
+import { driveState, onDriveChange, initDrive } from "./drive.js";
 
 /** @typedef {import("./types.js").PageCommand} PageCommand */
 /** @typedef {"2d" | "first" | "third" | "free"} ViewMode */
@@ -267,6 +268,9 @@ function main() {
   new Legend($("legend"));
   driveHud = new DriveHud($("drivehud"), world);
   listen();
+  // driving a chair (drive.js): its HUD, the cameras following the driven chair, go there on the map
+  initDrive({ send, toast, setView, onMapClick });
+  onDriveChange(() => { driveHud.show(driveState); followChair(driveState.robot); });
   controls();
   connect();
   requestAnimationFrame(draw);

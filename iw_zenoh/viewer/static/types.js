@@ -12,6 +12,7 @@
  * @property {string} sim
  * @property {string} version
  * @property {boolean} steer  false: this page may only watch
+ * @property {string} driver  this page's name as a driver (VIEWER#N)
  */
 
 /**
@@ -167,25 +168,65 @@
  */
 
 /**
+ * @typedef {object} DriveState  what a chair's agent does with its driver's input (iw.DriveState, docs/driving.md)
+ * @property {number} robot_id
+ * @property {string} driver  who drives ("" nobody)
+ * @property {number} seq  the driver's last input applied
+ * @property {number} level  speed level 1..5
+ * @property {"off" | "safe" | "assist"} assist
+ * @property {number} v_mps  the command after shared control
+ * @property {number} w_radps
+ * @property {number} input_v_mps  the driver's command before shared control
+ * @property {number} input_w_radps
+ * @property {boolean} intervened  shared control changed the command this tick
+ * @property {number | null} nearest_m  the nearest obstacle seen (null: nothing in range)
+ * @property {number[] | null} goal  the go-there goal, [x, y] m
+ * @property {boolean} stale  the dead-man tripped (no input for 300 ms)
+ * @property {string} refused  the last driver refused (another drives and it did not take over)
+ */
+
+/**
+ * @typedef {object} PageDrive  a chair's drive state (only chairs whose agent accepts a driver)
+ * @property {"drive"} type
+ * @property {number} robot_id
+ * @property {DriveState | null} state  null: the chair left
+ */
+
+/**
  * @typedef {object} PageError  a command the server refused, and why
  * @property {"error"} type
  * @property {string} error
+ * @property {number | null} drive_robot  the chair a refused drive was for
  */
 
 /**
  * @typedef {PageHello | PageScene | PageFrame | PageStatus | PageReadings | PageScans | PageReading
- *   | PageHeard | PageEvent | PageTimeline | PageError} PageMessage
+ *   | PageHeard | PageEvent | PageTimeline | PageDrive | PageError} PageMessage
  */
 
 /**
  * @typedef {object} PageCommand  what the page asks (unknown fields are refused)
- * @property {string} cmd  start pause stop step remove add_obstacle move_obstacle remove_obstacle reading seek rate scans
+ * @property {string} cmd  start pause stop step remove add_obstacle move_obstacle remove_obstacle reading seek rate scans drive
  * @property {number} [robot_id]
  * @property {Obstacle | null} [obstacle]
  * @property {number} [steps]
  * @property {number} [at_ns]
  * @property {number} [rate]
  * @property {"all" | "selected" | "none"} [scans]
+ * @property {PageDriveInput | null} [drive]  a drive command's input
+ */
+
+/**
+ * @typedef {object} PageDriveInput  a drive command's input, relayed to the chair as an iw.DriveInput
+ * @property {number} [seq]
+ * @property {number} [x]  stick right, -1..1
+ * @property {number} [y]  stick forward, -1..1
+ * @property {number} [buttons]  bit 0: the dead-man held
+ * @property {number} [level]  speed level 1..5
+ * @property {boolean} [take]  take the chair over
+ * @property {boolean} [release]  leave it
+ * @property {number[] | null} [goto]  go there, [x, y] m
+ * @property {"off" | "safe" | "assist" | null} [assist]  a new shared-control level
  */
 
 export {};

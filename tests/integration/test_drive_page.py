@@ -1,0 +1,305 @@
+"""Driving a chair from ``iwz view``'s page in Debian's Chromium: router, world, collision,
+sensors, two chairs whose ``manual`` agents accept a driver, and the viewer, each its own
+process, in real time at 20 Hz. The keyboard, the on-screen joystick and a gamepad (a scripted
+``navigator.getGamepads`` stands for the device) drive a chair; hiding the tab or closing the page
+stops it within 300 ms; of two pages one drives and the other sees who, taking over is explicit."""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Iterator
+
+import pytest
+from playwright.sync_api import Browser, Page
+
+from iw_zenoh import keys
+from iw_zenoh.bus import Inbox, ZenohBus
+from iw_zenoh.messages import Actions, DriveInput, DriveState, WorldInfo, WorldState, decode
+from tests.integration.browser import viewer_url
+from tests.integration.harness import Net, start_world, subscribe, wait_msg
+
+pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
+
+LAB = '<Lab Name="open" Width="40" Height="12"/>'
+CHAIRS = {"ann": "4,3,0", "bob": "4,9,0"}  # name: start (facing east, 6 m apart, open lab ahead)
+WAIT_MS = 30_000
+STOP_S = 0.3  # the issue's bound: hidden or closed, the chair is told to stop within 300 ms
+DECEL_MPS2 = 1.2  # the manual agent slows at twice its comfort acceleration (iw_zenoh/core/assist.py)
+# a gamepad the page reads through navigator.getGamepads, scripted by the test (window.__pad)
+GAMEPAD = """
+window.__pad = {index: 0, id: "scripted pad", connected: true, mapping: "standard", timestamp: 0,
+  axes: [0, 0, 0, 0], buttons: Array.from({length: 17}, () => ({pressed: false, touched: false, value: 0}))};
+window.__padOn = true;
+navigator.getGamepads = () => (window.__padOn ? [window.__pad, null, null, null] : [null, null, null, null]);
+"""
+
+
+class Run:
+    """The live run: the test's session, the chairs' ids by name, the viewer's address."""
+
+    def __init__(self, net: Net, bus: ZenohBus, url: str, ids: dict[str, int]) -> None:
+        self.net, self.bus, self.url, self.ids = net, bus, url, ids
+
+    def actions(self, name: str) -> Inbox:
+        """An inbox of the actions chair ``name``'s agent sends the world (its command: one robot's
+        agent sends them on the robot's own key)."""
+        return subscribe(self.bus, keys.actions(self.net.sim, self.ids[name]))
+
+    def states(self) -> Inbox:
+        return subscribe(self.bus, keys.state(self.net.sim))
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Run]:
+    net = Net(tmp_path_factory.mktemp("drive"), sim="drive")
+    net.start_router()
+    try:
+        bus = net.client()
+        states = subscribe(bus, keys.state(net.sim))
+        start_world(net, "collision", "sensors", lab=LAB)
+        for name, start in CHAIRS.items():
+            net.spawn("agent", "manual", "--start", start, "--robot-name", name, "--name", name)
+        url = viewer_url(net.spawn("view", "--port", "0", "--no-foxglove"))
+        wait_msg(states, WorldState, lambda s: len(s.ids) == len(CHAIRS), timeout_s=60)
+        ids = _names(net, bus)
+        drives = subscribe(bus, keys.all_driving(net.sim))
+        accepting: set[int] = set()
+        while accepting != set(ids.values()):  # each chair's agent tells its drive state: it accepts a driver
+            accepting.add(wait_msg(drives, DriveState, timeout_s=30).robot_id)
+        yield Run(net, bus, url, ids)
+    finally:
+        net.close()
+
+
+def _names(net: Net, bus: ZenohBus) -> dict[str, int]:
+    """Each chair's id by its name (the world's description)."""
+    [data] = bus.query(keys.info(net.sim))
+    info = decode(data, WorldInfo)
+    return {r.name: r.id for r in info.robots if r.name in CHAIRS}
+
+
+def _drive_page(browser: Browser, run: Run, chair: str, *, gamepad: bool = False) -> Page:
+    """A page opened at ``?drive=ID``: in the driver's seat of ``chair`` once it says so."""
+    page = browser.new_page(viewport={"width": 1200, "height": 800})
+    if gamepad:
+        page.add_init_script(GAMEPAD)
+    page.goto(f"{run.url}?drive={run.ids[chair]}")
+    page.wait_for_selector("#drive:not([hidden])", timeout=WAIT_MS)
+    page.wait_for_function(
+        "document.getElementById('drive-status').textContent.startsWith('you drive')", timeout=WAIT_MS
+    )
+    return page
+
+
+def _pose(run: Run, states: Inbox, chair: str) -> tuple[float, float, float]:
+    st = wait_msg(states, WorldState, lambda s: run.ids[chair] in s.ids)
+    i = st.ids.index(run.ids[chair])
+    return st.x[i], st.y[i], st.heading[i]
+
+
+def _moving(act: Actions, rid: int, *, forward: bool | None = None) -> bool:
+    if act.robot_id == rid and (abs(act.left) > 1e-3 or abs(act.right) > 1e-3):
+        return forward is None or ((act.left + act.right > 0) == forward)
+    return False
+
+
+def _still(act: Actions, rid: int) -> bool:
+    return act.robot_id == rid and act.left == 0 and act.right == 0
+
+
+def _forward_by(run: Run, chair: str, before: tuple[float, float, float], metres: float) -> None:
+    """Waits until the chair has moved ``metres`` along its heading from ``before``."""
+    states = run.states()
+    x0, y0, h0 = before
+    deadline = time.monotonic() + 20
+    while True:
+        x, y, _ = _pose(run, states, chair)
+        if (x - x0) * math.cos(h0) + (y - y0) * math.sin(h0) >= metres:
+            return
+        assert time.monotonic() < deadline, f"{chair} did not drive {metres} m forward: from {before} to {(x, y)}"
+
+
+def _stopped_within(run: Run, actions: Inbox, chair: str, since: float) -> float:
+    """Seconds from ``since`` (monotonic) until the chair's command is zero."""
+    wait_msg(actions, Actions, lambda a: _still(a, run.ids[chair]), timeout_s=10)
+    return time.monotonic() - since
+
+
+def test_keyboard_forward_drives_the_chair_forward_and_releasing_the_key_stops_it(run: Run, browser: Browser) -> None:
+    page = _drive_page(browser, run, "ann")
+    assert page.evaluate("document.getElementById('view-mode').value") == "first"  # the driver's view
+    actions = run.actions("ann")
+    before = _pose(run, run.states(), "ann")
+    page.keyboard.down("ArrowUp")
+    wait_msg(actions, Actions, lambda a: _moving(a, run.ids["ann"], forward=True))
+    _forward_by(run, "ann", before, 0.2)
+    actions = run.actions("ann")
+    page.keyboard.up("ArrowUp")
+    assert _stopped_within(run, actions, "ann", time.monotonic()) < 2.0
+    page.close()
+
+
+def test_the_on_screen_joystick_dragged_by_mouse_drives_the_chair(run: Run, browser: Browser) -> None:
+    page = _drive_page(browser, run, "ann")
+    box = page.locator("#drive-stick").bounding_box()
+    assert box is not None
+    cx, cy = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+    actions = run.actions("ann")
+    before = _pose(run, run.states(), "ann")
+    page.mouse.move(cx, cy)
+    page.mouse.down()
+    page.mouse.move(cx, cy - box["height"] * 0.45, steps=4)  # pushed forward
+    wait_msg(actions, Actions, lambda a: _moving(a, run.ids["ann"], forward=True))
+    _forward_by(run, "ann", before, 0.2)
+    actions = run.actions("ann")
+    page.mouse.up()
+    assert _stopped_within(run, actions, "ann", time.monotonic()) < 2.0
+    page.close()
+
+
+def test_a_gamepad_drives_with_its_dead_man_held_and_unplugging_it_stops_the_chair(run: Run, browser: Browser) -> None:
+    page = _drive_page(browser, run, "bob", gamepad=True)
+    inputs = subscribe(run.bus, keys.drive(run.net.sim, run.ids["bob"]))
+    page.evaluate("window.__pad.axes[1] = -1")  # stick forward, dead-man not held: nothing moves
+    wait_msg(inputs, DriveInput)
+    actions = run.actions("bob")
+    wait_msg(actions, Actions, lambda a: _still(a, run.ids["bob"]))
+    before = _pose(run, run.states(), "bob")
+    page.evaluate("window.__pad.buttons[0].pressed = true")
+    wait_msg(inputs, DriveInput, lambda d: d.buttons & 1 == 1 and d.y == 1.0)
+    wait_msg(actions, Actions, lambda a: _moving(a, run.ids["bob"], forward=True))
+    _forward_by(run, "bob", before, 0.2)
+    actions = run.actions("bob")
+    page.evaluate("window.__padOn = false; window.dispatchEvent(new Event('gamepaddisconnected'))")
+    wait_msg(inputs, DriveInput, lambda d: d.buttons == 0 and d.x == 0 and d.y == 0)
+    assert _stopped_within(run, actions, "bob", time.monotonic()) < 2.0
+    page.close()
+
+
+def _hide(page: Page) -> None:
+    """The tab is hidden, as the browser says it when its person switches tabs."""
+    page.evaluate(
+        "Object.defineProperty(document, 'visibilityState', {value: 'hidden', configurable: true});"
+        "document.dispatchEvent(new Event('visibilitychange'))"
+    )
+
+
+@pytest.mark.parametrize("how", ["hidden", "closed"])
+def test_hiding_the_tab_or_closing_the_page_stops_the_chair_within_300_ms(run: Run, browser: Browser, how: str) -> None:
+    """Hidden or closed, the page's steady input is followed within 300 ms by a zero input or a
+    release (the chair is never left with a stale push: the browser's own time to close a tab,
+    slow on a loaded machine, is before the page hears of it), and the agent's command falls to
+    zero within 300 ms of that, plus the time its comfort deceleration takes from the speed it
+    had (the chair slows as a power chair does: DECEL_MPS2)."""
+    rid = run.ids["ann"]
+    page = _drive_page(browser, run, "ann")
+    inputs = subscribe(run.bus, keys.drive(run.net.sim, rid))
+    driving = subscribe(run.bus, keys.driving(run.net.sim, rid), maxlen=1)
+    page.keyboard.down("ArrowUp")
+    v = wait_msg(driving, DriveState, lambda d: d.v_mps > 0.05).v_mps
+    actions = run.actions("ann")
+    inputs.drain()
+    v = max([v, *(decode(d[1], DriveState).v_mps for d in driving.drain())])  # the speed it has now
+    if how == "hidden":
+        _hide(page)
+    else:
+        page.close(run_before_unload=True)  # as a person closes the tab: the page hears it go
+    last_push = 0
+    while True:  # the inputs as they arrive (wall ns), up to the first that stops the chair
+        d = inputs.get(timeout_s=20)
+        assert d is not None, f"{how}: the page never said stop"
+        m = decode(d[1], DriveInput)
+        if m.release or not m.buttons & 1:
+            stop_ns = d[2]
+            break
+        last_push = d[2]
+    gap = (stop_ns - last_push) / 1e9 if last_push else 0.0
+    assert gap <= STOP_S, f"{how}: {gap * 1e3:.0f} ms between the page's last push and its stop"
+    t0 = time.monotonic() - (time.time_ns() - stop_ns) / 1e9  # when the stop arrived, on the monotonic clock
+    took = _stopped_within(run, actions, "ann", t0)
+    bound = STOP_S + v / DECEL_MPS2
+    assert took <= bound, (
+        f"{how}: the chair's command was zero only {took * 1e3:.0f} ms later (bound {bound * 1e3:.0f})"
+    )
+    if how == "hidden":
+        page.keyboard.up("ArrowUp")
+        page.close()
+
+
+def _status(page: Page) -> str:
+    return str(page.inner_text("#drive-status"))
+
+
+def test_two_pages_one_drives_the_other_sees_who_and_takes_over_only_when_asked(run: Run, browser: Browser) -> None:
+    first = _drive_page(browser, run, "bob")
+    me = first.evaluate("document.getElementById('drive-status').textContent")
+    assert me.startswith("you drive")
+    second = browser.new_page(viewport={"width": 1200, "height": 800})
+    second.goto(f"{run.url}?drive={run.ids['bob']}")
+    second.wait_for_function(
+        "/^view.*#\\d+ drives/.test(document.getElementById('drive-status').textContent)", timeout=WAIT_MS
+    )
+    assert second.is_visible("#drive-take")
+    driving = subscribe(run.bus, keys.driving(run.net.sim, run.ids["bob"]))
+    holder = wait_msg(driving, DriveState).driver
+    second.keyboard.down("ArrowUp")  # without taking over, the second page's keys drive nothing
+    for _ in range(6):  # six ticks of the chair's state later, the first page still drives it
+        assert wait_msg(driving, DriveState).driver == holder
+    second.keyboard.up("ArrowUp")
+    second.click("#drive-take")
+    taken = wait_msg(driving, DriveState, lambda d: d.driver != holder).driver
+    second.wait_for_function(
+        "document.getElementById('drive-status').textContent.startsWith('you drive')", timeout=WAIT_MS
+    )
+    first.wait_for_function(
+        f"document.getElementById('drive-status').textContent.startsWith('{taken} drives')", timeout=WAIT_MS
+    )
+    assert first.is_visible("#drive-take")
+    first.close()
+    second.close()
+
+
+def test_the_viewer_releases_the_chair_of_a_page_whose_socket_is_lost(run: Run) -> None:
+    """A page that never says goodbye (its socket simply goes): the viewer releases its chair."""
+    from websockets.sync.client import connect
+
+    rid = run.ids["bob"]
+    inputs = subscribe(run.bus, keys.drive(run.net.sim, rid))
+    driving = subscribe(run.bus, keys.driving(run.net.sim, rid))
+    cmd = {"cmd": "drive", "robot_id": rid, "drive": {"seq": 1, "y": 0.0, "buttons": 0, "level": 1, "take": True}}
+    with connect(run.url.replace("http://", "ws://") + "ws") as ws:
+        ws.send(json.dumps(cmd))
+        who = wait_msg(inputs, DriveInput, lambda d: d.take).driver
+        wait_msg(driving, DriveState, lambda d: d.driver == who)
+    gone = wait_msg(inputs, DriveInput, lambda d: d.release)
+    assert gone.driver == who
+    wait_msg(driving, DriveState, lambda d: d.driver == "")
+
+
+def test_a_page_flooding_drive_commands_is_relayed_at_most_its_rate_and_told_why(run: Run) -> None:
+    """500 drive commands at once: at most a burst of 50 (and 50 a second after) reach the chair;
+    the page is told that the rest were dropped; when it goes, the viewer releases the chair."""
+    from websockets.sync.client import connect
+
+    rid = run.ids["bob"]
+    inputs = subscribe(run.bus, keys.drive(run.net.sim, rid))
+    t0 = time.monotonic()
+    with connect(run.url.replace("http://", "ws://") + "ws") as ws:
+        hello: dict[str, object] = {}
+        while hello.get("type") != "hello":
+            hello = json.loads(ws.recv(timeout=20))
+        me = hello["driver"]  # only this page's inputs count (an earlier page's release may still come)
+        for k in range(500):
+            ws.send(json.dumps({"cmd": "drive", "robot_id": rid, "drive": {"seq": k, "level": 1, "take": True}}))
+        told = ""
+        while "dropped" not in told:
+            told = str(ws.recv(timeout=20))
+    relayed = 1
+    while not wait_msg(inputs, DriveInput, lambda d: d.driver == me).release:
+        relayed += 1
+    elapsed = time.monotonic() - t0
+    assert relayed <= 50 + 50 * elapsed, (relayed, elapsed)
+    assert "commands a second from this page" in told
+    wait_msg(subscribe(run.bus, keys.driving(run.net.sim, rid)), DriveState, lambda d: d.driver == "")
