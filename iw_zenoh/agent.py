@@ -1,17 +1,20 @@
 """Writing an agent: a policy from readings to commands, and the host that runs many of them.
 
-An agent is any object with ``spec()`` and ``on_sensors(reading, heard)``::
+The one module an agent's author imports: the agent, its command, its robot's spec and the
+reading types are all here. An agent is any object with ``spec()`` and ``on_sensors(reading, heard)``::
+
+    from iw_zenoh.agent import Command, Heard, Readings, Spec
 
     class Forward:
-        def spec(self) -> RobotSpec:
-            return RobotSpec("fwd")
-        def on_sensors(self, reading: SensorReading, heard: list[Heard]) -> Command:
-            return Command(0.1, 0.1)
+        def spec(self) -> Spec:
+            return Spec("fwd")
+        def on_sensors(self, reading: Readings, heard: list[Heard]) -> Command:
+            return Command.from_velocity(0.3, 0.0)  # 0.3 m/s ahead, no turn
 
-It may also have ``on_registered(robot_id, spec)``, called once the world has accepted its robot
-(with the id and the spec the world accepted). ``iwz agent ./my_agent.py:Name`` runs one from the
-user's own file (``docs/first-agent.md``), and ``--spec chair.toml`` lays a spec file's fields
-over its robot (``docs/spec.md``).
+It may also have the optional hooks of :mod:`iw_zenoh.hooks` (:class:`OnRegistered`,
+:class:`OnChair`, :class:`AttachTo`). ``iwz agent ./my_agent.py:Name`` runs one from the user's
+own file (``docs/first-agent.md``; its ``args.seed`` is the seed the run hands it), and
+``--spec chair.toml`` lays a spec file's fields over its robot (``docs/spec.md``).
 
 An :class:`AgentHost` registers every agent's robot with the world, hands each one its readings
 (and what its robot heard on the radio) every tick, and publishes its actions and messages. One
@@ -37,8 +40,10 @@ from iw_zenoh import keys
 from iw_zenoh.bus import Asked, Bus, Handle, Inbox
 from iw_zenoh.convert import spec_from_msg, spec_to_msg
 from iw_zenoh.core.modes import Mode
-from iw_zenoh.core.spec import RobotSpec
+from iw_zenoh.core.motor import MAX_POWER
+from iw_zenoh.core.spec import BumperSpec, IrSensorSpec, LaserSpec, RobotSpec, SensorNoise, prototype_chair
 from iw_zenoh.errors import DecodeError, IwError, ProtocolError
+from iw_zenoh.hooks import AttachTo, OnChair, OnRegistered, attached_to
 from iw_zenoh.hosting import Command, InlineAnswers, Outbox, WorldRegistration
 from iw_zenoh.messages import (
     ChairReading,
@@ -52,10 +57,38 @@ from iw_zenoh.messages import (
     decode,
     readings_of,
 )
+from iw_zenoh.messages.robot import Pose
+from iw_zenoh.places import point_arg, points_arg, pose_arg
 from iw_zenoh.runtime import NodeIO
 from iw_zenoh.ticks import TickWindow
 
-__all__ = ["BATCH_FROM", "Agent", "AgentHost", "Command", "RegistrationRefused"]
+__all__ = [
+    "BATCH_FROM",
+    "MAX_POWER",
+    "Agent",
+    "AgentHost",
+    "AttachTo",
+    "BumperSpec",
+    "ChairReading",
+    "Command",
+    "Heard",
+    "IrSensorSpec",
+    "LaserSpec",
+    "OnChair",
+    "OnRegistered",
+    "Pose",
+    "Readings",
+    "RegistrationRefused",
+    "SensorNoise",
+    "Spec",
+    "point_arg",
+    "points_arg",
+    "pose_arg",
+    "prototype_chair",
+]
+
+Spec = RobotSpec  # a robot's spec: its body, start, top speed, sensors and noise (docs/spec.md)
+Readings = SensorReading  # one tick's readings of a robot (``reading.pose``, ``reading.proximity_m``...)
 
 logger = logging.getLogger(__name__)
 
@@ -69,7 +102,7 @@ HEARD_KEPT = 64  # radio batches, fresh counts kept for ticks not answered yet (
 
 
 class Agent(Protocol):
-    """A robot's controller."""
+    """A robot's controller (optional hooks: :class:`OnRegistered`, :class:`OnChair`, :class:`AttachTo`)."""
 
     def spec(self) -> RobotSpec:
         """The robot to register."""
@@ -193,9 +226,8 @@ class AgentHost:
             self._subscribed[reply.robot_id] = early
         elif not self.batched and reply.robot_id not in self._subscribed:
             self._subscribed[reply.robot_id] = self._subscribe_sensors(reply.robot_id)
-        on_reg = getattr(agent, "on_registered", None)
-        if callable(on_reg):
-            on_reg(reply.robot_id, spec)
+        if isinstance(agent, OnRegistered):
+            agent.on_registered(reply.robot_id, spec)
         return reply.robot_id
 
     def _subscribe_sensors(self, robot_id: int) -> Handle:
@@ -279,7 +311,7 @@ class AgentHost:
         orphans, self._orphans = self._orphans, []
         for agent in orphans:
             try:
-                attach_to = getattr(agent, "attach_to", 0)  # a robot another process registers: wait for it
+                attach_to = attached_to(agent)  # a robot another process registers: wait for it
                 rid = self.attach(agent, attach_to, timeout_s=2.0) if attach_to else self.add(agent, timeout_s=2.0)
                 logger.warning("robot %d registered again for %s", rid, agent.spec().name)
             except RegistrationRefused as e:
@@ -312,21 +344,20 @@ class AgentHost:
                     raise RegistrationRefused(f"no robot {robot_id} in the world within {timeout_s:g} s to attach to")
                 self.io.stop.wait(0.2)
         self.hosted[robot_id] = _Hosted(agent, robot_id, spec)
-        if callable(getattr(agent, "on_chair", None)) and robot_id not in self._chair_keys:
+        if isinstance(agent, OnChair) and robot_id not in self._chair_keys:
             self.chairs = self.chairs or Inbox(wake=self.io.wake)
             self._chair_keys.add(robot_id)
             self.io.bus.subscribe(keys.chair(self.sim, robot_id), self.chairs)
-        on_reg = getattr(agent, "on_registered", None)
-        if callable(on_reg):
-            on_reg(robot_id, spec)
+        if isinstance(agent, OnRegistered):
+            agent.on_registered(robot_id, spec)
         return robot_id
 
     def _collect(self) -> None:
         for d in self.chairs.drain() if self.chairs is not None else []:
             c = self.io.decode(d, ChairReading)
             h = self.hosted.get(c.robot_id) if c is not None else None
-            if c is not None and h is not None:
-                h.agent.on_chair(c)  # type: ignore[attr-defined]
+            if c is not None and h is not None and isinstance(h.agent, OnChair):
+                h.agent.on_chair(c)
         for d in self.radio.drain():
             b = self.io.decode(d, RadioBatch)
             if b is not None and self._in_window(d[0], b.tick):
@@ -402,7 +433,7 @@ class AgentHost:
             r = h.reading
             if r is None or r.tick <= h.answered:
                 continue
-            cmd = h.agent.on_sensors(r, heard_now.get(h.robot_id, []))
+            cmd = h.agent.on_sensors(r, heard_now.get(h.robot_id, [])).resolved(h.spec)  # a velocity: powers
             self.outbox.command(h.robot_id, cmd, tick=r.tick, sim_time_ns=r.sim_time_ns)
             h.answered = r.tick
         self.outbox.flush()

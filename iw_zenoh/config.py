@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import msgspec
+import numpy as np
 
 from iw_zenoh.core.modes import Mode, Profile
 from iw_zenoh.errors import ConfigError, MapError
@@ -97,6 +98,7 @@ class AgentEntry(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_onl
     # its robots' spec as data (docs/spec.md): a table of the registration's fields, or a spec
     # file's path; read and checked when the scenario is, then handed to the agent as a table
     spec: dict[str, Any] | str | None = None
+    seed: Annotated[int, msgspec.Meta(ge=0)] | None = None  # its agents' args.seed; None: drawn from [world] seed
 
     @property
     def argv(self) -> list[str]:
@@ -214,6 +216,22 @@ class Scenario(ScenarioFile, frozen=True, forbid_unknown_fields=True, kw_only=Tr
     def robots(self) -> int:
         """Robots the agents register in all."""
         return sum(a.robots for a in self.agents)
+
+    def agent_seed(self, index: int) -> int:
+        """The seed ``agents[index]`` is handed (``--seed``, its agents' ``args.seed``): the entry's
+        own ``seed``, else the ``index``-th child of ``[world] seed`` (``np.random.SeedSequence``), so
+        every entry's differs and the world's seed changes them all, the same every run.
+
+        Args:
+            index: The entry's place in ``agents``.
+
+        Returns:
+            A seed in [0, 2**32).
+        """
+        own = self.agents[index].seed
+        if own is not None:
+            return own
+        return int(np.random.SeedSequence(self.world.seed, spawn_key=(index,)).generate_state(1)[0])
 
 
 def _dec_path(kind: type, value: Any) -> Any:

@@ -10,6 +10,8 @@ from typing import Any
 
 import numpy as np
 
+from iw_zenoh.core.spec import RobotSpec
+from iw_zenoh.hosting import Command
 from iw_zenoh.learn.nav import Goal, Reward, Senses, goal_distance, to_powers
 from iw_zenoh.sim.local import LocalWorld, Step
 
@@ -70,7 +72,7 @@ class Episode:
         """One tick: the learners' commands and the agents' answers to the last readings."""
         s = self.world.step({**self._pending, **commands})
         self._pending = {
-            rid: agent.on_sensors(s.readings[rid], s.heard.get(rid, []))
+            rid: _powers(agent.on_sensors(s.readings[rid], s.heard.get(rid, [])), self.world.spec(rid))
             for rid, agent in self.agents.items()
             if rid in s.readings
         }
@@ -101,3 +103,8 @@ class Episode:
             truncated = self.steps >= self.max_steps or self.world.stopped
             out[rid] = Outcome(self.observe(rid), float(r), reached or collided, truncated, info)
         return out
+
+
+def _powers(cmd: Any, spec: RobotSpec) -> Any:
+    """An agent's command in wheel powers (a ``Command.from_velocity`` through its chair's model)."""
+    return cmd.resolved(spec) if isinstance(cmd, Command) else cmd

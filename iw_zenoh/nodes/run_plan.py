@@ -131,7 +131,8 @@ class RunPlan:
                 c = self.child("ros2", name, *self._ros2_args(a.robots), *a.argv, *spec, "--name", name)
                 c.role = "agent"  # an agent all the same: started last, stopped first, its chairs its own
             else:
-                c = self.child("agent", name, a.program, *a.argv, *spec, "--name", name)
+                seed = ["--seed", str(sc.agent_seed(i))]  # before its args: a --seed of its own wins
+                c = self.child("agent", name, a.program, *seed, *a.argv, *spec, "--name", name)
             c.cwd, c.token = sc.base.resolve(), keys.chunk(name)
         if self.ids is not None:
             chair = {n: tuple(r) for n, r in bridge_robots(sc).items() if r is not None}  # the serial bridge's
