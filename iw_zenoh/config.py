@@ -27,7 +27,7 @@ from iw_zenoh.errors import ConfigError, MapError
 from iw_zenoh.maps import load_grid, load_lab
 from iw_zenoh.messages import Obstacle
 from iw_zenoh.sim.obstacles import Obstacles
-from iw_zenoh.specfile import SPEC_TABLE, check_spec, load_spec_file
+from iw_zenoh.specfile import SPEC_TABLE, check_spec, line_of, load_spec_file, renamed_field
 
 __all__ = [
     "AgentEntry",
@@ -394,7 +394,7 @@ def parse_scenario(text: str, base: Path, name: str = "scenario") -> Scenario:
         _exists(spec_file, "chair.spec")
         check_spec(load_spec_file(spec_file), where=f"chair.spec: {spec_file}: {SPEC_TABLE}")
         chair = msgspec.structs.replace(chair, spec=spec_file)
-    agents = tuple(_with_spec(a, i, base) for i, a in enumerate(sc.agents))
+    agents = tuple(_with_spec(a, i, base, text) for i, a in enumerate(sc.agents))
     fields = {**msgspec.structs.asdict(sc), "world": world, "bridge": bridge, "chair": chair, "agents": agents}
     return Scenario(**{**fields, "name": sc.name or name}, base=base)
 
@@ -405,12 +405,21 @@ def _beside(base: Path, path: Path | str) -> Path:
     return Path(os.path.normpath(base / path))
 
 
-def _with_spec(agent: AgentEntry, i: int, base: Path) -> AgentEntry:
-    """An agent whose spec is read (a file's table) and checked as a registration would be."""
+def _with_spec(agent: AgentEntry, i: int, base: Path, text: str) -> AgentEntry:
+    """An agent whose spec is read (a file's table) and checked as a registration would be; a
+    field of its own table under its name from before it carried its unit is refused at its line."""
     if agent.spec is None:
         return agent
     where = f"agents[{i}].spec"
     table = agent.spec
+    renamed = renamed_field(table) if isinstance(table, dict) else None
+    if renamed is not None:
+        line = line_of(text, renamed[1])
+        at = f"line {line}: " if line else ""
+        raise ConfigError(
+            f"{at}{where}{renamed[0]}",
+            f"{renamed[1]!r} is now {renamed[2]!r}: spec fields carry their units (docs/spec.md)",
+        )
     if isinstance(table, str):
         path = _beside(base, table)
         _exists(path, where)
