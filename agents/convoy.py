@@ -12,11 +12,11 @@ import argparse
 import math
 
 from iw_zenoh.agent import Command
+from iw_zenoh.agent.places import points_arg
 from iw_zenoh.core.motor import MAX_POWER
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.messages import Heard, SensorReading
-from iw_zenoh.places import points_arg
-from iw_zenoh.specfile import spec_with_args
+from iw_zenoh.scenario.specfile import spec_with_args
 
 from .waypoint import WaypointDriver, fine_chair
 

@@ -27,10 +27,10 @@ import math
 from dataclasses import dataclass, replace
 
 from iw_zenoh.agent import Command
+from iw_zenoh.agent.places import pose_arg
 from iw_zenoh.core.revolving import Drum
 from iw_zenoh.core.spec import IrSensorSpec, NoiseSpec, RobotSpec, RobotType, SensorNoise
 from iw_zenoh.messages import Heard, SensorReading
-from iw_zenoh.places import pose_arg
 
 from .passage import Arbiter, join, parse_all
 from .revolving import LeafAgent, leaves

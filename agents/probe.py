@@ -16,7 +16,7 @@ from pathlib import Path
 from iw_zenoh.agent import Command
 from iw_zenoh.core.spec import RobotSpec, prototype_sensors
 from iw_zenoh.messages import Heard, SensorReading
-from iw_zenoh.specfile import spec_with_args
+from iw_zenoh.scenario.specfile import spec_with_args
 
 CONES_4M = prototype_sensors(4.0)  # the core benchmark's chair
 

@@ -14,7 +14,7 @@ import numpy as np
 from iw_zenoh.agent import Command
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.messages import Heard, SensorReading
-from iw_zenoh.specfile import spec_with_args
+from iw_zenoh.scenario.specfile import spec_with_args
 
 __all__ = ["Wanderer", "add_arguments", "make"]
 

@@ -12,12 +12,12 @@ import argparse
 import math
 
 from iw_zenoh.agent import Command
+from iw_zenoh.agent.places import points_arg, pose_arg
 from iw_zenoh.core.motor import MAX_POWER
 from iw_zenoh.core.revolving import Drum
 from iw_zenoh.core.spec import NoiseSpec, RobotSpec, SensorNoise, prototype_chair, prototype_sensors
 from iw_zenoh.messages import Heard, SensorReading
-from iw_zenoh.places import points_arg, pose_arg
-from iw_zenoh.specfile import spec_with_args
+from iw_zenoh.scenario.specfile import spec_with_args
 
 from .passage import parse_all
 from .revolving import RevolvingPilot, mid_wheel_chair

@@ -32,13 +32,13 @@ import time
 from dataclasses import dataclass, replace
 
 from iw_zenoh.agent import Command
+from iw_zenoh.agent.places import parse_boxes, point_arg, pose_arg
 from iw_zenoh.core.lab import Lab
 from iw_zenoh.core.motor import MAX_POWER
 from iw_zenoh.core.spec import RobotSpec, RobotType, SensorNoise
 from iw_zenoh.maps import load_lab
 from iw_zenoh.messages import ChairReading, Heard, SensorReading
-from iw_zenoh.places import parse_boxes, point_arg, pose_arg
-from iw_zenoh.specfile import spec_with_args
+from iw_zenoh.scenario.specfile import spec_with_args
 
 from .autopilot import Autopilot, mapping_chair
 from .chairlink import SerialChair

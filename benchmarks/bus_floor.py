@@ -38,7 +38,7 @@ import zenoh  # noqa: E402
 
 from benchmarks import exit_on_sigterm, stop_all  # noqa: E402
 from iw_zenoh.bus import Inbox, ZenohBus  # noqa: E402
-from iw_zenoh.net import NetConfig, free_port, port_in_use, zenoh_config  # noqa: E402
+from iw_zenoh.bus.net import NetConfig, free_port, port_in_use, zenoh_config  # noqa: E402
 
 TICK_S = 0.1
 PAYLOAD = b"x" * 500  # about one chair's sensor reading

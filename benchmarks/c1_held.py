@@ -56,8 +56,8 @@ from benchmarks.parity import (  # noqa: E402
 )
 from iw_zenoh import keys  # noqa: E402
 from iw_zenoh.bus import Inbox, ZenohBus  # noqa: E402
+from iw_zenoh.bus.net import NetConfig, free_port, port_in_use  # noqa: E402
 from iw_zenoh.messages import Event, EventKind, Proposed, WorldState, decode, stamp_of  # noqa: E402
-from iw_zenoh.net import NetConfig, free_port, port_in_use  # noqa: E402
 from iw_zenoh.sim.config import WorldConfig  # noqa: E402
 
 PERIOD_MS = 50.0

@@ -38,7 +38,7 @@ import zenoh  # noqa: E402
 
 from benchmarks import exit_on_sigterm, stop_all  # noqa: E402
 from benchmarks.bus_floor import cpu_s, start_router  # noqa: E402
-from iw_zenoh.net import NetConfig, free_port, zenoh_config  # noqa: E402
+from iw_zenoh.bus.net import NetConfig, free_port, zenoh_config  # noqa: E402
 
 TICK_S = 0.1
 PROPOSAL = b"p" * 2000

@@ -30,6 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks import exit_on_sigterm, stop_all, workdir  # noqa: E402
 from iw_zenoh import keys  # noqa: E402
 from iw_zenoh.bus import Inbox, ZenohBus  # noqa: E402
+from iw_zenoh.bus.net import NetConfig, free_port, port_in_use  # noqa: E402
 from iw_zenoh.messages import (  # noqa: E402
     ActionBatch,
     Actions,
@@ -42,7 +43,6 @@ from iw_zenoh.messages import (  # noqa: E402
     decode,
     encode,
 )
-from iw_zenoh.net import NetConfig, free_port, port_in_use  # noqa: E402
 
 SIM = "flood"
 TARGET = 0.8  # the tick rate during the flood, as a share of the rate before

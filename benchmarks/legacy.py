@@ -32,7 +32,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks import exit_on_sigterm, stop_all  # noqa: E402
-from iw_zenoh.net import free_port, port_in_use  # noqa: E402
+from iw_zenoh.bus.net import free_port, port_in_use  # noqa: E402
 
 PERIOD_MS = 50.0
 TARGET_P99_MS = PERIOD_MS + 5.0

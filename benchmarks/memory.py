@@ -43,9 +43,9 @@ from benchmarks.floor import crowded_floor  # noqa: E402
 from benchmarks.scale import Run  # noqa: E402
 from iw_zenoh import keys  # noqa: E402
 from iw_zenoh.bus import Inbox, ZenohBus  # noqa: E402
+from iw_zenoh.bus.net import NetConfig  # noqa: E402
 from iw_zenoh.core.geometry import wrap_deg  # noqa: E402
 from iw_zenoh.messages import WorldState, decode  # noqa: E402
-from iw_zenoh.net import NetConfig  # noqa: E402
 
 TARGETS = {"agent_mb": 60.0, "all_roles_100_agents_mb": 6000.0, "start_s": 1.0, "soak_growth_pct": 5.0}
 SIM = "bench"  # the scale benchmark's simulation name

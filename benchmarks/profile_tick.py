@@ -132,7 +132,7 @@ STARTUP = (
     "_get_module_details",
     "warm_up",
     "ZenohBus.__init__",
-    "_parse (iw_zenoh/runtime.py",
+    "_parse (iw_zenoh/process/runtime.py",
     "AgentHost.add",
 )
 # leaves py-spy samples as busy while the thread waits in native code (a lock, Zenoh's own

@@ -36,8 +36,8 @@ from mcap.reader import make_reader  # noqa: E402
 from benchmarks import exit_on_sigterm  # noqa: E402
 from iw_zenoh import keys  # noqa: E402
 from iw_zenoh.bus import Inbox, ZenohBus  # noqa: E402
+from iw_zenoh.bus.net import NetConfig, free_port, port_in_use  # noqa: E402
 from iw_zenoh.messages import Actions, SensorReading, WorldState, encode  # noqa: E402
-from iw_zenoh.net import NetConfig, free_port, port_in_use  # noqa: E402
 from iw_zenoh.record.recording import Recorder  # noqa: E402
 from iw_zenoh.record.replay import sim_index  # noqa: E402
 

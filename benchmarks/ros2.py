@@ -33,10 +33,10 @@ import zenoh  # noqa: E402
 from benchmarks import exit_on_sigterm, stop_all, workdir  # noqa: E402
 from iw_zenoh import keys  # noqa: E402
 from iw_zenoh.bus import ZenohBus  # noqa: E402
+from iw_zenoh.bus.net import NetConfig, free_port, port_in_use  # noqa: E402
 from iw_zenoh.core.lab import Grid, GridPosition, Lab  # noqa: E402
 from iw_zenoh.maps import grid_to_xml, lab_to_xml  # noqa: E402
 from iw_zenoh.messages import WorldState, decode  # noqa: E402
-from iw_zenoh.net import NetConfig, free_port, port_in_use  # noqa: E402
 from iw_zenoh.ros2 import types as t  # noqa: E402
 
 SPEC = {"lasers": [{"id": 0, "fov_deg": 270, "beams": 64, "range_m": 10}]}

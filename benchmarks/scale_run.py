@@ -16,11 +16,11 @@ from pathlib import Path
 
 from benchmarks import stop_all
 from benchmarks.floor import crowded_floor
+from iw_zenoh.bus.net import NetConfig, free_port, port_in_use
 from iw_zenoh.core.geometry import wrap_deg
 from iw_zenoh.core.lab import Grid, GridPosition
 from iw_zenoh.maps import grid_to_xml, lab_to_xml
-from iw_zenoh.net import NetConfig, free_port, port_in_use
-from iw_zenoh.runtime import SUPERVISOR_ENV
+from iw_zenoh.process.runtime import SUPERVISOR_ENV
 from iw_zenoh.secure.certs import init_ca, issue
 from iw_zenoh.secure.cli import add_identity
 

@@ -37,8 +37,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks import exit_on_sigterm, stop_all  # noqa: E402
 from iw_zenoh import keys  # noqa: E402
 from iw_zenoh.bus import Inbox, ZenohBus  # noqa: E402
+from iw_zenoh.bus.net import NetConfig, free_port, port_in_use  # noqa: E402
 from iw_zenoh.messages import Actions, ChairReading, decode, encode  # noqa: E402
-from iw_zenoh.net import NetConfig, free_port, port_in_use  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SIM = "serialbench"

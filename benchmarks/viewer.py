@@ -38,8 +38,8 @@ from benchmarks import exit_on_sigterm, stop_all  # noqa: E402
 from benchmarks.chromium import CHROMIUM, INSTALL, launch  # noqa: E402
 from iw_zenoh import keys  # noqa: E402
 from iw_zenoh.bus import ZenohBus  # noqa: E402
+from iw_zenoh.bus.net import NetConfig, free_port, port_in_use  # noqa: E402
 from iw_zenoh.messages import LabMsg, RobotSpecMsg, Tick, WorldInfo, WorldState, encode  # noqa: E402
-from iw_zenoh.net import NetConfig, free_port, port_in_use  # noqa: E402
 
 SIM = "viewerbench"
 PERIOD_S = 0.1  # ten ticks a second

@@ -17,10 +17,10 @@ EXIT_PIPE_CLOSED = 141  # 128 + SIGPIPE: how a shell tool ends when its reader g
 
 COMMANDS: dict[str, tuple[str, str] | tuple[str, str, str]] = {
     "run": (
-        "iw_zenoh.nodes.launcher",
+        "iw_zenoh.launch.launcher",
         "start a scenario: router, world, collision, sensors, radio and agents, supervised",
     ),
-    "scenarios": ("iw_zenoh.shipped", "the scenarios that ship: list them, copy one to start your own"),
+    "scenarios": ("iw_zenoh.scenario.shipped", "the scenarios that ship: list them, copy one to start your own"),
     "router": ("iw_zenoh.nodes.router", "the Zenoh router the other processes connect to"),
     "world": ("iw_zenoh.nodes.world", "the world: clock, motors, kinematics, registration"),
     "collision": ("iw_zenoh.nodes.collision", "collision verdicts on every tick's proposed poses"),

@@ -1,2 +1,2 @@
 """Where recordings go by default; its one sample ships, installed as ``iw_zenoh.samples``
-(``iw_zenoh.shipped.sample_recording``): data only, no code."""
+(``iw_zenoh.scenario.shipped.sample_recording``): data only, no code."""

@@ -39,8 +39,8 @@ def _reading(
 
 def test_everything_an_agent_needs_comes_from_one_module() -> None:
     import iw_zenoh.agent as api
+    from iw_zenoh.agent.hosting import Command
     from iw_zenoh.core import motor, spec
-    from iw_zenoh.hosting import Command
     from iw_zenoh.messages import Heard
 
     for name in ("Agent", "Command", "Spec", "Readings", "Heard", "Pose", "SensorNoise", "point_arg", "MAX_POWER"):
@@ -173,7 +173,7 @@ def test_the_host_turns_a_velocity_into_the_registered_chairs_powers_and_calls_t
 
 def test_an_agent_without_hooks_is_none_of_the_hook_protocols() -> None:
     from iw_zenoh.agent import AttachTo, OnChair, OnRegistered
-    from iw_zenoh.hooks import attached_to
+    from iw_zenoh.agent.hooks import attached_to
 
     class Plain:
         def spec(self) -> None: ...
@@ -207,8 +207,8 @@ args = ["--seed", "9"]
 
 
 def _seeds(tmp_path: Path, world_seed: int) -> list[int]:
-    from iw_zenoh.config import parse_scenario
-    from iw_zenoh.nodes.launcher import Launcher
+    from iw_zenoh.launch.launcher import Launcher
+    from iw_zenoh.scenario.file import parse_scenario
 
     sc = parse_scenario(SEEDED.format(map=ROOT / "maps" / "open-room.xml", seed=world_seed), tmp_path)
     launcher = Launcher(sc, port=7447, log_dir=tmp_path, status=False)
@@ -233,7 +233,7 @@ def test_iwz_run_hands_every_agent_a_seed_of_its_own_from_the_worlds(tmp_path: P
 def test_every_agent_program_takes_a_seed_and_one_with_its_own_keeps_it() -> None:
     import argparse
 
-    from iw_zenoh.agent_programs import add_seed_argument, find_program
+    from iw_zenoh.agent.programs import add_seed_argument, find_program
 
     for name, own in (("waypoint", False), ("wanderer", True)):
         p = argparse.ArgumentParser()

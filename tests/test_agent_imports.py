@@ -14,7 +14,7 @@ import sys
 
 import pytest
 
-from iw_zenoh.agent_programs import available
+from iw_zenoh.agent.programs import available
 
 # what a light agent must never load: compiled kernels, plotting, geometry, XML maps, recording, viewer
 HEAVY = ("numba", "llvmlite", "matplotlib", "shapely", "scipy", "lxml", "mcap", "aiohttp", "foxglove")
@@ -22,7 +22,7 @@ HEAVY = ("numba", "llvmlite", "matplotlib", "shapely", "scipy", "lxml", "mcap", 
 START_UP = """
 import argparse, json, sys
 from iw_zenoh.nodes import agents  # what `iwz agent` imports
-from iw_zenoh.agent_programs import add_spec_arguments, find_program, make_with_spec
+from iw_zenoh.agent.programs import add_spec_arguments, find_program, make_with_spec
 from iw_zenoh.convert import spec_to_msg
 from iw_zenoh.messages import SensorReading, encode
 
@@ -69,7 +69,7 @@ def test_a_light_agent_process_loads_no_kernels_plotting_geometry_or_viewer(prog
 def test_an_agent_process_imports_no_other_program() -> None:
     script = (
         "import sys\n"
-        "from iw_zenoh.agent_programs import find_program\n"
+        "from iw_zenoh.agent.programs import find_program\n"
         "find_program('waypoint')\n"
         "print(' '.join(m.rsplit('.', 1)[1] for m in sys.modules if m.startswith('iw_zenoh.agents.')))"
     )

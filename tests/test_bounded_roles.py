@@ -16,13 +16,13 @@ from iw_zenoh.bridges.ciberrato.scoring import Mode
 
 from iw_zenoh import keys
 from iw_zenoh.agent import BATCHES_KEPT, HEARD_KEPT, AgentHost
+from iw_zenoh.agent.hosting import KEYS_KEPT, Command, Outbox
 from iw_zenoh.bus import INBOX_KEPT, NEWEST_KEPT, Inbox
-from iw_zenoh.config import Criteria, Reach
 from iw_zenoh.convert import spec_from_msg
 from iw_zenoh.core.lab import Grid, GridPosition, Lab, Scene
 from iw_zenoh.core.params import SimParameters
 from iw_zenoh.core.spec import RobotSpec
-from iw_zenoh.hosting import KEYS_KEPT, Command, Outbox
+from iw_zenoh.launch.tally import Tally
 from iw_zenoh.messages import (
     Actions,
     Event,
@@ -39,9 +39,9 @@ from iw_zenoh.messages import (
     encode,
 )
 from iw_zenoh.nodes import foxglove_live
-from iw_zenoh.nodes.tally import Tally
+from iw_zenoh.process.runtime import NodeIO
 from iw_zenoh.record.foxglove import SceneBuilder
-from iw_zenoh.runtime import NodeIO
+from iw_zenoh.scenario.file import Criteria, Reach
 from iw_zenoh.secure.denials import KEPT, REPEAT_NS, DenialLog
 from iw_zenoh.sim.config import WorldConfig
 from iw_zenoh.sim.obstacles import MAX_OBSTACLES, Obstacles

@@ -8,6 +8,7 @@ import pytest
 from iw_zenoh.bridges.ciberrato import clients
 from iw_zenoh.bridges.ciberrato.transport import Viewer
 
+from iw_zenoh.bus.publishers import Publishers
 from iw_zenoh.convert import spec_from_msg
 from iw_zenoh.core.lab import Grid, GridPosition, Lab, Scene
 from iw_zenoh.messages import (
@@ -22,7 +23,6 @@ from iw_zenoh.messages import (
     WorldInfo,
     make_event,
 )
-from iw_zenoh.publishers import Publishers
 from iw_zenoh.sim.config import WorldConfig
 from iw_zenoh.sim.sensors import SensorsNode
 from iw_zenoh.sim.view import WorldView

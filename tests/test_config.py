@@ -4,8 +4,8 @@ from pathlib import Path
 
 import pytest
 
-from iw_zenoh.config import load_scenario, parse_scenario
 from iw_zenoh.errors import ConfigError
+from iw_zenoh.scenario.file import load_scenario, parse_scenario
 
 MAPS = Path(__file__).resolve().parents[1] / "maps"
 

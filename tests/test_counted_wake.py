@@ -7,7 +7,7 @@ from __future__ import annotations
 import threading
 
 from iw_zenoh.bus import Delivery, Inbox
-from iw_zenoh.wake import CountedWake
+from iw_zenoh.bus.wake import CountedWake
 
 
 def _d(i: int) -> Delivery:

@@ -8,7 +8,7 @@ import threading
 
 import pytest
 
-from iw_zenoh.fairbox import FairInbox
+from iw_zenoh.bus.fairbox import FairInbox
 
 
 def test_a_flooded_key_keeps_its_newest_and_another_keys_delivery_survives() -> None:
@@ -73,7 +73,7 @@ def test_len_wait_and_lost_see_the_keys_waiting() -> None:
 
 
 def test_drops_are_logged_at_most_once_a_second_with_their_count(caplog: pytest.LogCaptureFixture) -> None:
-    caplog.set_level(logging.WARNING, logger="iw_zenoh.fairbox")
+    caplog.set_level(logging.WARNING, logger="iw_zenoh.bus.fairbox")
     box = FairInbox(1, name="the test's inbox")
     for k in range(5):
         box.put(("robot/1/actions", str(k).encode(), 0))

@@ -10,8 +10,8 @@ import pytest
 
 from iw_zenoh import keys
 from iw_zenoh.agent import AgentHost
+from iw_zenoh.agent.hosting import Command
 from iw_zenoh.core.spec import RobotSpec
-from iw_zenoh.hosting import Command
 from iw_zenoh.messages import (
     Actions,
     Hear,

@@ -15,9 +15,10 @@ PACKAGE = Path(__file__).resolve().parents[1] / "iw_zenoh"
 IMPURE = (
     "zenoh",
     "iw_zenoh.bus",
-    "iw_zenoh.net",
+    "iw_zenoh.bus.net",
     "iw_zenoh.nodes",
-    "iw_zenoh.runtime",
+    "iw_zenoh.launch",
+    "iw_zenoh.process",
     "socket",
     "time",
     "os",
@@ -26,7 +27,7 @@ IMPURE = (
     "selectors",
     "serial",
 )
-WIRING = ("iw_zenoh.nodes",)
+WIRING = ("iw_zenoh.nodes", "iw_zenoh.launch")
 
 
 def _modules(*parts: str) -> list[Path]:

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from iw_zenoh.bus.net import NetConfig, build_config
 from iw_zenoh.errors import ConfigError
-from iw_zenoh.net import NetConfig, build_config
 from iw_zenoh.secure.certs import init_ca, issue
 
 
@@ -96,7 +96,7 @@ def test_an_agents_own_policy_option_is_not_the_routers_security_policy() -> Non
     # agent with "only the router enforces a policy": every door scenario failed to start
     import argparse
 
-    from iw_zenoh.cliargs import add_common_arguments, net_from_args
+    from iw_zenoh.process.cliargs import add_common_arguments, net_from_args
 
     door = argparse.ArgumentParser()
     add_common_arguments(door)

@@ -8,8 +8,7 @@ import importlib
 
 import pytest
 
-from iw_zenoh.core.lab import Wall
-from iw_zenoh.places import (
+from iw_zenoh.agent.places import (
     BOXES_FORM,
     POINT_FORM,
     POINTS_FORM,
@@ -19,6 +18,7 @@ from iw_zenoh.places import (
     parse_points,
     parse_pose,
 )
+from iw_zenoh.core.lab import Wall
 
 
 def test_a_pose_a_point_and_waypoints_are_read() -> None:

@@ -7,9 +7,9 @@ import time
 
 import pytest
 
-from iw_zenoh import runtime
 from iw_zenoh.errors import DecodeError
 from iw_zenoh.messages import Event, decode
+from iw_zenoh.process import runtime
 from tests.bridges.fakes import FakeBus
 
 

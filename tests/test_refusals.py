@@ -6,7 +6,7 @@ from __future__ import annotations
 from hypothesis import given
 from hypothesis import strategies as st
 
-from iw_zenoh.refusals import PERIOD_NS, RefusalLimiter, counted
+from iw_zenoh.bus.refusals import PERIOD_NS, RefusalLimiter, counted
 
 S = PERIOD_NS
 

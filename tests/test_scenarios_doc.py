@@ -5,7 +5,7 @@ from pathlib import Path
 import msgspec
 import pytest
 
-from iw_zenoh import config
+from iw_zenoh.scenario import file as config
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "scenarios.md"
 

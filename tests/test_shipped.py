@@ -1,4 +1,4 @@
-"""The scenarios, maps and sample recording that ship with the package (iw_zenoh.shipped)."""
+"""The scenarios, maps and sample recording that ship with the package (iw_zenoh.scenario.shipped)."""
 
 from __future__ import annotations
 
@@ -6,10 +6,10 @@ from pathlib import Path
 
 import pytest
 
-from iw_zenoh import shipped
 from iw_zenoh.cli import main as iwz
-from iw_zenoh.config import load_scenario
 from iw_zenoh.errors import ConfigError
+from iw_zenoh.scenario import shipped
+from iw_zenoh.scenario.file import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 

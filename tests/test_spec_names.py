@@ -15,7 +15,6 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from iw_zenoh.config import parse_scenario
 from iw_zenoh.convert import spec_from_msg
 from iw_zenoh.core.spec import IrSensorSpec, LaserSpec, RobotSpec
 from iw_zenoh.errors import ConfigError, DecodeError
@@ -29,7 +28,8 @@ from iw_zenoh.messages import (
     WorldInfo,
     decode,
 )
-from iw_zenoh.specfile import apply_spec, load_spec_file
+from iw_zenoh.scenario.file import parse_scenario
+from iw_zenoh.scenario.specfile import apply_spec, load_spec_file
 
 ROOT = Path(__file__).resolve().parents[1]
 OLD = {"width": 1.2, "height": 0.7, "x": 2.0, "y": 3.0, "dir": 45.0, "max_speed": 0.8, "beacon_height": 0.5}

@@ -11,13 +11,13 @@ from pathlib import Path
 import msgspec
 import pytest
 
-from iw_zenoh.agent_programs import add_spec_arguments, find_program, make_with_spec
-from iw_zenoh.config import parse_scenario
+from iw_zenoh.agent.programs import add_spec_arguments, find_program, make_with_spec
 from iw_zenoh.convert import spec_to_msg
 from iw_zenoh.core.spec import RobotSpec, prototype_chair
 from iw_zenoh.errors import ConfigError
 from iw_zenoh.messages import RobotSpecMsg, SensorNoiseMsg
-from iw_zenoh.specfile import apply_spec, load_spec_file
+from iw_zenoh.scenario.file import parse_scenario
+from iw_zenoh.scenario.specfile import apply_spec, load_spec_file
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "maps" / "chair.toml"
@@ -159,7 +159,7 @@ def test_docs_spec_names_every_registration_field_and_noise_kind() -> None:
 
 
 def test_iwz_run_hands_a_scenarios_spec_to_its_agent_and_to_the_serial_chair(tmp_path: Path) -> None:
-    from iw_zenoh.nodes.launcher import Launcher
+    from iw_zenoh.launch.launcher import Launcher
 
     (tmp_path / "m.xml").write_text('<Lab Name="m" Width="10" Height="5"></Lab>')
     (tmp_path / "chair.toml").write_text(EXAMPLE.read_text())

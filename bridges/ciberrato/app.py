@@ -10,8 +10,8 @@ from iw_zenoh.core.params import SimParameters
 from iw_zenoh.errors import IwError
 from iw_zenoh.maps import load_parameters
 from iw_zenoh.nodes.role_options import BridgeOptions
-from iw_zenoh.options import options_from_args
-from iw_zenoh.runtime import Process, start_role
+from iw_zenoh.process.options import options_from_args
+from iw_zenoh.process.runtime import Process, start_role
 
 from .node import Bridge
 from .options import DESCRIPTION, EPILOG, add_arguments

@@ -11,7 +11,7 @@ from iw_zenoh import keys
 from iw_zenoh.bus import Queue
 from iw_zenoh.errors import IwError, ProtocolError
 from iw_zenoh.messages import Message, RadioBatch, SensorBatch, Tick, Verdict, WorldInfo, WorldState, decode
-from iw_zenoh.runtime import NodeIO
+from iw_zenoh.process.runtime import NodeIO
 from iw_zenoh.ticks import TickWindow
 
 from .transport import QueueBus

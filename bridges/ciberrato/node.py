@@ -22,10 +22,10 @@ import logging
 import time
 
 from iw_zenoh import keys
+from iw_zenoh.agent.hosting import Outbox
 from iw_zenoh.convert import grid_from_msg, lab_from_msg
 from iw_zenoh.core.params import SimParameters
 from iw_zenoh.errors import ProtocolError
-from iw_zenoh.hosting import Outbox
 from iw_zenoh.maps import grid_to_xml, lab_to_xml
 from iw_zenoh.messages import (
     Control,
@@ -36,7 +36,7 @@ from iw_zenoh.messages import (
     Say,
     SensorReading,
 )
-from iw_zenoh.runtime import NodeIO
+from iw_zenoh.process.runtime import NodeIO
 from iw_zenoh.ticks import TickWindow
 
 from .clients import ROBOT_QUIET_S, ClientTable

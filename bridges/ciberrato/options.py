@@ -1,14 +1,14 @@
 """The flags of ``iwz bridge ciberrato``, each filling a field of its options
 (:class:`~iw_zenoh.nodes.role_options.BridgeOptions`, declared beside the other roles' so that
 ``iwz run`` builds them without importing the bridge); ``--sim``, ``--name``, ``-v`` and the
-network flags are every role's (:func:`iw_zenoh.runtime.start_role`)."""
+network flags are every role's (:func:`iw_zenoh.process.runtime.start_role`)."""
 
 from __future__ import annotations
 
 import argparse
 
 from iw_zenoh.nodes.role_options import BridgeOptions
-from iw_zenoh.options import Flag, add_option_flags
+from iw_zenoh.process.options import Flag, add_option_flags
 
 __all__ = ["DESCRIPTION", "EPILOG", "BridgeOptions", "add_arguments"]
 

@@ -12,12 +12,12 @@ import time
 from collections.abc import Collection
 from dataclasses import dataclass
 
+from iw_zenoh.agent.hosting import WorldRegistration
 from iw_zenoh.bus import Bus
 from iw_zenoh.convert import spec_to_msg
 from iw_zenoh.core.params import SimParameters
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import IwError
-from iw_zenoh.hosting import WorldRegistration
 from iw_zenoh.messages import RegisterReply, RegisterRequest, WorldInfo
 
 from .registration import Registration, registration_spec

@@ -12,8 +12,8 @@ import collections
 from dataclasses import dataclass, field
 from typing import Any
 
+from iw_zenoh.agent.hosting import Command
 from iw_zenoh.core.params import SimParameters
-from iw_zenoh.hosting import Command
 from iw_zenoh.messages import SensorReading
 
 from .codec import ActionsFrame, Measures, Score, build_measures

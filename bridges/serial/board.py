@@ -20,7 +20,7 @@ from iw_zenoh.agents.emulated import LocalWorld
 
 from iw_zenoh.core.lab import Lab
 from iw_zenoh.core.spec import NoiseSpec, RobotSpec, RobotType
-from iw_zenoh.specfile import SPEC_TABLE, apply_spec, load_spec_file
+from iw_zenoh.scenario.specfile import SPEC_TABLE, apply_spec, load_spec_file
 
 from .protocol import (
     FLAG_ESTOP,

@@ -25,11 +25,11 @@ from typing import TextIO
 
 import numpy as np
 
+from iw_zenoh.agent.places import parse_boxes
 from iw_zenoh.core.lab import Lab
 from iw_zenoh.errors import IwError
 from iw_zenoh.maps import load_lab
-from iw_zenoh.places import parse_boxes
-from iw_zenoh.runtime import install_stop_signals, setup_logging, watch_supervisor
+from iw_zenoh.process.runtime import install_stop_signals, setup_logging, watch_supervisor
 
 from .board import WATCHDOG_S, Board, chair_spec
 from .line import Line, LinkLost, PtyLine, SerialLine

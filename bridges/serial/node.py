@@ -24,7 +24,7 @@ from iw_zenoh.agent import AgentHost, Command, RegistrationRefused
 from iw_zenoh.bus import Bus, Inbox
 from iw_zenoh.core.spec import NoiseSpec, RobotSpec, SensorNoise
 from iw_zenoh.messages import Actions, ChairReading, Control, EventKind, Heard, SensorReading, SerialLinkData
-from iw_zenoh.runtime import Process, start_role
+from iw_zenoh.process.runtime import Process, start_role
 
 from .board import chair_spec
 from .bridge import BridgeCore, WheelOdometry, ranges_m, watchdog, wheels

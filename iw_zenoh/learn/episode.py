@@ -10,8 +10,8 @@ from typing import Any
 
 import numpy as np
 
+from iw_zenoh.agent.hosting import Command
 from iw_zenoh.core.spec import RobotSpec
-from iw_zenoh.hosting import Command
 from iw_zenoh.learn.nav import Goal, Reward, Senses, goal_distance, to_powers
 from iw_zenoh.sim.local import LocalWorld, Step
 

@@ -22,7 +22,6 @@ import gymnasium as gym
 import numpy as np
 from pettingzoo import ParallelEnv
 
-from iw_zenoh.config import load_scenario
 from iw_zenoh.core.lab import Lab
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import IwError
@@ -32,6 +31,7 @@ from iw_zenoh.learn.nav import ACTIONS, Goal, Reward, Senses, clearance_m
 from iw_zenoh.learn.render import frame
 from iw_zenoh.learn.rooms import free_point, random_room
 from iw_zenoh.learn.scenario import build
+from iw_zenoh.scenario.file import load_scenario
 from iw_zenoh.sim.local import LocalWorld
 
 __all__ = ["ChairsEnv", "parallel_env"]

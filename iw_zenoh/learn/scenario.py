@@ -20,15 +20,15 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from iw_zenoh.agent_programs import add_seed_argument, add_spec_arguments, find_program, make_with_spec
-from iw_zenoh.config import Scenario, load_scenario
+from iw_zenoh.agent.hooks import OnRegistered
+from iw_zenoh.agent.programs import add_seed_argument, add_spec_arguments, find_program, make_with_spec
 from iw_zenoh.core.lab import Grid
 from iw_zenoh.errors import IwError
-from iw_zenoh.hooks import OnRegistered
 from iw_zenoh.learn.episode import Episode
 from iw_zenoh.learn.nav import ACTIONS, Goal, Reward, Senses
 from iw_zenoh.learn.render import frame
 from iw_zenoh.maps import load_grid, load_lab
+from iw_zenoh.scenario.file import Scenario, load_scenario
 from iw_zenoh.sim.local import LocalWorld
 
 __all__ = ["SCENARIO_ID", "ScenarioEnv", "build", "make_env"]

@@ -1,7 +1,7 @@
 """``iwz agent PROGRAM [options]``: runs the agents of one program in one process: a program
 that ships (a module of ``iw_zenoh.agents`` with ``add_arguments(parser)`` and ``make(args) ->
 list[Agent]``) or one from the user's own file (``./my_agent.py[:Name]``, see
-:mod:`iw_zenoh.agent_programs` and ``docs/first-agent.md``)."""
+:mod:`iw_zenoh.agent.programs` and ``docs/first-agent.md``)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,8 @@ from collections.abc import Sequence
 
 from iw_zenoh import keys
 from iw_zenoh.agent import BATCH_FROM, Agent, AgentHost, RegistrationRefused
-from iw_zenoh.agent_programs import (
+from iw_zenoh.agent.hooks import attached_to
+from iw_zenoh.agent.programs import (
     ProgramError,
     add_seed_argument,
     add_spec_arguments,
@@ -22,8 +23,7 @@ from iw_zenoh.agent_programs import (
     make_with_spec,
     program_label,
 )
-from iw_zenoh.hooks import attached_to
-from iw_zenoh.runtime import Process, start_role
+from iw_zenoh.process.runtime import Process, start_role
 
 __all__ = ["available", "main"]
 

@@ -13,7 +13,7 @@ from iw_zenoh.core.contact import warm_up
 from iw_zenoh.errors import ProtocolError
 from iw_zenoh.messages import Proposed
 from iw_zenoh.nodes.info import InfoCache
-from iw_zenoh.runtime import NodeIO, start_role
+from iw_zenoh.process.runtime import NodeIO, start_role
 from iw_zenoh.sim.collision import CollisionNode
 from iw_zenoh.sim.view import WorldView
 from iw_zenoh.ticks import ViewWindow

@@ -20,7 +20,7 @@ from iw_zenoh import keys
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import Control, Event, Tick, WorldInfo, decode
 from iw_zenoh.nodes.ctl_requests import COMMANDS, Answer, Request, answer_to, parse_request, resolve_move
-from iw_zenoh.runtime import Process, start_role
+from iw_zenoh.process.runtime import Process, start_role
 from iw_zenoh.secure.diagnose import control_denied
 
 __all__ = ["EXIT_DENIED", "EXIT_NO_ANSWER", "EXIT_REFUSED", "main"]

@@ -30,14 +30,14 @@ from foxglove.websocket import ChannelView, Client, ServerListener
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Asked, Delivery, Handle, Inbox
+from iw_zenoh.bus.publishers import Publishers
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import WorldInfo, decode
 from iw_zenoh.nodes.foxglove_gate import FoxgloveGate
 from iw_zenoh.nodes.world_seal import seal_key, sealed
-from iw_zenoh.publishers import Publishers
+from iw_zenoh.process.runtime import NodeIO, Process, start_role
 from iw_zenoh.record.channels import ChannelSpec, Derivation, key_channel
 from iw_zenoh.record.foxglove import SCENE_TOPIC, TF_TOPIC
-from iw_zenoh.runtime import NodeIO, Process, start_role
 from iw_zenoh.viewer.guard import is_loopback
 
 __all__ = ["DEFAULT_PORT", "FoxgloveLive", "InfoLatch", "main", "start_foxglove_live"]

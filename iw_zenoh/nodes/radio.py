@@ -18,8 +18,8 @@ from iw_zenoh.core.modes import Profile
 from iw_zenoh.errors import IwError, ProtocolError
 from iw_zenoh.messages import Proposed, Say, WorldInfo, WorldState, decode
 from iw_zenoh.nodes.role_options import RadioOptions, add_radio_arguments
-from iw_zenoh.options import options_from_args
-from iw_zenoh.runtime import NodeIO, start_role
+from iw_zenoh.process.options import options_from_args
+from iw_zenoh.process.runtime import NodeIO, start_role
 from iw_zenoh.sim.early import Verdicts, state_from_proposal
 from iw_zenoh.sim.radio import RadioConfig, RadioNode
 from iw_zenoh.ticks import TickWindow

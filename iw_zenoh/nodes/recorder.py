@@ -33,9 +33,9 @@ from typing import IO, TYPE_CHECKING
 from iw_zenoh import __version__, keys
 from iw_zenoh.bus import Asked, Queue, ZenohBus
 from iw_zenoh.nodes.role_options import RecorderOptions, add_recorder_arguments
-from iw_zenoh.options import options_from_args
+from iw_zenoh.process.options import options_from_args
+from iw_zenoh.process.runtime import NodeIO, Process, start_role
 from iw_zenoh.record.parts import PART_META, next_part
-from iw_zenoh.runtime import NodeIO, Process, start_role
 
 if TYPE_CHECKING:
     from iw_zenoh.record.recording import Recorder

@@ -13,11 +13,11 @@ from pathlib import Path
 
 from iw_zenoh import keys
 from iw_zenoh.errors import IwError
+from iw_zenoh.process.runtime import Process, start_role
 from iw_zenoh.record.checksums import in_words
 from iw_zenoh.record.progress import Progress
 from iw_zenoh.record.reader import file_error, open_recording, print_notes
 from iw_zenoh.record.replay import Player, ReplayOptions
-from iw_zenoh.runtime import Process, start_role
 
 __all__ = ["main"]
 

@@ -5,7 +5,7 @@
 Apart from the processes themselves (as :mod:`iw_zenoh.nodes.world_options` is for the world) so
 that ``iwz run`` builds each role's options from a scenario without importing the role's loop
 (the sensors' kernels, the recorder's writer), and with no numpy: a restarted recorder listens
-as soon as it can. Each role reads them with :func:`iw_zenoh.options.options_from_args`, from
+as soon as it can. Each role reads them with :func:`iw_zenoh.process.options.options_from_args`, from
 its flags or whole from ``--options JSON``.
 """
 
@@ -16,7 +16,7 @@ from typing import Annotated, Any, Literal
 
 import msgspec
 
-from iw_zenoh.options import Flag, add_option_flags
+from iw_zenoh.process.options import Flag, add_option_flags
 
 __all__ = [
     "BridgeOptions",

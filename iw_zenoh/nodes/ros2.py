@@ -25,18 +25,18 @@ from typing import Any
 
 from iw_zenoh import keys
 from iw_zenoh.agent import AgentHost, RegistrationRefused
-from iw_zenoh.agent_programs import add_spec_arguments, make_with_spec
+from iw_zenoh.agent.hosting import Command
+from iw_zenoh.agent.programs import add_spec_arguments, make_with_spec
 from iw_zenoh.bus import Bus
 from iw_zenoh.core.motor import powers_for_twist
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import DecodeError, IwError
-from iw_zenoh.hosting import Command
 from iw_zenoh.messages import Heard, SensorReading, WorldInfo, WorldState
 from iw_zenoh.nodes.ros2_link import Ros2Link, Ros2Publisher, Sample
+from iw_zenoh.process.runtime import NodeIO, Process, start_role
 from iw_zenoh.ros2 import convert, graph
 from iw_zenoh.ros2 import types as t
 from iw_zenoh.ros2.chair import CLOCK_TOPIC, TF_TOPIC, ChairTopics, namespace_of
-from iw_zenoh.runtime import NodeIO, Process, start_role
 
 __all__ = ["CMD_TIMEOUT_S", "Ros2Chair", "main"]
 

@@ -20,7 +20,7 @@ from collections.abc import Sequence
 import json5
 import zenoh
 
-from iw_zenoh.runtime import Process, start_role
+from iw_zenoh.process.runtime import Process, start_role
 from iw_zenoh.secure.denials import DenialLog
 
 __all__ = ["main"]

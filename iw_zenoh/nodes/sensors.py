@@ -27,7 +27,7 @@ from iw_zenoh.errors import ProtocolError
 from iw_zenoh.messages import Proposed, WorldState, encode_sensor_batch
 from iw_zenoh.nodes.info import InfoCache
 from iw_zenoh.nodes.role_options import SensorsOptions, add_sensors_arguments, parse_shard
-from iw_zenoh.runtime import NodeIO, options_from_args, start_role
+from iw_zenoh.process.runtime import NodeIO, options_from_args, start_role
 from iw_zenoh.sim.early import Verdicts
 from iw_zenoh.sim.sensors import Computed, SensorsNode
 from iw_zenoh.sim.view import WorldView

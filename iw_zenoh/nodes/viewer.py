@@ -15,8 +15,8 @@ from aiohttp import web
 from iw_zenoh.errors import IwError
 from iw_zenoh.nodes.foxglove_live import DEFAULT_PORT as FOXGLOVE_PORT
 from iw_zenoh.nodes.foxglove_live import FoxgloveLive, start_foxglove_live
+from iw_zenoh.process.runtime import Process, start_role
 from iw_zenoh.record.reader import file_error
-from iw_zenoh.runtime import Process, start_role
 from iw_zenoh.viewer.feed import Feed
 from iw_zenoh.viewer.guard import Access, is_loopback
 from iw_zenoh.viewer.server import MAX_PAGES, make_app

@@ -14,11 +14,12 @@ from collections.abc import Callable, Sequence
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus, PendingQuery
-from iw_zenoh.clock import Clock, WallClock
+from iw_zenoh.bus.clock import Clock, WallClock
+from iw_zenoh.bus.fairbox import FairInbox
+from iw_zenoh.bus.wake import CountedWake
 from iw_zenoh.core.lab import Grid
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.errors import IwError
-from iw_zenoh.fairbox import FairInbox
 from iw_zenoh.maps import load_grid, load_lab
 from iw_zenoh.messages import (
     ActionBatch,
@@ -37,13 +38,12 @@ from iw_zenoh.messages import (
 )
 from iw_zenoh.nodes.world_options import WorldOptions, add_arguments, parse_obstacle
 from iw_zenoh.nodes.world_seal import seal, seal_key
-from iw_zenoh.runtime import NodeIO, Process, options_from_args, start_role
+from iw_zenoh.process.runtime import NodeIO, Process, options_from_args, start_role
 from iw_zenoh.sim.config import MS, WorldConfig
 from iw_zenoh.sim.registry import MAX_ROBOTS
 from iw_zenoh.sim.resume import resume
 from iw_zenoh.sim.world import WorldCore
 from iw_zenoh.ticks import too_far_ahead
-from iw_zenoh.wake import CountedWake
 
 __all__ = ["WorldOptions", "add_arguments", "main", "parse_obstacle", "prepare", "run", "world_config"]
 
@@ -235,7 +235,7 @@ class _World:
 
         ``needed`` (lock-step, the actions inbox held): how many actions messages could still
         complete the wait; the actions inbox then wakes the loop once that many came since the
-        last pump (:class:`~iw_zenoh.wake.CountedWake`): one wake-up per tick, not one per robot.
+        last pump (:class:`~iw_zenoh.bus.wake.CountedWake`): one wake-up per tick, not one per robot.
         Every other inbox, and the poll, wake it as before."""
         counted = self.actions_wake
         while not self.io.stop.is_set():

@@ -11,12 +11,12 @@ from typing import Annotated
 
 import msgspec
 
-from iw_zenoh.config import DURATION_S_MAX, PERIOD_MS, Scenario
 from iw_zenoh.core.modes import Mode, Profile, Silence
 from iw_zenoh.errors import ConfigError, IwError
+from iw_zenoh.launch.secure_run import SERIAL_BRIDGE, agent_name, asked_id
 from iw_zenoh.messages import Obstacle
-from iw_zenoh.nodes.secure_run import SERIAL_BRIDGE, agent_name, asked_id
-from iw_zenoh.options import Flag, add_option_flags, option, options_from_argv
+from iw_zenoh.process.options import Flag, add_option_flags, option, options_from_argv
+from iw_zenoh.scenario.file import DURATION_S_MAX, PERIOD_MS, Scenario
 from iw_zenoh.secure.policy import load_policy, owners
 from iw_zenoh.sim.config import WorldConfig
 from iw_zenoh.sim.resume import WorldSnapshot

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import IO, Any
 
 from iw_zenoh import keys
-from iw_zenoh.agent_programs import add_seed_argument, add_spec_arguments, find_program, make_with_spec
+from iw_zenoh.agent.programs import add_seed_argument, add_spec_arguments, find_program, make_with_spec
 from iw_zenoh.convert import grid_from_msg, lab_from_msg
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.errors import IwError

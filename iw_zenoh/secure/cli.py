@@ -14,8 +14,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from iw_zenoh import keys
+from iw_zenoh.bus.net import DEFAULT_TLS_ENDPOINT, NetConfig, config_values
 from iw_zenoh.errors import ConfigError, IwError
-from iw_zenoh.net import DEFAULT_TLS_ENDPOINT, NetConfig, config_values
 from iw_zenoh.secure.certs import init_ca, issue
 from iw_zenoh.secure.grants import POLICY_ROLES
 from iw_zenoh.secure.policy import load_policy, parse_policy

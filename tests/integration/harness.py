@@ -15,8 +15,8 @@ from typing import TypeVar
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Inbox, ZenohBus
+from iw_zenoh.bus.net import NetConfig, free_port, port_in_use
 from iw_zenoh.messages import Event, Message, RegisterReply, RegisterRequest, RobotSpecMsg, WorldState, decode, encode
-from iw_zenoh.net import NetConfig, free_port, port_in_use
 
 M = TypeVar("M", bound=Message)
 ROOT = Path(__file__).resolve().parents[2]

@@ -10,8 +10,8 @@ import sys
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Inbox, ZenohBus
+from iw_zenoh.bus.net import NetConfig
 from iw_zenoh.messages import WorldState, decode
-from iw_zenoh.net import NetConfig
 
 
 def main() -> int:

@@ -12,8 +12,8 @@ from typing import Any
 import pytest
 
 from iw_zenoh import keys
+from iw_zenoh.bus.net import free_port
 from iw_zenoh.messages import RobotSpecMsg, SensorReading, Tick, WorldInfo, WorldState, decode
-from iw_zenoh.net import free_port
 from tests.integration.harness import Net, Proc, register, subscribe, wait_alive, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(180)]

@@ -15,8 +15,8 @@ import pytest
 
 from iw_zenoh import keys
 from iw_zenoh.bus import ZenohBus
+from iw_zenoh.bus.net import NetConfig, free_port
 from iw_zenoh.messages import WorldState
-from iw_zenoh.net import NetConfig, free_port
 from iw_zenoh.record.reader import RecordingReader
 from tests.integration.harness import ROOT, stop_run, subscribe, wait_event, wait_msg
 

@@ -19,14 +19,14 @@ from websockets.typing import Origin, Subprotocol
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Inbox
+from iw_zenoh.bus.net import free_port, port_in_use
 from iw_zenoh.messages import LabMsg, WorldInfo, WorldState, decode, encode
-from iw_zenoh.net import free_port, port_in_use
 from iw_zenoh.nodes.foxglove_gate import SDK
 from iw_zenoh.nodes.foxglove_live import start_foxglove_live
 from iw_zenoh.nodes.world_seal import SEAL_ENV, seal
+from iw_zenoh.process.runtime import NodeIO
 from iw_zenoh.record.channels import key_channel
 from iw_zenoh.record.foxglove import SCENE_TOPIC, TF_TOPIC
-from iw_zenoh.runtime import NodeIO
 from iw_zenoh.viewer.sources import LocalBus
 from tests.integration.harness import Net
 from tests.record.consumer import proto_message

@@ -21,12 +21,12 @@ import pytest
 
 from iw_zenoh import keys
 from iw_zenoh.bus import ZenohBus
-from iw_zenoh.config import load_scenario
+from iw_zenoh.bus.net import NetConfig, free_port, port_in_use
+from iw_zenoh.launch.launcher import Launcher
 from iw_zenoh.messages import ChairReading, WorldState
-from iw_zenoh.net import NetConfig, free_port, port_in_use
-from iw_zenoh.nodes.launcher import Launcher
 from iw_zenoh.record.reader import RecordingReader
 from iw_zenoh.record.tools import check
+from iw_zenoh.scenario.file import load_scenario
 from tests.integration.harness import Net, iwz_run_argv, scenario_in, stop_run, subscribe, wait_alive, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]

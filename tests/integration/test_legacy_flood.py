@@ -20,8 +20,8 @@ from lxml import etree
 
 from iw_zenoh import keys
 from iw_zenoh.bus import ZenohBus
+from iw_zenoh.bus.net import NetConfig
 from iw_zenoh.messages import Event, WorldState, decode
-from iw_zenoh.net import NetConfig
 from tests.integration.harness import MAPS, Net, iwz_run_argv, stop_run, subscribe
 from tests.integration.legacy import LegacyClient, udp_port
 

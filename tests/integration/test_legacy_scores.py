@@ -14,8 +14,8 @@ from lxml import etree
 
 from iw_zenoh import keys
 from iw_zenoh.bus import ZenohBus
+from iw_zenoh.bus.net import NetConfig
 from iw_zenoh.messages import WorldState
-from iw_zenoh.net import NetConfig
 from tests.integration.harness import MAPS, Net, iwz_run_argv, stop_run, subscribe, wait_msg
 from tests.integration.legacy import LegacyClient, ciberrato_world, measures_of, udp_port
 

@@ -17,8 +17,8 @@ from rosbags.rosbag2 import Reader
 
 from iw_zenoh import keys
 from iw_zenoh.bus import ZenohBus
+from iw_zenoh.bus.net import NetConfig
 from iw_zenoh.messages import SensorReading, WorldState
-from iw_zenoh.net import NetConfig
 from iw_zenoh.record.reader import open_recording
 from iw_zenoh.ros2 import types as t
 from tests.integration.harness import MAPS, iwz_run_argv, stop_run

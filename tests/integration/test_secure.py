@@ -18,6 +18,7 @@ import pytest
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Inbox, ZenohBus
+from iw_zenoh.bus.net import NetConfig, free_port, port_in_use
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import (
     ActionBatch,
@@ -31,7 +32,6 @@ from iw_zenoh.messages import (
     decode,
     encode,
 )
-from iw_zenoh.net import NetConfig, free_port, port_in_use
 from iw_zenoh.secure.certs import init_ca, issue
 from iw_zenoh.secure.cli import add_identity
 from tests.integration.harness import Net, Proc, state_of, wait_msg
@@ -221,7 +221,9 @@ def test_a_serial_bridge_certificate_moves_no_real_robot_but_its_chair(secured: 
     states = Inbox(maxlen=1)
     secured.observer.subscribe(keys.state("sec"), states)
     _bystander(secured, states)  # the bystander's session, its token declared
-    owner = _register_for_bystander(secured, RobotSpecMsg(name="real", id=5, x_m=15.0, y_m=8.0, dir_deg=0.0, type="Real"))
+    owner = _register_for_bystander(
+        secured, RobotSpecMsg(name="real", id=5, x_m=15.0, y_m=8.0, dir_deg=0.0, type="Real")
+    )
     tick = wait_msg(states, WorldState, lambda m: 5 in m.ids).tick
     report = encode(PoseReport(tick=tick, robot_id=5, x=2.0, y=2.0, dir_deg=90.0))
     _flood(2.0, (secured.session("serialer"), keys.pose_report("sec", 5), report))

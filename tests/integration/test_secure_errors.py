@@ -18,7 +18,7 @@ import pytest
 from cryptography import x509
 from cryptography.hazmat.primitives import hashes, serialization
 
-from iw_zenoh.net import free_port, port_in_use
+from iw_zenoh.bus.net import free_port, port_in_use
 from iw_zenoh.secure.certs import init_ca, issue
 from iw_zenoh.secure.cli import add_identity
 from tests.integration.harness import Net

@@ -11,8 +11,8 @@ import pytest
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Inbox, ZenohBus
+from iw_zenoh.bus.net import NetConfig, free_port
 from iw_zenoh.messages import Actions, Control, encode
-from iw_zenoh.net import NetConfig, free_port
 from iw_zenoh.secure.certs import init_ca, issue
 from iw_zenoh.secure.cli import add_identity
 from tests.integration.harness import Net

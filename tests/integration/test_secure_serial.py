@@ -13,8 +13,8 @@ import pytest
 
 from iw_zenoh import keys
 from iw_zenoh.bus import ZenohBus
+from iw_zenoh.bus.net import NetConfig
 from iw_zenoh.messages import Actions, WorldState, encode
-from iw_zenoh.net import NetConfig
 from iw_zenoh.secure.cli import main as secure_main
 from iw_zenoh.secure.policy import load_policy
 from tests.integration.harness import MAPS, iwz_run_argv, stop_run, subscribe, wait_msg

@@ -7,7 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from iw_zenoh.nodes.child import RECORDER_STOP_S, Child, stop_in_order
+from iw_zenoh.launch.child import RECORDER_STOP_S, Child, stop_in_order
 from iw_zenoh.nodes.recorder import DRAIN_MAX_S
 
 # a process that takes a while to stop after SIGTERM (a recorder writing its backlog, then its index)

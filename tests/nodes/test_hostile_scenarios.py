@@ -16,11 +16,11 @@ from pathlib import Path
 import msgspec
 import pytest
 
-from iw_zenoh.config import load_scenario
 from iw_zenoh.errors import IwError
-from iw_zenoh.nodes.run_plan import RunPlan
+from iw_zenoh.launch.plan import RunPlan
 from iw_zenoh.nodes.world_options import WorldOptions, add_arguments, world_options
-from iw_zenoh.options import INLINE_MAX, options_argument, options_from_args
+from iw_zenoh.process.options import INLINE_MAX, options_argument, options_from_args
+from iw_zenoh.scenario.file import load_scenario
 from tests.integration.harness import iwz_run_argv, scenario_in, stop_run
 
 pytestmark = [pytest.mark.timeout(120)]

@@ -11,10 +11,10 @@ import pytest
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Inbox
-from iw_zenoh.config import load_scenario
+from iw_zenoh.bus.net import free_port
+from iw_zenoh.launch.launcher import STATES_KEPT, Launcher
 from iw_zenoh.messages import WorldState, encode
-from iw_zenoh.net import free_port
-from iw_zenoh.nodes.launcher import STATES_KEPT, Launcher
+from iw_zenoh.scenario.file import load_scenario
 
 SCENARIO = """
 name = "judged"

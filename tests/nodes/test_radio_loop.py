@@ -9,7 +9,7 @@ from iw_zenoh import keys
 from iw_zenoh.bus import Inbox
 from iw_zenoh.messages import Event, EventKind, Proposed, RadioBatch, Say, Verdict, decode, encode
 from iw_zenoh.nodes.radio import _Loop
-from iw_zenoh.runtime import NodeIO
+from iw_zenoh.process.runtime import NodeIO
 from iw_zenoh.viewer.sources import LocalBus
 from tests.conftest import proposal_of, world_state
 

@@ -2,8 +2,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from iw_zenoh.nodes.child import Child
-from iw_zenoh.nodes.restarts import BACKOFF_S, Restarts
+from iw_zenoh.launch.child import Child
+from iw_zenoh.launch.restarts import BACKOFF_S, Restarts
 
 
 def _child(role: str, name: str = "", token: str = "") -> Child:
@@ -55,10 +55,10 @@ def test_restarts_wait_longer_each_time_and_report_the_time_to_recover() -> None
 def test_a_restarted_world_is_handed_the_last_committed_state_in_its_options(tmp_path: Path) -> None:
     import msgspec
 
-    from iw_zenoh.config import load_scenario
+    from iw_zenoh.launch.launcher import Launcher
     from iw_zenoh.messages import LabMsg, RobotSpecMsg, WorldInfo, WorldState
-    from iw_zenoh.nodes.launcher import Launcher
     from iw_zenoh.nodes.world_options import WorldOptions
+    from iw_zenoh.scenario.file import load_scenario
 
     maps = Path(__file__).resolve().parents[2] / "maps"
     launcher = Launcher(load_scenario(maps / "scenarios" / "demo.toml"), port=7999, log_dir=tmp_path, status=False)

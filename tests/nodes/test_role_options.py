@@ -14,10 +14,9 @@ import pytest
 from iw_zenoh.bridges.ciberrato import app as bridge_app
 from iw_zenoh.bridges.ciberrato.options import add_arguments as add_bridge_arguments
 
-from iw_zenoh.config import load_scenario
 from iw_zenoh.errors import IwError
+from iw_zenoh.launch.launcher import Launcher
 from iw_zenoh.nodes import radio, recorder
-from iw_zenoh.nodes.launcher import Launcher
 from iw_zenoh.nodes.role_options import (
     BridgeOptions,
     RadioOptions,
@@ -28,7 +27,8 @@ from iw_zenoh.nodes.role_options import (
     add_sensors_arguments,
 )
 from iw_zenoh.nodes.world_options import WorldOptions
-from iw_zenoh.options import options_from_args, options_json
+from iw_zenoh.process.options import options_from_args, options_json
+from iw_zenoh.scenario.file import load_scenario
 from iw_zenoh.sim.radio import RadioConfig
 
 MAPS = Path(__file__).resolve().parents[2] / "maps"

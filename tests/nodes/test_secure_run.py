@@ -4,14 +4,14 @@ from pathlib import Path
 
 import pytest
 
-from iw_zenoh.config import parse_scenario
 from iw_zenoh.errors import ConfigError
-from iw_zenoh.nodes.child import Child
-from iw_zenoh.nodes.launcher import Launcher
-from iw_zenoh.nodes.launcher import main as run_main
-from iw_zenoh.nodes.run_args import build_parser, scenario_from_args
-from iw_zenoh.nodes.secure_run import agent_robots, on_host
+from iw_zenoh.launch.args import build_parser, scenario_from_args
+from iw_zenoh.launch.child import Child
+from iw_zenoh.launch.launcher import Launcher
+from iw_zenoh.launch.launcher import main as run_main
+from iw_zenoh.launch.secure_run import agent_robots, on_host
 from iw_zenoh.nodes.world_options import WorldOptions
+from iw_zenoh.scenario.file import parse_scenario
 from iw_zenoh.secure.policy import load_policy, owners
 
 MAPS = Path(__file__).resolve().parents[2] / "maps"

@@ -9,11 +9,11 @@ import sys
 
 import pytest
 
-from iw_zenoh.runtime import SUPERVISOR_ENV, watch_supervisor
+from iw_zenoh.process.runtime import SUPERVISOR_ENV, watch_supervisor
 
 pytestmark = pytest.mark.timeout(60)
 
-WATCHING = "from iw_zenoh.runtime import watch_supervisor; import threading; watch_supervisor(0.05); threading.Event().wait(30)"
+WATCHING = "from iw_zenoh.process.runtime import watch_supervisor; import threading; watch_supervisor(0.05); threading.Event().wait(30)"
 
 
 def test_nothing_is_watched_without_the_variable_or_for_a_live_process_not_the_parent(
@@ -52,7 +52,7 @@ def test_a_process_whose_supervisor_is_already_gone_stops_as_sigterm_would() -> 
 # its import of a role takes a second or more, the launcher may be killed meanwhile
 LATE = (
     "import signal, sys, threading; stop = threading.Event(); signal.signal(signal.SIGTERM, lambda *_: stop.set());"
-    " sys.stdin.readline(); from iw_zenoh.runtime import watch_supervisor;"
+    " sys.stdin.readline(); from iw_zenoh.process.runtime import watch_supervisor;"
     " print('watching' if watch_supervisor(0.05) else 'not watching', flush=True); stop.wait(60)"
 )
 LAUNCHER = (
@@ -95,7 +95,7 @@ def _running(pid: int) -> bool:
 
 # a process whose stop never comes (its handler does nothing, as one whose main thread is blocked)
 DEAF = (
-    "import signal, threading; from iw_zenoh.runtime import watch_supervisor;"
+    "import signal, threading; from iw_zenoh.process.runtime import watch_supervisor;"
     " signal.signal(signal.SIGTERM, lambda *_: None); watch_supervisor(0.05, grace_s=0.5); threading.Event().wait(30)"
 )
 

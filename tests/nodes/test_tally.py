@@ -1,8 +1,8 @@
 from __future__ import annotations
 
-from iw_zenoh.config import Criteria, Reach
+from iw_zenoh.launch.tally import Tally
 from iw_zenoh.messages import Event, EventKind, WorldState
-from iw_zenoh.nodes.tally import Tally
+from iw_zenoh.scenario.file import Criteria, Reach
 
 
 def _state(tick: int, x: float) -> WorldState:

@@ -6,13 +6,13 @@ from pathlib import Path
 
 import pytest
 
-from iw_zenoh.config import load_scenario
 from iw_zenoh.errors import ConfigError, IwError
+from iw_zenoh.launch.launcher import Launcher, world_options
 from iw_zenoh.messages import Obstacle
-from iw_zenoh.nodes.launcher import Launcher, world_options
 from iw_zenoh.nodes.world import world_config
 from iw_zenoh.nodes.world_options import WorldOptions, add_arguments
-from iw_zenoh.options import add_options_argument, options_from_args
+from iw_zenoh.process.options import add_options_argument, options_from_args
+from iw_zenoh.scenario.file import load_scenario
 
 MAPS = Path(__file__).resolve().parents[2] / "maps"
 

@@ -10,12 +10,12 @@ import msgspec
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Inbox
-from iw_zenoh.config import load_scenario
+from iw_zenoh.bus.net import free_port
 from iw_zenoh.core.lab import Grid, Lab
+from iw_zenoh.launch.launcher import Launcher
 from iw_zenoh.messages import RegisterRequest, RobotSpecMsg, WorldInfo, decode, encode
-from iw_zenoh.net import free_port
-from iw_zenoh.nodes.launcher import Launcher
 from iw_zenoh.nodes.world_seal import new_key, seal, sealed
+from iw_zenoh.scenario.file import load_scenario
 from iw_zenoh.sim.config import WorldConfig
 from iw_zenoh.sim.world import WorldCore
 from tests.nodes.test_launcher_states import SCENARIO

@@ -11,13 +11,12 @@ import msgspec
 import pytest
 
 from iw_zenoh import keys
-from iw_zenoh.config import load_scenario
 from iw_zenoh.errors import RecordingError
+from iw_zenoh.launch.launcher import Launcher
 from iw_zenoh.messages import Event, EventKind, WorldState, decode, encode
-from iw_zenoh.nodes.launcher import Launcher
 from iw_zenoh.nodes.role_options import RecorderOptions
 from iw_zenoh.nodes.role_options import add_recorder_arguments as recorder_arguments
-from iw_zenoh.options import options_from_args
+from iw_zenoh.process.options import options_from_args
 from iw_zenoh.record.incidents import find_incidents
 from iw_zenoh.record.parts import (
     PART_META,
@@ -32,6 +31,7 @@ from iw_zenoh.record.reader import open_recording
 from iw_zenoh.record.recording import SIM_INDEX, Recorder
 from iw_zenoh.record.replay import Player, ReplayOptions, sim_index
 from iw_zenoh.record.tools import check_recording, doctor_main, recover_main
+from iw_zenoh.scenario.file import load_scenario
 from tests.record.test_recording import _state
 
 T0 = 1_000_000_000

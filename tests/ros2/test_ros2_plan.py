@@ -9,12 +9,12 @@ from pathlib import Path
 import msgspec
 import pytest
 
-from iw_zenoh.config import Ros2Section, load_scenario
 from iw_zenoh.errors import ConfigError
+from iw_zenoh.launch.launcher import Launcher
+from iw_zenoh.launch.launcher import main as run_main
+from iw_zenoh.launch.secure_run import agent_robots
 from iw_zenoh.nodes import ros2
-from iw_zenoh.nodes.launcher import Launcher
-from iw_zenoh.nodes.launcher import main as run_main
-from iw_zenoh.nodes.secure_run import agent_robots
+from iw_zenoh.scenario.file import Ros2Section, load_scenario
 
 MAPS = Path(__file__).resolve().parents[2] / "maps"
 

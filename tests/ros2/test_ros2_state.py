@@ -11,7 +11,7 @@ from iw_zenoh import keys
 from iw_zenoh.bus import Handle, Inbox
 from iw_zenoh.messages import Event, WorldState, decode, encode
 from iw_zenoh.nodes.ros2 import INFO_ASKS, StateToRos, tick_period_s
-from iw_zenoh.runtime import NodeIO
+from iw_zenoh.process.runtime import NodeIO
 from tests.bridges.fakes import FakeBus
 from tests.nodes.test_info import _info  # a world's description (period 50 ms)
 

@@ -58,7 +58,7 @@ def test_an_expired_not_yet_valid_or_foreign_certificate_is_named_before_any_dia
 
 
 def test_nothing_listening_is_said_and_a_plain_endpoint_is_not_dialled(tmp_path: Path) -> None:
-    from iw_zenoh.net import free_port
+    from iw_zenoh.bus.net import free_port
 
     ids = _lab(tmp_path)
     assert "nothing answers at 127.0.0.1" in join_refused(str(ids / "boss"), [f"tls/127.0.0.1:{free_port()}"])
@@ -66,7 +66,7 @@ def test_nothing_listening_is_said_and_a_plain_endpoint_is_not_dialled(tmp_path:
 
 
 def test_a_key_that_does_not_match_its_certificate_is_said_not_raised(tmp_path: Path) -> None:
-    from iw_zenoh.net import free_port
+    from iw_zenoh.bus.net import free_port
 
     ids = _lab(tmp_path)
     shutil.copy2(ids / "alice.key", ids / "boss.key")  # an old key beside a certificate issued again

@@ -2,9 +2,9 @@ from __future__ import annotations
 
 import math
 
-from iw_zenoh.config import Criteria, DoorCriterion
+from iw_zenoh.launch.tally import Tally
 from iw_zenoh.messages import WorldState
-from iw_zenoh.nodes.tally import Tally
+from iw_zenoh.scenario.file import Criteria, DoorCriterion
 from iw_zenoh.sim.doorwatch import DoorWatch
 
 HINGED = DoorCriterion(robot=1, x=10.0, y=5.0, one_chair_within=1.0)

@@ -383,7 +383,9 @@ def test_removing_a_robot_the_world_does_not_have_is_refused_with_its_id() -> No
 def test_the_leaves_of_a_revolving_door_are_placed_on_one_hub_and_a_chair_is_not() -> None:
     core = _core()
     for i, deg in enumerate((0.0, 120.0, -120.0)):
-        leaf = RobotSpecMsg(name=f"leaf{i}", type="Door", width_m=1.6, height_m=0.1, com=0.98, x_m=15.0, y_m=5.0, dir_deg=deg)
+        leaf = RobotSpecMsg(
+            name=f"leaf{i}", type="Door", width_m=1.6, height_m=0.1, com=0.98, x_m=15.0, y_m=5.0, dir_deg=deg
+        )
         reply, _ = core.register(RegisterRequest(spec=leaf), 0)
         assert reply.ok, reply.reason  # a door may stand on another door
     reply, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="chair", x_m=15.5, y_m=5.0)), 0)
@@ -409,7 +411,9 @@ def test_a_world_holds_a_bounded_number_of_robots_per_agent(monkeypatch: pytest.
     monkeypatch.setattr(registry, "MAX_ROBOTS_PER_AGENT", 2)
     core = _core()
     for k in range(2):
-        reply, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name=f"r{k}", x_m=12.0 + 2 * k, y_m=5.0), agent="a"), 0)
+        reply, _ = core.register(
+            RegisterRequest(spec=RobotSpecMsg(name=f"r{k}", x_m=12.0 + 2 * k, y_m=5.0), agent="a"), 0
+        )
         assert reply.ok, reply.reason
     reply, out = core.register(RegisterRequest(spec=RobotSpecMsg(name="r2", x_m=17.0, y_m=5.0), agent="a"), 0)
     assert not reply.ok

@@ -6,7 +6,7 @@ from __future__ import annotations
 import threading
 from dataclasses import dataclass, field
 
-from iw_zenoh.nodes.child import Child
+from iw_zenoh.launch.child import Child
 from iw_zenoh.nodes.recorder import CANNOT_WRITE
 
 __all__ = ["BACKOFF_S", "MAX_RESTARTS", "Restarts"]

@@ -5,7 +5,7 @@ examples, its flags, a warm-up, what it prepares before joining, what it runs); 
 here, once: ``--sim``, ``-v``, ``--name`` and the network flags, the logging set-up, opening the
 bus (a failure prints ``iwz ROLE: reason`` and exits 2), SIGINT, SIGTERM and SIGHUP, closing the bus,
 and, in a process ``iwz run`` started, stopping as SIGTERM would once that ``iwz run`` is gone.
-A role's typed options (a ``msgspec.Struct`` its flags fill) are :mod:`iw_zenoh.options`'.
+A role's typed options (a ``msgspec.Struct`` its flags fill) are :mod:`iw_zenoh.process.options`'.
 """
 
 from __future__ import annotations
@@ -23,11 +23,13 @@ from typing import Any, TypeVar, overload
 
 from iw_zenoh import keys
 from iw_zenoh.bus import INBOX_KEPT, NEWEST_KEPT, Bus, Delivery, Inbox, Wake, ZenohBus
-from iw_zenoh.cliargs import add_common_arguments, net_from_args
+from iw_zenoh.bus.refusals import RefusalLimiter, counted
 from iw_zenoh.errors import DecodeError, IwError
 from iw_zenoh.messages import BadMessageData, EventData, EventKind, Message, Outgoing, decode, encode, make_event
-from iw_zenoh.options import options_from_args  # re-exported: nodes/world.py and nodes/sensors.py import it from here
-from iw_zenoh.refusals import RefusalLimiter, counted
+from iw_zenoh.process.cliargs import add_common_arguments, net_from_args
+from iw_zenoh.process.options import (
+    options_from_args,  # re-exported: nodes/world.py and nodes/sensors.py import it from here
+)
 
 __all__ = [
     "SUPERVISOR_ENV",

@@ -21,26 +21,26 @@ import msgspec
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Inbox, ZenohBus
-from iw_zenoh.config import Scenario, load_scenario
+from iw_zenoh.bus.net import DEFAULT_PORT, NetConfig, free_port, port_in_use
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.errors import IwError
+from iw_zenoh.launch.args import build_parser, default_recording, scenario_from_args
+from iw_zenoh.launch.child import Child, stop_in_order
+from iw_zenoh.launch.plan import RunPlan
+from iw_zenoh.launch.restarts import MAX_RESTARTS, Restarts
+from iw_zenoh.launch.secure_run import LAUNCHER, refuse_ros2
+from iw_zenoh.launch.signals import stop_on_signals
+from iw_zenoh.launch.summary import print_summary
+from iw_zenoh.launch.tally import Tally
+from iw_zenoh.launch.waits import wait_listening, wait_roles
 from iw_zenoh.messages import Control, Event, WorldInfo, WorldState, decode, encode
-from iw_zenoh.net import DEFAULT_PORT, NetConfig, free_port, port_in_use
-from iw_zenoh.nodes.child import Child, stop_in_order
 from iw_zenoh.nodes.recorder import CANNOT_WRITE
-from iw_zenoh.nodes.restarts import MAX_RESTARTS, Restarts
-from iw_zenoh.nodes.run_args import build_parser, default_recording, scenario_from_args
-from iw_zenoh.nodes.run_plan import RunPlan
-from iw_zenoh.nodes.run_signals import stop_on_signals
-from iw_zenoh.nodes.run_summary import print_summary
-from iw_zenoh.nodes.run_waits import wait_listening, wait_roles
-from iw_zenoh.nodes.secure_run import LAUNCHER, refuse_ros2
-from iw_zenoh.nodes.tally import Tally
 from iw_zenoh.nodes.world_options import world_options
 from iw_zenoh.nodes.world_seal import SEAL_ENV, new_key, sealed
-from iw_zenoh.options import options_argument
-from iw_zenoh.runtime import SUPERVISOR_ENV, setup_logging
-from iw_zenoh.shipped import resolve_scenario
+from iw_zenoh.process.options import options_argument
+from iw_zenoh.process.runtime import SUPERVISOR_ENV, setup_logging
+from iw_zenoh.scenario.file import Scenario, load_scenario
+from iw_zenoh.scenario.shipped import resolve_scenario
 
 __all__ = ["Child", "Launcher", "main", "world_options"]
 

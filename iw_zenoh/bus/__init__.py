@@ -18,9 +18,9 @@ from typing import Protocol
 
 import zenoh
 
+from iw_zenoh.bus.net import NetConfig, zenoh_config
+from iw_zenoh.bus.publishers import Publishers
 from iw_zenoh.errors import IwError
-from iw_zenoh.net import NetConfig, zenoh_config
-from iw_zenoh.publishers import Publishers
 
 __all__ = [
     "INBOX_KEPT",
@@ -49,7 +49,7 @@ LOST_LOG_S = 1.0  # losses are logged at most this often per inbox
 
 class Wake(Protocol):
     """What an inbox sets on a delivery: a :class:`threading.Event` (a node's loop waits on it), or
-    an object that acts on the delivering thread (:class:`iw_zenoh.hosting.InlineAnswers`)."""
+    an object that acts on the delivering thread (:class:`iw_zenoh.agent.hosting.InlineAnswers`)."""
 
     def is_set(self) -> bool:
         """Whether it is set already (then a delivery does not set it again)."""

@@ -11,7 +11,7 @@ reading types are all here. An agent is any object with ``spec()`` and ``on_sens
         def on_sensors(self, reading: Readings, heard: list[Heard]) -> Command:
             return Command.from_velocity(0.3, 0.0)  # 0.3 m/s ahead, no turn
 
-It may also have the optional hooks of :mod:`iw_zenoh.hooks` (:class:`OnRegistered`,
+It may also have the optional hooks of :mod:`iw_zenoh.agent.hooks` (:class:`OnRegistered`,
 :class:`OnChair`, :class:`AttachTo`). ``iwz agent ./my_agent.py:Name`` runs one from the user's
 own file (``docs/first-agent.md``; its ``args.seed`` is the seed the run hands it), and
 ``--spec chair.toml`` lays a spec file's fields over its robot (``docs/spec.md``).
@@ -37,14 +37,15 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 from iw_zenoh import keys
+from iw_zenoh.agent.hooks import AttachTo, OnChair, OnRegistered, attached_to
+from iw_zenoh.agent.hosting import Command, InlineAnswers, Outbox, WorldRegistration
+from iw_zenoh.agent.places import point_arg, points_arg, pose_arg
 from iw_zenoh.bus import Asked, Bus, Handle, Inbox
 from iw_zenoh.convert import spec_from_msg, spec_to_msg
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.core.motor import MAX_POWER
 from iw_zenoh.core.spec import BumperSpec, IrSensorSpec, LaserSpec, RobotSpec, SensorNoise, prototype_chair
 from iw_zenoh.errors import DecodeError, IwError, ProtocolError
-from iw_zenoh.hooks import AttachTo, OnChair, OnRegistered, attached_to
-from iw_zenoh.hosting import Command, InlineAnswers, Outbox, WorldRegistration
 from iw_zenoh.messages import (
     ChairReading,
     Event,
@@ -58,8 +59,7 @@ from iw_zenoh.messages import (
     readings_of,
 )
 from iw_zenoh.messages.robot import Pose
-from iw_zenoh.places import point_arg, points_arg, pose_arg
-from iw_zenoh.runtime import NodeIO
+from iw_zenoh.process.runtime import NodeIO
 from iw_zenoh.ticks import TickWindow
 
 __all__ = [
@@ -446,7 +446,7 @@ class AgentHost:
 
     def run(self) -> None:
         """Answers ticks until stopped: on the thread that delivers a tick's last input
-        (:class:`~iw_zenoh.hosting.InlineAnswers`), or on this one when that thread found it busy;
+        (:class:`~iw_zenoh.agent.hosting.InlineAnswers`), or on this one when that thread found it busy;
         an agent's error on a delivering thread is raised here."""
         self.inline.active = True
         try:

@@ -10,8 +10,8 @@ from collections.abc import Callable
 
 from iw_zenoh import keys
 from iw_zenoh.bus import ZenohBus
-from iw_zenoh.net import NetConfig, port_in_use
-from iw_zenoh.nodes.child import Child
+from iw_zenoh.bus.net import NetConfig, port_in_use
+from iw_zenoh.launch.child import Child
 
 __all__ = ["wait_listening", "wait_roles"]
 

@@ -8,9 +8,9 @@ from pathlib import Path
 
 import msgspec
 
-from iw_zenoh.config import Scenario, SecuritySection
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.errors import ConfigError
+from iw_zenoh.scenario.file import Scenario, SecuritySection
 
 __all__ = ["build_parser", "default_recording", "scenario_from_args"]
 

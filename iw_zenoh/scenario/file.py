@@ -26,8 +26,8 @@ from iw_zenoh.core.modes import Mode, Profile
 from iw_zenoh.errors import ConfigError, MapError
 from iw_zenoh.maps import load_grid, load_lab
 from iw_zenoh.messages import Obstacle
+from iw_zenoh.scenario.specfile import SPEC_TABLE, check_spec, line_of, load_spec_file, renamed_field
 from iw_zenoh.sim.obstacles import Obstacles
-from iw_zenoh.specfile import SPEC_TABLE, check_spec, line_of, load_spec_file, renamed_field
 
 __all__ = [
     "AgentEntry",

@@ -14,10 +14,8 @@ from pathlib import Path
 import msgspec
 
 from iw_zenoh import keys
-from iw_zenoh.config import Scenario
-from iw_zenoh.nodes.child import Child
-from iw_zenoh.nodes.role_options import BridgeOptions, RadioOptions, RecorderOptions, SensorsOptions
-from iw_zenoh.nodes.secure_run import (
+from iw_zenoh.launch.child import Child
+from iw_zenoh.launch.secure_run import (
     LEGACY_BRIDGE,
     ROUTER,
     SERIAL_BRIDGE,
@@ -27,8 +25,10 @@ from iw_zenoh.nodes.secure_run import (
     identities,
     on_host,
 )
+from iw_zenoh.nodes.role_options import BridgeOptions, RadioOptions, RecorderOptions, SensorsOptions
 from iw_zenoh.nodes.world_options import WorldOptions
-from iw_zenoh.options import options_argument
+from iw_zenoh.process.options import options_argument
+from iw_zenoh.scenario.file import Scenario
 from iw_zenoh.secure.cli import POLICY_FILE
 
 __all__ = ["RunPlan"]

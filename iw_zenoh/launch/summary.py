@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from iw_zenoh.config import Criteria
-from iw_zenoh.nodes.tally import Tally
+from iw_zenoh.launch.tally import Tally
 from iw_zenoh.record.parts import recording_parts
+from iw_zenoh.scenario.file import Criteria
 
 __all__ = ["print_summary"]
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from iw_zenoh.net import DEFAULT_ENDPOINT, DEFAULT_TLS_ENDPOINT, NetConfig
+from iw_zenoh.bus.net import DEFAULT_ENDPOINT, DEFAULT_TLS_ENDPOINT, NetConfig
 
 __all__ = ["add_common_arguments", "add_zenoh_arguments", "net_from_args"]
 

@@ -34,7 +34,7 @@ from iw_zenoh.agent import Agent, Command
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import ConfigError, IwError
 from iw_zenoh.messages import Heard, SensorReading
-from iw_zenoh.specfile import SPEC_TABLE, apply_spec, load_spec_file
+from iw_zenoh.scenario.specfile import SPEC_TABLE, apply_spec, load_spec_file
 
 __all__ = [
     "Program",
@@ -282,7 +282,7 @@ def make_with_spec(program: Program, args: argparse.Namespace) -> list[Agent]:
     """The program's agents, their robots' spec changed by ``--spec`` and ``--spec-json``.
 
     The table is in ``args.spec_table`` (and its place, for refusals, in ``args.spec_where``), so a
-    program applies it to the chair it builds (:func:`iw_zenoh.specfile.spec_with_args`) and drives
+    program applies it to the chair it builds (:func:`iw_zenoh.scenario.specfile.spec_with_args`) and drives
     the chair it registers; an agent whose spec does not have it yet (a user's) registers it anyway.
 
     Raises:

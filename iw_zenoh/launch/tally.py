@@ -6,9 +6,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from iw_zenoh.config import Criteria, DoorCriterion, Reach
 from iw_zenoh.errors import DecodeError
 from iw_zenoh.messages import Event, EventKind, RegisteredData, WorldInfo, WorldState, event_payload
+from iw_zenoh.scenario.file import Criteria, DoorCriterion, Reach
 from iw_zenoh.sim.doorwatch import DoorWatch
 from iw_zenoh.sim.resume import WorldSnapshot, snapshot
 

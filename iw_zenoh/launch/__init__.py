@@ -1,0 +1,1 @@
+"""`iwz run`: the launcher that starts a scenario's processes, supervises, restarts and judges them."""
