@@ -122,3 +122,28 @@ def test_any_json_is_decoded_or_refused_with_a_decode_error(doc: object) -> None
     for kind in (RegisterRequest, RegisterReply):
         with contextlib.suppress(DecodeError):
             decode(data, kind)
+
+
+def _chair_scenario(tmp_path: Path, start: str) -> str:
+    (tmp_path / "m.xml").write_text('<Lab Name="m" Width="20" Height="10"></Lab>')
+    return f'[world]\nmap = "m.xml"\n[chair]\nstart = {start}\n'
+
+
+def test_a_chairs_start_is_a_typed_table_and_the_old_string_is_refused_with_the_table_to_write(tmp_path: Path) -> None:
+    from iw_zenoh.launch.launcher import Launcher
+    from iw_zenoh.scenario.file import Start
+
+    sc = parse_scenario(_chair_scenario(tmp_path, "{ x_m = 1.5, y_m = 3, dir_deg = -90 }"), tmp_path)
+    assert sc.chair is not None
+    assert sc.chair.start == Start(x_m=1.5, y_m=3.0, dir_deg=-90.0)
+    launcher = Launcher(sc, port=7447, log_dir=tmp_path, status=False)
+    launcher.plan()
+    starts = [c.argv[c.argv.index("--start") + 1] for c in launcher.children if "--start" in c.argv]
+    assert starts == ["1.5,3.0,-90.0", "1.5,3.0,-90.0"]  # the emulator and the bridge, as they read it
+    with pytest.raises(ConfigError) as e:
+        parse_scenario(_chair_scenario(tmp_path, '"1.5,3,0"'), tmp_path)
+    assert e.value.field == "chair.start"
+    assert "write start = { x_m = 1.5, y_m = 3, dir_deg = 0 }" in e.value.reason
+    with pytest.raises(ConfigError) as e:
+        parse_scenario(_chair_scenario(tmp_path, "{ x_m = 1, y_m = 1, dir_deg = 270 }"), tmp_path)
+    assert e.value.field == "chair.start.dir_deg"

@@ -28,7 +28,7 @@ from iw_zenoh.launch.secure_run import (
 from iw_zenoh.nodes.role_options import BridgeOptions, RadioOptions, RecorderOptions, SensorsOptions
 from iw_zenoh.nodes.world_options import WorldOptions
 from iw_zenoh.process.options import options_argument
-from iw_zenoh.scenario.file import Scenario
+from iw_zenoh.scenario.file import Scenario, Start
 from iw_zenoh.secure.cli import POLICY_FILE
 
 __all__ = ["RunPlan"]
@@ -162,10 +162,11 @@ class RunPlan:
         """A real chair's serial bridge; without a port, the chair emulator on a pty (docs/serial.md)."""
         ch, sc = self.scenario.chair, self.scenario
         assert ch is not None
+        start = ch.start.arg if isinstance(ch.start, Start) else ch.start  # a string is refused on reading
         port = ch.port
         if not port:
             port = str(self.log_dir / "chair-pty")  # a stable link to the emulator's pty
-            emulate = ["emulate", "--pty", "--link", port, "--map", str(sc.world.map), "--start", ch.start]
+            emulate = ["emulate", "--pty", "--link", port, "--map", str(sc.world.map), "--start", start]
             emulate += ["--spec", str(ch.spec)] if ch.spec is not None else []
             emulate += [
                 "--room",
@@ -176,7 +177,7 @@ class RunPlan:
                 str(self.log_dir / "chair-wheels.log"),
             ]
             self.children.append(Child("chair", "chair", self.command("chair", *emulate), self.log_dir / "chair.log"))
-        bridge = ["serial", "--port", port, "--robot", ch.name, "--id", str(ch.robot), "--start", ch.start]
+        bridge = ["serial", "--port", port, "--robot", ch.name, "--id", str(ch.robot), "--start", start]
         bridge += ["--baud", str(ch.baud), "--log", str(self.log_dir / "bridge-serial.csv")]
         bridge += ["--spec", str(ch.spec)] if ch.spec is not None else []
         self.child("bridge", SERIAL_BRIDGE, *bridge, "--name", SERIAL_BRIDGE, token=SERIAL_BRIDGE)

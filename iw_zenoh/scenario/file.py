@@ -41,6 +41,7 @@ __all__ = [
     "Scenario",
     "ScenarioFile",
     "SecuritySection",
+    "Start",
     "WorldSection",
     "load_scenario",
     "parse_scenario",
@@ -149,6 +150,19 @@ class BridgeSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_
     scoring: Literal[0, 1, 2, 3] = 0
 
 
+class Start(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """``[chair] start = { x_m = 1.5, y_m = 3.0, dir_deg = 0.0 }``: where a chair starts."""
+
+    x_m: Coord = 1.0
+    y_m: Coord = 1.0
+    dir_deg: Annotated[float, msgspec.Meta(ge=-180.0, le=180.0)] = 0.0
+
+    @property
+    def arg(self) -> str:
+        """As a command line takes it (``--start x,y,dir_deg``)."""
+        return f"{self.x_m!r},{self.y_m!r},{self.dir_deg!r}"
+
+
 class ChairSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """``[chair]``: a real chair on a serial link (``docs/serial.md``): ``iwz bridge serial``, and
     without a ``port`` the chair emulator on a pseudo-terminal. The world must run in real time."""
@@ -157,7 +171,7 @@ class ChairSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     port: str = ""  # the chair's device or pyserial URL; "": `iwz chair emulate --pty` stands in
     robot: Annotated[int, msgspec.Meta(ge=1, le=ID_MAX)] = 1  # the robot id the bridge registers
     name: Name = "chair"
-    start: Annotated[str, msgspec.Meta(pattern=r"^[^,]+,[^,]+,[^,]+$")] = "1,1,0"  # x,y,dir_deg
+    start: Start | str = msgspec.field(default_factory=Start)  # a string ("1,1,0", as before) is refused: a table
     room: str = ""  # emulator: real obstacles not in the map, x0,y0,x1,y1;...
     seed: Annotated[int, msgspec.Meta(ge=0)] = 0  # emulator: noise seed, 64 bits at most (_numbers)
     baud: Annotated[int, msgspec.Meta(gt=0, le=10_000_000)] = 115200
@@ -387,6 +401,8 @@ def parse_scenario(text: str, base: Path, name: str = "scenario") -> Scenario:
         if d.one_chair_within is not None and (d.x is None or d.y is None):
             raise ConfigError(f"criteria.doors[{i}].one_chair_within", "needs the doorway's middle: give x and y too")
     chair = sc.chair
+    if chair is not None and isinstance(chair.start, str):
+        raise ConfigError("chair.start", _start_table(chair.start))
     if chair is not None and world.mode != Mode.REALTIME:
         raise ConfigError("chair.hardware", "a chair on a serial link moves in real time: world.mode must be realtime")
     if chair is not None and chair.spec is not None:
@@ -397,6 +413,15 @@ def parse_scenario(text: str, base: Path, name: str = "scenario") -> Scenario:
     agents = tuple(_with_spec(a, i, base, text) for i, a in enumerate(sc.agents))
     fields = {**msgspec.structs.asdict(sc), "world": world, "bridge": bridge, "chair": chair, "agents": agents}
     return Scenario(**{**fields, "name": sc.name or name}, base=base)
+
+
+def _start_table(text: str) -> str:
+    """Why ``start = "x,y,dir_deg"`` (a string, as scenarios once wrote it) is refused, and what to write."""
+    parts = [p.strip() for p in text.split(",")]
+    form = "{ x_m = 1.5, y_m = 3.0, dir_deg = 0.0 }"
+    if len(parts) == 3 and all(re.fullmatch(r"[-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?", p) for p in parts):
+        form = f"{{ x_m = {parts[0]}, y_m = {parts[1]}, dir_deg = {parts[2]} }}"
+    return f"a table now, not a string {text!r}: write start = {form} (docs/scenarios.md)"
 
 
 def _beside(base: Path, path: Path | str) -> Path:
