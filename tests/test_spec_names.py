@@ -147,3 +147,31 @@ def test_a_chairs_start_is_a_typed_table_and_the_old_string_is_refused_with_the_
     with pytest.raises(ConfigError) as e:
         parse_scenario(_chair_scenario(tmp_path, "{ x_m = 1, y_m = 1, dir_deg = 270 }"), tmp_path)
     assert e.value.field == "chair.start.dir_deg"
+
+
+def test_goals_are_recorded_as_typed_json_and_the_old_text_is_still_read(tmp_path: Path) -> None:
+    from iw_zenoh.launch.launcher import Launcher
+    from iw_zenoh.record.metrics import Goal, recorded_goals
+
+    (tmp_path / "m.xml").write_text('<Lab Name="m" Width="20" Height="10"></Lab>')
+    text = '[world]\nmap = "m.xml"\n[[criteria.reach]]\nrobot = 1\nx = 10.5\ny = 3\n[[criteria.reach]]\nrobot = 2\nx = 4\ny = 5\nwithin = 0.25\n'
+    launcher = Launcher(
+        parse_scenario(text, tmp_path), port=7447, log_dir=tmp_path, status=False, record=tmp_path / "r.mcap"
+    )
+    launcher.plan()
+    meta = next(c.options for c in launcher.children if c.role == "record").meta  # type: ignore[union-attr]
+    assert json.loads(meta["goals"]) == [
+        {"robot": 1, "x_m": 10.5, "y_m": 3.0, "within_m": 0.5},
+        {"robot": 2, "x_m": 4.0, "y_m": 5.0, "within_m": 0.25},
+    ]
+    want = {1: Goal(10.5, 3.0, 0.5), 2: Goal(4.0, 5.0, 0.25)}
+    assert recorded_goals(meta["goals"]) == want
+    assert recorded_goals("1=10.5,3.0,0.5;2=4.0,5.0,0.25") == want  # a recording made before
+    for bad in (
+        '[{"robot": 1}]',
+        '[{"robot": 1, "x_m": 1, "y_m": 2, "within_m": 0}]',
+        "[",
+        '[{"robot": 1, "x_m": NaN}]',
+    ):
+        with pytest.raises(ValueError, match="goals"):
+            recorded_goals(bad)

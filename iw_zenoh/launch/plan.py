@@ -28,6 +28,7 @@ from iw_zenoh.launch.secure_run import (
 from iw_zenoh.nodes.role_options import BridgeOptions, RadioOptions, RecorderOptions, SensorsOptions
 from iw_zenoh.nodes.world_options import WorldOptions
 from iw_zenoh.process.options import options_argument
+from iw_zenoh.record.metrics import Goal, goals_json
 from iw_zenoh.scenario.file import Scenario, Start
 from iw_zenoh.secure.cli import POLICY_FILE
 
@@ -153,8 +154,8 @@ class RunPlan:
         this run's recording in its next part."""
         sc = self.scenario
         meta = {"scenario": sc.name, "seed": str(sc.world.seed), "map": str(sc.world.map)}
-        if sc.criteria.reach:  # iwz report's time to goal (record/metrics.py parse_goals reads it)
-            meta["goals"] = ";".join(f"{r.robot}={r.x!r},{r.y!r},{r.within!r}" for r in sc.criteria.reach)
+        if sc.criteria.reach:  # iwz report's time to goal: a JSON array (record/metrics.py recorded_goals reads it)
+            meta["goals"] = goals_json({r.robot: Goal(r.x, r.y, r.within) for r in sc.criteria.reach})
         rec = RecorderOptions(output=str(self.record), meta=meta, quiet=True, continue_run=uuid.uuid4().hex)
         self.child("record", "recorder", options=rec)
 
