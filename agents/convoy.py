@@ -13,6 +13,7 @@ import math
 
 from iw_zenoh.agent import Command
 from iw_zenoh.agent.places import points_arg
+from iw_zenoh.core.motor import MAX_POWER
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.messages import Heard, SensorReading
 from iw_zenoh.scenario.specfile import spec_with_args
@@ -21,7 +22,6 @@ from .waypoint import WaypointDriver, fine_chair
 
 __all__ = ["Follower", "Leader", "add_arguments", "make", "parse_position"]
 
-MAX_POWER = 0.15
 STALE_TICKS = 10  # a leader unheard this long: stop
 CATCH_UP_M = 0.5  # full speed once the gap is this much too long
 

@@ -13,6 +13,7 @@ import math
 
 from iw_zenoh.agent import Command
 from iw_zenoh.agent.places import points_arg, pose_arg
+from iw_zenoh.core.motor import MAX_POWER
 from iw_zenoh.core.revolving import Drum
 from iw_zenoh.core.spec import NoiseSpec, RobotSpec, SensorNoise, prototype_chair, prototype_sensors
 from iw_zenoh.messages import Heard, SensorReading
@@ -23,7 +24,6 @@ from .revolving import RevolvingPilot, mid_wheel_chair
 
 __all__ = ["PROTOTYPE_SENSORS", "WaypointDriver", "add_arguments", "fine_chair", "make", "parse_revolving"]
 
-MAX_POWER = 0.15
 STOP_M = 0.25  # stop when something is this near ahead
 SIDE_M = 0.2  # keep this far off things beside
 TURN_POWER = 0.04  # power difference at full turn

@@ -53,7 +53,7 @@ def flooder(endpoint: str, seconds: float, victims: list[int]) -> None:
     """The flooding agent (a process of its own): registers, then floods; prints what it sent."""
     bus = ZenohBus(NetConfig(connect=(endpoint,)))
     bus.token(keys.alive(SIM, "agent", "flooder"))  # as an agent host: the world keeps its robot past the grace
-    req = encode(RegisterRequest(spec=RobotSpecMsg(name="flooder", x=3.0, y=5.0, dir=0.0), agent="flooder"))
+    req = encode(RegisterRequest(spec=RobotSpecMsg(name="flooder", x_m=3.0, y_m=5.0, dir_deg=0.0), agent="flooder"))
     reply = decode(bus.query(keys.register(SIM), req, timeout_s=10)[0], RegisterReply)
     assert reply.ok, reply.reason
     key = keys.agent_actions(SIM, "flooder")

@@ -56,7 +56,7 @@ class FakeWorld:
         self.size = 3.0 * side + 4.0
         self.cx = np.array([2.0 + 3.0 * (i % side) + 1.5 for i in range(n)])
         self.cy = np.array([2.0 + 3.0 * (i // side) + 1.5 for i in range(n)])
-        robots = [RobotSpecMsg(name=f"c{i}", id=i + 1, width=1.2, height=0.7, com=0.7) for i in range(n)]
+        robots = [RobotSpecMsg(name=f"c{i}", id=i + 1, width_m=1.2, height_m=0.7, com=0.7) for i in range(n)]
         self.info = WorldInfo(
             revision=1,
             lab=LabMsg(name="bench", width=self.size, height=self.size),

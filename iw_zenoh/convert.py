@@ -67,7 +67,7 @@ def spec_from_msg(m: RobotSpecMsg) -> RobotSpec:
             _noise(n.motion, d.motion),
             _noise(n.laser_m, d.laser_m),
         )
-    for name in ("width", "height", "com", "max_speed", "acceleration_curve", "ticks_per_m"):
+    for name in ("width_m", "height_m", "com", "max_speed_mps", "acceleration_curve", "ticks_per_m"):
         v = getattr(m, name)
         if not math.isfinite(v):
             raise SpecError(name, f"must be a finite number, got {v!r}")
@@ -78,24 +78,24 @@ def spec_from_msg(m: RobotSpecMsg) -> RobotSpec:
         id=m.id,
         type=RobotType(m.type),
         shape=BodyShape(m.shape),
-        width_m=m.width,
-        height_m=m.height,
+        width_m=m.width_m,
+        height_m=m.height_m,
         com=m.com,
-        x_m=m.x,
-        y_m=m.y,
-        dir_deg=m.dir,
-        max_speed_mps=m.max_speed,
+        x_m=m.x_m,
+        y_m=m.y_m,
+        dir_deg=m.dir_deg,
+        max_speed_mps=m.max_speed_mps,
         acceleration_curve=m.acceleration_curve,
-        ir_sensors=tuple(IrSensorSpec(s.id, s.x, s.y, s.angle_deg, s.cone_deg, s.range_m) for s in m.ir_sensors),
+        ir_sensors=tuple(IrSensorSpec(s.id, s.x_m, s.y_m, s.angle_deg, s.cone_deg, s.range_m) for s in m.ir_sensors),
         bumpers=tuple(BumperSpec(b.id, tuple(b.corners)) for b in m.bumpers),
         lasers=tuple(
-            LaserSpec(s.id, s.x, s.y, s.angle_deg, s.fov_deg, s.beams, s.range_m)
+            LaserSpec(s.id, s.x_m, s.y_m, s.angle_deg, s.fov_deg, s.beams, s.range_m)
             for s in (m.lasers if isinstance(m.lasers, list) else ())
         ),
         encoder=EncoderSpec(m.ticks_per_m),
         noise=noise,
         legacy=m.legacy,
-        beacon_height_m=m.beacon_height,
+        beacon_height_m=m.beacon_height_m,
     )
 
 
@@ -111,16 +111,16 @@ def spec_to_msg(s: RobotSpec) -> RobotSpecMsg:
         id=s.id,
         type=s.type.value,
         shape=s.shape.value,
-        width=s.width_m,
-        height=s.height_m,
+        width_m=s.width_m,
+        height_m=s.height_m,
         com=s.com,
-        x=s.x_m,
-        y=s.y_m,
-        dir=s.dir_deg,
-        max_speed=s.max_speed_mps,
+        x_m=s.x_m,
+        y_m=s.y_m,
+        dir_deg=s.dir_deg,
+        max_speed_mps=s.max_speed_mps,
         acceleration_curve=s.acceleration_curve,
         ir_sensors=[
-            IrSensorMsg(id=i.id, x=i.x_m, y=i.y_m, angle_deg=i.angle_deg, cone_deg=i.cone_deg, range_m=i.range_m)
+            IrSensorMsg(id=i.id, x_m=i.x_m, y_m=i.y_m, angle_deg=i.angle_deg, cone_deg=i.cone_deg, range_m=i.range_m)
             for i in s.sensors
         ],
         bumpers=[BumperMsg(id=b.id, corners=list(b.corners)) for b in s.bumpers],
@@ -138,10 +138,16 @@ def spec_to_msg(s: RobotSpec) -> RobotSpecMsg:
             laser_m=_noise_msg(n.laser_m) if s.lasers or n.laser_m != SensorNoise().laser_m else msgspec.UNSET,
         ),
         legacy=s.legacy,
-        beacon_height=s.beacon_height_m,
+        beacon_height_m=s.beacon_height_m,
         lasers=[
             LaserMsg(
-                id=a.id, x=a.x_m, y=a.y_m, angle_deg=a.angle_deg, fov_deg=a.fov_deg, beams=a.beams, range_m=a.range_m
+                id=a.id,
+                x_m=a.x_m,
+                y_m=a.y_m,
+                angle_deg=a.angle_deg,
+                fov_deg=a.fov_deg,
+                beams=a.beams,
+                range_m=a.range_m,
             )
             for a in s.lasers
         ]

@@ -195,7 +195,7 @@ def _host(bus: _SubscribingBus) -> AgentHost:
 
 
 def _reply(rid: int) -> RegisterReply:
-    return RegisterReply(tick=1, ok=True, robot_id=rid, spec=RobotSpecMsg(name="fwd", id=rid, x=1.0, y=1.0))
+    return RegisterReply(tick=1, ok=True, robot_id=rid, spec=RobotSpecMsg(name="fwd", id=rid, x_m=1.0, y_m=1.0))
 
 
 def test_the_agent_host_stops_listening_for_robots_the_world_removed() -> None:
@@ -260,7 +260,7 @@ def _reading(tick: int, rid: int = 1) -> SensorReading:
 
 def test_the_foxglove_scene_forgets_the_poses_of_robots_that_left() -> None:
     scene = SceneBuilder()
-    robots = [RobotSpecMsg(name=f"r{i}", id=i, x=1.0, y=1.0) for i in range(1, COMERS + 2)]
+    robots = [RobotSpecMsg(name=f"r{i}", id=i, x_m=1.0, y_m=1.0) for i in range(1, COMERS + 2)]
     scene.on_info(WorldInfo(revision=1, lab=LabMsg(name="l", width=9, height=9), period_ns=1, robots=robots))
     for tick in range(1, COMERS):
         scene.on_state(world_state(tick, [1, tick + 1], collided=True))
@@ -294,7 +294,7 @@ def test_obstacles_beyond_the_limit_are_refused_with_it_and_those_removed_make_r
 
 
 def test_a_view_keeps_the_bodies_of_a_few_rosters() -> None:
-    robots = [RobotSpecMsg(name=f"r{i}", id=i, x=1.0, y=1.0) for i in range(1, 50)]
+    robots = [RobotSpecMsg(name=f"r{i}", id=i, x_m=1.0, y_m=1.0) for i in range(1, 50)]
     info = WorldInfo(revision=1, lab=LabMsg(name="l", width=9, height=9), period_ns=1, robots=robots)
     view = WorldView(info, Scene(Lab("l", 9.0, 9.0, ())), {r.id: spec_from_msg(r) for r in robots})
     for n in range(COMERS):
@@ -331,8 +331,8 @@ def test_the_world_refuses_a_registration_too_big_for_every_tick_with_the_limit(
     assert not reply.ok
     assert reply.reason == "field ir_sensors: at most 64 per robot, got 100000 (every tick computes each one)"
     assert len(core.registry.entries) == 0
-    reply, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="b", width=1e6), agent="x"), 0)
-    assert (reply.ok, reply.reason) == (False, "field width: must be at most 10 m, got 1000000.0")
+    reply, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="b", width_m=1e6), agent="x"), 0)
+    assert (reply.ok, reply.reason) == (False, "field width_m: must be at most 10 m, got 1000000.0")
 
 
 def test_a_legacy_registration_too_big_is_refused_with_the_limit() -> None:

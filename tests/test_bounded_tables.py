@@ -50,7 +50,7 @@ def test_registration_answers_kept_for_retries_are_bounded_and_a_retry_still_get
 
 def _sensors_view(ids: list[int]) -> WorldView:
     lab = Lab("t", 2000.0, 10.0, ())
-    robots = [RobotSpecMsg(name=f"r{i}", id=i, x=1.0 + 0.5 * i, y=5.0) for i in ids]
+    robots = [RobotSpecMsg(name=f"r{i}", id=i, x_m=1.0 + 0.5 * i, y_m=5.0) for i in ids]
     info = WorldInfo(revision=1, lab=LabMsg(name="t", width=2000.0, height=10.0), period_ns=100_000_000, robots=robots)
     return WorldView(info, Scene(lab), {r.id: spec_from_msg(r) for r in robots})
 

@@ -156,7 +156,7 @@ def test_an_agent_refuses_a_radio_batch_from_far_ahead_and_a_reading_on_another_
 
 def test_a_registration_answer_that_does_not_decode_is_passed_over_for_one_that_does() -> None:
     bus = FakeBus()
-    good = RegisterReply(tick=5, ok=True, robot_id=1, spec=RobotSpecMsg(name="fwd", id=1, x=1.0, y=1.0))
+    good = RegisterReply(tick=5, ok=True, robot_id=1, spec=RobotSpecMsg(name="fwd", id=1, x_m=1.0, y_m=1.0))
     bus.answer = lambda key, payload: [b'{"ok": "yes"}', encode(good)]
     host = AgentHost(bus, "t", "host")
     assert host.add(_Forward(), timeout_s=1.0) == 1
@@ -164,7 +164,7 @@ def test_a_registration_answer_that_does_not_decode_is_passed_over_for_one_that_
 
 def test_a_registration_answer_that_is_refused_refuses_the_registration_with_its_reason() -> None:
     bus = FakeBus()
-    bad = RegisterReply(tick=5, ok=True, robot_id=1, spec=RobotSpecMsg(name="fwd", id=1, width=-1.0))
+    bad = RegisterReply(tick=5, ok=True, robot_id=1, spec=RobotSpecMsg(name="fwd", id=1, width_m=-1.0))
     bus.answer = lambda key, payload: [encode(bad)]
     host = AgentHost(bus, "t", "host")
     with pytest.raises(RegistrationRefused, match="width"):

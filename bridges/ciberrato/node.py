@@ -207,8 +207,8 @@ class Bridge:
         robot = LegacyRobot(reply.robot_id, name=p.spec.name, n_beacons=nb + p.carried)
         self.registrar.accepted(reply.robot_id, p.spec)
         placed = reply.spec
-        if placed is not None and placed.x is not None and placed.y is not None:
-            robot.start = robot.pose = (placed.x, placed.y)
+        if placed is not None and placed.x_m is not None and placed.y_m is not None:
+            robot.start = robot.pose = (placed.x_m, placed.y_m)
         now = time.monotonic()
         link = RobotLink(peer, t, robot, seen=now, heard=now)
         self.clients.add(link)

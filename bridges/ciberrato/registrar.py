@@ -119,7 +119,7 @@ class Registrar:
             return Admission(refused=f"{MAX_PENDING} registrations are waiting for the world's answer already")
         # beacons robots carry: those the world's description lists, and those accepted or being
         # registered here since (the description is published a moment later)
-        carried = {r.id for r in info.robots if r.beacon_height is not None} if info else set()
+        carried = {r.id for r in info.robots if r.beacon_height_m is not None} if info else set()
         carried |= self.carriers
         n_carried = len(carried) + sum(1 for p in self.pending.values() if p.spec.beacon_height_m is not None)
         if reg.kind == "beacon" and (nb or n_carried):

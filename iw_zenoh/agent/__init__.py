@@ -1,20 +1,23 @@
 """Writing an agent: a policy from readings to commands, and the host that runs many of them.
 
-An agent is any object with ``spec()`` and ``on_sensors(reading, heard)``::
+The one module an agent's author imports: the agent, its command, its robot's spec and the
+reading types are all here. An agent is any object with ``spec()`` and ``on_sensors(reading, heard)``::
+
+    from iw_zenoh.agent import Command, Heard, Readings, Spec
 
     class Forward:
-        def spec(self) -> RobotSpec:
-            return RobotSpec("fwd")
-        def on_sensors(self, reading: SensorReading, heard: list[Heard]) -> Command:
-            return Command(0.1, 0.1)
+        def spec(self) -> Spec:
+            return Spec("fwd")
+        def on_sensors(self, reading: Readings, heard: list[Heard]) -> Command:
+            return Command.from_velocity(0.3, 0.0)  # 0.3 m/s ahead, no turn
 
-It may also have ``on_registered(robot_id, spec)``, called once the world has accepted its robot
-(with the id and the spec the world accepted), and ``on_state(state)``: the world's committed
-state of the tick, handed to it just before that tick's ``on_sensors`` (in lock-step the host then
-also waits for the state before answering; an agent that judges itself by where it truly is, as a
-learned policy does: ``iwz agent policy``). ``iwz agent ./my_agent.py:Name`` runs one from the
-user's own file (``docs/first-agent.md``), and ``--spec chair.toml`` lays a spec file's fields
-over its robot (``docs/spec.md``).
+It may also have the optional hooks of :mod:`iw_zenoh.agent.hooks` (:class:`OnRegistered`,
+:class:`OnChair`, :class:`AttachTo`, :class:`OnState`: the world's committed state of the tick,
+handed to it just before that tick's ``on_sensors``, as a learned policy needs, ``iwz agent
+policy``; :class:`OnDrive`: a chair a person drives, ``docs/driving.md``). ``iwz agent
+./my_agent.py:Name`` runs one from the user's own file (``docs/first-agent.md``; its ``args.seed``
+is the seed the run hands it), and ``--spec chair.toml`` lays a spec file's fields over its robot
+(``docs/spec.md``).
 
 An :class:`AgentHost` registers every agent's robot with the world, hands each one its readings
 (and what its robot heard on the radio) every tick, and publishes its actions and messages. One
@@ -37,11 +40,14 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 from iw_zenoh import keys
+from iw_zenoh.agent.hooks import AttachTo, OnChair, OnDrive, OnRegistered, OnState, attached_to
 from iw_zenoh.agent.hosting import Command, InlineAnswers, Outbox, WorldRegistration
+from iw_zenoh.agent.places import point_arg, points_arg, pose_arg
 from iw_zenoh.bus import Asked, Bus, Handle, Inbox
 from iw_zenoh.convert import spec_from_msg, spec_to_msg
 from iw_zenoh.core.modes import Mode
-from iw_zenoh.core.spec import RobotSpec
+from iw_zenoh.core.motor import MAX_POWER
+from iw_zenoh.core.spec import BumperSpec, IrSensorSpec, LaserSpec, RobotSpec, SensorNoise, prototype_chair
 from iw_zenoh.errors import DecodeError, IwError, ProtocolError
 from iw_zenoh.messages import (
     ChairReading,
@@ -59,10 +65,39 @@ from iw_zenoh.messages import (
     encode,
     readings_of,
 )
+from iw_zenoh.messages.robot import Pose
 from iw_zenoh.process.runtime import NodeIO
 from iw_zenoh.ticks import TickWindow
 
-__all__ = ["BATCH_FROM", "Agent", "AgentHost", "Command", "RegistrationRefused"]
+__all__ = [
+    "BATCH_FROM",
+    "MAX_POWER",
+    "Agent",
+    "AgentHost",
+    "AttachTo",
+    "BumperSpec",
+    "ChairReading",
+    "Command",
+    "Heard",
+    "IrSensorSpec",
+    "LaserSpec",
+    "OnChair",
+    "OnDrive",
+    "OnRegistered",
+    "OnState",
+    "Pose",
+    "Readings",
+    "RegistrationRefused",
+    "SensorNoise",
+    "Spec",
+    "point_arg",
+    "points_arg",
+    "pose_arg",
+    "prototype_chair",
+]
+
+Spec = RobotSpec  # a robot's spec: its body, start, top speed, sensors and noise (docs/spec.md)
+Readings = SensorReading  # one tick's readings of a robot (``reading.pose``, ``reading.proximity_m``...)
 
 logger = logging.getLogger(__name__)
 
@@ -77,7 +112,7 @@ HEARD_KEPT = 64  # radio batches, fresh counts kept for ticks not answered yet (
 
 
 class Agent(Protocol):
-    """A robot's controller."""
+    """A robot's controller (optional hooks: :class:`OnRegistered`, :class:`OnChair`, :class:`AttachTo`)."""
 
     def spec(self) -> RobotSpec:
         """The robot to register."""
@@ -208,27 +243,25 @@ class AgentHost:
         elif not self.batched and reply.robot_id not in self._subscribed:
             self._subscribed[reply.robot_id] = self._subscribe_sensors(reply.robot_id)
         self._accept_driver(agent, reply.robot_id)
-        on_reg = getattr(agent, "on_registered", None)
-        if callable(on_reg):
-            on_reg(reply.robot_id, spec)
+        if isinstance(agent, OnRegistered):
+            agent.on_registered(reply.robot_id, spec)
         return reply.robot_id
 
     def _want_states(self, agent: Agent) -> None:
         """Subscribes the world's states (before the robot is asked for: its first tick's state
         is not missed) when the agent has ``on_state``."""
-        if self.states is None and callable(getattr(agent, "on_state", None)):
+        if self.states is None and isinstance(agent, OnState):
             self.states = self.io.inbox(keys.state(self.sim), wake=self.inline)
 
     def _accept_driver(self, agent: Agent, robot_id: int) -> None:
         """Listens for drivers' inputs to a robot whose agent accepts a driver (``on_drive``)."""
-        if callable(getattr(agent, "on_drive", None)) and robot_id not in self._drive_subs:
+        if isinstance(agent, OnDrive) and robot_id not in self._drive_subs:
             self._drive_subs[robot_id] = self.io.bus.subscribe(keys.drive(self.sim, robot_id), self.drives)
 
     def _publish_drive(self, h: _Hosted) -> None:
         """A driven chair's drive messages of this tick (``drive_messages()``): its drive state, and
         the inputs a replayed trace gave (recorded as a live driver's would be)."""
-        messages = getattr(h.agent, "drive_messages", None)
-        for m in messages() if callable(messages) else []:
+        for m in h.agent.drive_messages() if isinstance(h.agent, OnDrive) else []:
             key = keys.driving if isinstance(m, DriveState) else keys.drive
             self.io.bus.publish(key(self.sim, h.robot_id), encode(m))
 
@@ -316,7 +349,7 @@ class AgentHost:
         orphans, self._orphans = self._orphans, []
         for agent in orphans:
             try:
-                attach_to = getattr(agent, "attach_to", 0)  # a robot another process registers: wait for it
+                attach_to = attached_to(agent)  # a robot another process registers: wait for it
                 rid = self.attach(agent, attach_to, timeout_s=2.0) if attach_to else self.add(agent, timeout_s=2.0)
                 logger.warning("robot %d registered again for %s", rid, agent.spec().name)
             except RegistrationRefused as e:
@@ -350,22 +383,21 @@ class AgentHost:
                     raise RegistrationRefused(f"no robot {robot_id} in the world within {timeout_s:g} s to attach to")
                 self.io.stop.wait(0.2)
         self.hosted[robot_id] = _Hosted(agent, robot_id, spec)
-        if callable(getattr(agent, "on_chair", None)) and robot_id not in self._chair_keys:
+        if isinstance(agent, OnChair) and robot_id not in self._chair_keys:
             self.chairs = self.chairs or Inbox(wake=self.io.wake)
             self._chair_keys.add(robot_id)
             self.io.bus.subscribe(keys.chair(self.sim, robot_id), self.chairs)
         self._accept_driver(agent, robot_id)
-        on_reg = getattr(agent, "on_registered", None)
-        if callable(on_reg):
-            on_reg(robot_id, spec)
+        if isinstance(agent, OnRegistered):
+            agent.on_registered(robot_id, spec)
         return robot_id
 
     def _collect(self) -> None:
         for d in self.chairs.drain() if self.chairs is not None else []:
             c = self.io.decode(d, ChairReading)
             h = self.hosted.get(c.robot_id) if c is not None else None
-            if c is not None and h is not None:
-                h.agent.on_chair(c)  # type: ignore[attr-defined]
+            if c is not None and h is not None and isinstance(h.agent, OnChair):
+                h.agent.on_chair(c)
         for d in self.states.drain() if self.states is not None else []:
             st = self.io.decode(d, WorldState)
             if st is not None and self._in_window(d[0], st.tick) and (self.state is None or st.tick > self.state.tick):
@@ -376,8 +408,8 @@ class AgentHost:
             h = self.hosted.get(rid) if rid is not None else None
             if m is not None and m.robot_id != rid:
                 self.io.bad_message(d[0], ProtocolError(f"a drive input for robot {m.robot_id} on robot {rid}'s key"))
-            elif m is not None and h is not None:
-                h.agent.on_drive(m)  # type: ignore[attr-defined]
+            elif m is not None and h is not None and isinstance(h.agent, OnDrive):
+                h.agent.on_drive(m)
         for d in self.radio.drain():
             b = self.io.decode(d, RadioBatch)
             if b is not None and self._in_window(d[0], b.tick):
@@ -455,9 +487,9 @@ class AgentHost:
             r = h.reading
             if r is None or r.tick <= h.answered:
                 continue
-            if self.state is not None and callable(on_state := getattr(h.agent, "on_state", None)):
-                on_state(self.state)
-            cmd = h.agent.on_sensors(r, heard_now.get(h.robot_id, []))
+            if self.state is not None and isinstance(h.agent, OnState):
+                h.agent.on_state(self.state)
+            cmd = h.agent.on_sensors(r, heard_now.get(h.robot_id, [])).resolved(h.spec)  # a velocity: powers
             self.outbox.command(h.robot_id, cmd, tick=r.tick, sim_time_ns=r.sim_time_ns)
             if h.robot_id in self._drive_subs:  # a chair a person drives: what it did with the input
                 self._publish_drive(h)

@@ -8,10 +8,12 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Asked, Bus
+from iw_zenoh.core.motor import powers_for_twist
+from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import DecodeError
 from iw_zenoh.messages import (
     ActionBatch,
@@ -32,16 +34,19 @@ KEYS_KEPT = 4096  # robots' actions keys an outbox keeps built (well above the r
 
 @dataclass(frozen=True)
 class Command:
-    """What an agent does this tick.
+    """What an agent does this tick: a body velocity (:meth:`from_velocity`, what an agent of its
+    own should give) or the legacy wheel powers (``Command(left, right)``, Ciber-Rato's).
 
     Attributes:
-        left: Left motor power, [-0.15, 0.15] (the world clamps).
+        left: Left motor power, [-0.15, 0.15] (``MAX_POWER``; the world clamps).
         right: Right motor power.
         say: A radio message (at most 100 bytes), or None.
         end_led: Ciber-Rato's end LED (and the other two).
         pose: For Real robots: the pose (x, y, dir_deg) from the robot's own odometry.
         actions: Publish the motor powers (False: a serial bridge reports the pose of a chair
             that another agent drives, and must not command it).
+        velocity: ``(v_mps, w_radps)`` asked by :meth:`from_velocity`, or None: the agent host turns
+            it into ``left`` and ``right`` through the chair's model (:meth:`resolved`).
     """
 
     left: float = 0.0
@@ -52,6 +57,60 @@ class Command:
     visiting_led: bool = False
     pose: tuple[float, float, float] | None = None
     actions: bool = True
+    velocity: tuple[float, float] | None = None
+
+    @classmethod
+    def from_velocity(
+        cls,
+        v_mps: float,
+        w_radps: float,
+        *,
+        say: str | None = None,
+        end_led: bool = False,
+        returning_led: bool = False,
+        visiting_led: bool = False,
+    ) -> Command:
+        """A command of a body velocity, turned into wheel powers through the chair's own model
+        (its top speed and wheel base) by the agent host; one beyond the motors' reach is scaled
+        down as a whole, so the chair keeps the asked curvature.
+
+        Args:
+            v_mps: Forward speed, m/s (negative: backwards).
+            w_radps: Turn rate, rad/s, counter-clockwise (positive turns left).
+            say: A radio message (at most 100 bytes), or None.
+            end_led: Ciber-Rato's end LED.
+            returning_led: Ciber-Rato's returning LED.
+            visiting_led: Ciber-Rato's visiting LED.
+
+        Returns:
+            The command; its powers are set by :meth:`resolved` (a non-finite velocity stops the chair).
+        """
+        return cls(
+            say=say,
+            end_led=end_led,
+            returning_led=returning_led,
+            visiting_led=visiting_led,
+            velocity=(float(v_mps), float(w_radps)),
+        )
+
+    @classmethod
+    def stop(cls) -> Command:
+        """Both motors at rest."""
+        return cls(0.0, 0.0)
+
+    def resolved(self, spec: RobotSpec) -> Command:
+        """This command in wheel powers for the chair ``spec`` describes (itself when it has no velocity).
+
+        Args:
+            spec: The chair's registered spec (its ``max_speed_mps`` and ``wheel_base_m``).
+
+        Returns:
+            A command with ``left`` and ``right`` set and no velocity.
+        """
+        if self.velocity is None:
+            return self
+        left, right = powers_for_twist(*self.velocity, spec.max_speed_mps, spec.wheel_base_m)
+        return replace(self, left=left, right=right, velocity=None)
 
 
 class Outbox:

@@ -39,6 +39,7 @@ from iw_zenoh.scenario.specfile import SPEC_TABLE, apply_spec, load_spec_file
 __all__ = [
     "Program",
     "ProgramError",
+    "add_seed_argument",
     "add_spec_arguments",
     "available",
     "find_program",
@@ -198,7 +199,7 @@ def _agents(maker: Any, args: argparse.Namespace, label: str, path: Path) -> lis
     if bad or not agents:
         what = _kind(bad[0]) if bad else "no agent"
         raise ProgramError(
-            f"{label} made {what}, not an agent: an agent has spec() -> RobotSpec and "
+            f"{label} made {what}, not an agent: an agent has spec() -> Spec and "
             "on_sensors(reading, heard) -> Command (see docs/first-agent.md)"
         )
     for a in agents:  # its robot is asked for once the bus is up: a spec that fails, fails here
@@ -207,7 +208,7 @@ def _agents(maker: Any, args: argparse.Namespace, label: str, path: Path) -> lis
         except Exception as e:
             raise ProgramError(f"{label}(...).spec() failed: {_where(e, path)}") from None
         if not isinstance(spec, RobotSpec):
-            raise ProgramError(f"{label}(...).spec() returned {_kind(spec)}, not a RobotSpec (iw_zenoh.core.spec)")
+            raise ProgramError(f"{label}(...).spec() returned {_kind(spec)}, not a Spec (iw_zenoh.agent)")
     return agents
 
 
@@ -261,6 +262,20 @@ def add_spec_arguments(parser: argparse.ArgumentParser) -> None:
         default="",
         help="the same table as JSON (what iwz run passes for a scenario's spec); over --spec's",
     )
+
+
+def add_seed_argument(parser: argparse.ArgumentParser) -> None:
+    """``--seed N``: the seed handed to the program's agents as ``args.seed`` (every program has it;
+    one that declares its own ``--seed``, of the same meaning, keeps its own). ``iwz run`` gives
+    each ``[[agents]]`` entry one (its ``seed``, or one drawn from the world's, docs/scenarios.md)."""
+    if "--seed" not in parser._option_string_actions:  # argparse keeps no public registry of options
+        parser.add_argument(
+            "--seed",
+            type=int,
+            default=0,
+            metavar="N",
+            help="the agents' seed, args.seed: draw from np.random.default_rng(args.seed) (default 0)",
+        )
 
 
 def make_with_spec(program: Program, args: argparse.Namespace) -> list[Agent]:

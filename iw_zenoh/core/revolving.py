@@ -23,6 +23,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from iw_zenoh.core.motor import MAX_POWER
+
 __all__ = [
     "LEAF_GAP_M",
     "MID_WHEEL",
@@ -38,7 +40,6 @@ __all__ = [
 
 LEAF_GAP_M = 0.05  # between a leaf's tip and the drum wall
 MID_WHEEL = {"width_m": 1.0, "height_m": 0.6, "com": 0.5}  # a mid-wheel-drive chair turns about its middle
-MAX_POWER = 0.15  # the motors' power limit
 
 
 @dataclass(frozen=True)

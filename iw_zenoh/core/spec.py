@@ -167,8 +167,8 @@ class IrSensorSpec:
         if isinstance(self.id, bool) or not isinstance(self.id, int) or self.id < 0:
             raise SpecError("ir.id", f"must be an integer >= 0, got {self.id!r}")
         p = f"ir[{self.id}]"
-        _finite(f"{p}.x", self.x_m)
-        _finite(f"{p}.y", self.y_m)
+        _finite(f"{p}.x_m", self.x_m)
+        _finite(f"{p}.y_m", self.y_m)
         _within(f"{p}.angle", self.angle_deg, -180.0, 180.0, lo_open=False, hi_open=False)
         _within(f"{p}.cone", self.cone_deg, 0.0, 180.0, lo_open=True, hi_open=True)
         _positive(f"{p}.range", self.range_m)
@@ -204,8 +204,8 @@ class LaserSpec:
         if isinstance(self.id, bool) or not isinstance(self.id, int) or self.id < 0:
             raise SpecError("laser.id", f"must be an integer >= 0, got {self.id!r}")
         p = f"laser[{self.id}]"
-        _finite(f"{p}.x", self.x_m)
-        _finite(f"{p}.y", self.y_m)
+        _finite(f"{p}.x_m", self.x_m)
+        _finite(f"{p}.y_m", self.y_m)
         _within(f"{p}.angle", self.angle_deg, -180.0, 180.0, lo_open=False, hi_open=False)
         _within(f"{p}.fov", self.fov_deg, 0.0, 360.0, lo_open=True, hi_open=False)
         if isinstance(self.beams, bool) or not isinstance(self.beams, int) or not 1 <= self.beams <= LASER_MAX_BEAMS:
@@ -261,7 +261,7 @@ class EncoderSpec:
 
 def _bounded(spec: RobotSpec) -> None:
     """Refuses a body over :data:`MAX_BODY_M` and more sensors than :func:`check_counts` takes."""
-    for name, m in (("width", spec.width_m), ("height", spec.height_m)):
+    for name, m in (("width_m", spec.width_m), ("height_m", spec.height_m)):
         if m > MAX_BODY_M:
             raise SpecError(name, f"must be at most {MAX_BODY_M:g} m, got {m!r}")
     check_counts(len(spec.ir_sensors), len(spec.lasers), len(spec.bumpers))
@@ -399,16 +399,16 @@ class RobotSpec:
             BodyShape(self.shape)
         except ValueError:
             raise SpecError("shape", f"must be rect or circle, got {self.shape!r}") from None
-        _positive("width", self.width_m)
-        _positive("height", self.height_m)
+        _positive("width_m", self.width_m)
+        _positive("height_m", self.height_m)
         _bounded(self)
         _within("com", self.com, 0.0, 1.0, lo_open=True, hi_open=True)
-        for name, v in (("x", self.x_m), ("y", self.y_m)):
+        for name, v in (("x_m", self.x_m), ("y_m", self.y_m)):
             if v is not None:
                 _positive(name, v)
         if self.dir_deg is not None:
-            _within("dir", self.dir_deg, -180.0, 180.0, lo_open=False, hi_open=False)
-        _within("max_speed", self.max_speed_mps, 0.0, MAX_SPEED_MPS, lo_open=True, hi_open=False)
+            _within("dir_deg", self.dir_deg, -180.0, 180.0, lo_open=False, hi_open=False)
+        _within("max_speed_mps", self.max_speed_mps, 0.0, MAX_SPEED_MPS, lo_open=True, hi_open=False)
         _within("acceleration_curve", self.acceleration_curve, 0.0, 1.0, lo_open=True, hi_open=False)
         ids = [s.id for s in self.ir_sensors]
         if len(set(ids)) != len(ids):
@@ -423,12 +423,12 @@ class RobotSpec:
                 raise SpecError("ir_sensors", f"legacy sensor ids are 0..{LEGACY_MAX_IR - 1}, got {bad}")
         if self.shape == BodyShape.CIRCLE and self.width_m != self.height_m:
             raise SpecError(
-                "height",
+                "height_m",
                 f"a circle's width and height are its diameter and must match, "
                 f"got {self.width_m!r} and {self.height_m!r}",
             )
         if self.beacon_height_m is not None:
-            _within("beacon_height", self.beacon_height_m, 0.0, 1e3, lo_open=False, hi_open=False)
+            _within("beacon_height_m", self.beacon_height_m, 0.0, 1e3, lo_open=False, hi_open=False)
         if len({b.id for b in self.bumpers}) != len(self.bumpers):
             raise SpecError("bumpers", "bumper ids must be unique")
         if len({s.id for s in self.lasers}) != len(self.lasers):

@@ -28,7 +28,8 @@ from iw_zenoh.launch.secure_run import (
 from iw_zenoh.nodes.role_options import BridgeOptions, RadioOptions, RecorderOptions, SensorsOptions
 from iw_zenoh.nodes.world_options import WorldOptions
 from iw_zenoh.process.options import options_argument
-from iw_zenoh.scenario.file import Scenario
+from iw_zenoh.record.metrics import Goal, goals_json
+from iw_zenoh.scenario.file import Scenario, Start
 from iw_zenoh.secure.cli import POLICY_FILE
 
 __all__ = ["RunPlan"]
@@ -131,7 +132,8 @@ class RunPlan:
                 c = self.child("ros2", name, *self._ros2_args(a.robots), *a.argv, *spec, "--name", name)
                 c.role = "agent"  # an agent all the same: started last, stopped first, its chairs its own
             else:
-                c = self.child("agent", name, a.program, *a.argv, *spec, "--name", name)
+                seed = ["--seed", str(sc.agent_seed(i))]  # before its args: a --seed of its own wins
+                c = self.child("agent", name, a.program, *seed, *a.argv, *spec, "--name", name)
             c.cwd, c.token = sc.base.resolve(), keys.chunk(name)
         if self.ids is not None:
             chair = {n: tuple(r) for n, r in bridge_robots(sc).items() if r is not None}  # the serial bridge's
@@ -152,8 +154,8 @@ class RunPlan:
         this run's recording in its next part."""
         sc = self.scenario
         meta = {"scenario": sc.name, "seed": str(sc.world.seed), "map": str(sc.world.map)}
-        if sc.criteria.reach:  # iwz report's time to goal (record/metrics.py parse_goals reads it)
-            meta["goals"] = ";".join(f"{r.robot}={r.x!r},{r.y!r},{r.within!r}" for r in sc.criteria.reach)
+        if sc.criteria.reach:  # iwz report's time to goal: a JSON array (record/metrics.py recorded_goals reads it)
+            meta["goals"] = goals_json({r.robot: Goal(r.x, r.y, r.within) for r in sc.criteria.reach})
         rec = RecorderOptions(output=str(self.record), meta=meta, quiet=True, continue_run=uuid.uuid4().hex)
         self.child("record", "recorder", options=rec)
 
@@ -161,10 +163,11 @@ class RunPlan:
         """A real chair's serial bridge; without a port, the chair emulator on a pty (docs/serial.md)."""
         ch, sc = self.scenario.chair, self.scenario
         assert ch is not None
+        start = ch.start.arg if isinstance(ch.start, Start) else ch.start  # a string is refused on reading
         port = ch.port
         if not port:
             port = str(self.log_dir / "chair-pty")  # a stable link to the emulator's pty
-            emulate = ["emulate", "--pty", "--link", port, "--map", str(sc.world.map), "--start", ch.start]
+            emulate = ["emulate", "--pty", "--link", port, "--map", str(sc.world.map), "--start", start]
             emulate += ["--spec", str(ch.spec)] if ch.spec is not None else []
             emulate += [
                 "--room",
@@ -175,7 +178,7 @@ class RunPlan:
                 str(self.log_dir / "chair-wheels.log"),
             ]
             self.children.append(Child("chair", "chair", self.command("chair", *emulate), self.log_dir / "chair.log"))
-        bridge = ["serial", "--port", port, "--robot", ch.name, "--id", str(ch.robot), "--start", ch.start]
+        bridge = ["serial", "--port", port, "--robot", ch.name, "--id", str(ch.robot), "--start", start]
         bridge += ["--baud", str(ch.baud), "--log", str(self.log_dir / "bridge-serial.csv")]
         bridge += ["--spec", str(ch.spec)] if ch.spec is not None else []
         self.child("bridge", SERIAL_BRIDGE, *bridge, "--name", SERIAL_BRIDGE, token=SERIAL_BRIDGE)

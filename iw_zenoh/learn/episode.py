@@ -11,6 +11,8 @@ from typing import Any
 
 import numpy as np
 
+from iw_zenoh.agent.hosting import Command
+from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.learn.nav import Goal, Reward, Senses, goal_distance, to_powers
 from iw_zenoh.messages import WorldState
 from iw_zenoh.sim.local import ArrayStep, LocalWorld, Step
@@ -97,7 +99,7 @@ class Episode:
             return _Lazy(a, self.world)  # type: ignore[return-value]
         s = self.world.step({**self._pending, **commands})
         self._pending = {
-            rid: agent.on_sensors(s.readings[rid], s.heard.get(rid, []))
+            rid: _powers(agent.on_sensors(s.readings[rid], s.heard.get(rid, [])), self.world.spec(rid))
             for rid, agent in self.agents.items()
             if rid in s.readings
         }
@@ -161,3 +163,6 @@ class _Lazy:
             rolled_right=rr,
             speed=[0.0] * n,
         )
+def _powers(cmd: Any, spec: RobotSpec) -> Any:
+    """An agent's command in wheel powers (a ``Command.from_velocity`` through its chair's model)."""
+    return cmd.resolved(spec) if isinstance(cmd, Command) else cmd

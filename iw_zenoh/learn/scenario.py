@@ -20,7 +20,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from iw_zenoh.agent.programs import add_spec_arguments, find_program, make_with_spec
+from iw_zenoh.agent.hooks import OnRegistered
+from iw_zenoh.agent.programs import add_seed_argument, add_spec_arguments, find_program, make_with_spec
 from iw_zenoh.core.lab import Grid
 from iw_zenoh.errors import IwError
 from iw_zenoh.learn.episode import Episode
@@ -46,8 +47,10 @@ def _agents(sc: Scenario) -> list[Any]:
             p = argparse.ArgumentParser(prog=f"agents[{i}] {a.program}", exit_on_error=False)
             program.add_arguments(p)
             add_spec_arguments(p)
+            add_seed_argument(p)
             spec = ["--spec-json", json.dumps(a.spec)] if isinstance(a.spec, dict) else []
-            args, _ = p.parse_known_args([*a.argv, *spec])  # the role's own (-v, --batch) do not matter here
+            seed = ["--seed", str(sc.agent_seed(i))]  # as iwz run hands it
+            args, _ = p.parse_known_args([*seed, *a.argv, *spec])  # the role's own (-v, --batch) do not matter here
             out += make_with_spec(program, args)
     return out
 
@@ -75,7 +78,7 @@ def build(sc: Scenario, seed: int) -> tuple[LocalWorld, dict[int, Any]]:
     agents: dict[int, Any] = {}
     for agent in _agents(sc):
         rid = world.add(agent.spec())
-        if hasattr(agent, "on_registered"):
+        if isinstance(agent, OnRegistered):
             agent.on_registered(rid, world.spec(rid))
         agents[rid] = agent
     return world, agents

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Container
-from typing import ClassVar, Literal
+from typing import ClassVar, Literal, NamedTuple
 
 import msgspec
 
@@ -85,9 +86,27 @@ class LaserScan(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only
     ranges: list[float | None]
 
 
+class Pose(NamedTuple):
+    """A pose in the lab's frame, in the core's units (what :attr:`SensorReading.pose` gives).
+
+    Attributes:
+        x_m: x, metres.
+        y_m: y, metres.
+        heading_rad: Heading, radians counter-clockwise from the x axis, in [-pi, pi].
+    """
+
+    x_m: float
+    y_m: float
+    heading_rad: float
+
+
 class SensorReading(Message, frozen=True, kw_only=True):
     """Every reading of tick n for one robot. ``None`` proximity means nothing within range,
-    ``None`` beacon means not visible."""
+    ``None`` beacon means not visible.
+
+    On the wire ``gps`` is ``(x m, y m, heading deg)`` and ``compass_deg`` degrees; an agent reads
+    them in the core's units as :attr:`pose` (``Pose(x_m, y_m, heading_rad)``) and :attr:`compass_rad`.
+    """
 
     schema: ClassVar[str] = "iw.SensorReading/1"
     robot_id: RobotId
@@ -114,6 +133,17 @@ class SensorReading(Message, frozen=True, kw_only=True):
                 f"{n} proximity_ids for {len(self.proximity_m)} proximity_m and "
                 f"{len(self.proximity_legacy)} proximity_legacy"
             )
+
+    @property
+    def pose(self) -> Pose:
+        """The GPS pose, ``Pose(x_m, y_m, heading_rad)`` (noisy unless the spec's GPS noise is off)."""
+        x, y, d = self.gps
+        return Pose(x, y, math.radians(d))
+
+    @property
+    def compass_rad(self) -> float:
+        """The compass heading, radians counter-clockwise from the x axis."""
+        return math.radians(self.compass_deg)
 
 
 class SensorBatch(Message, frozen=True, kw_only=True):

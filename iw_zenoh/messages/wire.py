@@ -122,7 +122,10 @@ def decode(data: bytes, kind: type[T]) -> T:
     try:
         msg: T = dec.decode(data)
     except msgspec.ValidationError as e:
-        raise DecodeError(f"{kind.schema}: {e}") from None
+        upgraded = _upgraded(data, kind)  # written by an older version of the message?
+        if upgraded is None:
+            raise DecodeError(f"{kind.schema}: {e}") from None
+        return upgraded
     except msgspec.DecodeError as e:
         raise DecodeError(f"{kind.schema}: not JSON: {e}") from None
     return msg
@@ -145,6 +148,21 @@ def prepare_decoders(*modules: ModuleType) -> int:
                 _DECODERS.setdefault(value, msgspec.json.Decoder(value))
                 made += 1
     return made
+def _upgraded(data: bytes, kind: type[T]) -> T | None:
+    """A message its type's ``upgrade(doc)`` reads as an older version wrote it (renamed fields),
+    or None: a type without one, or a message that is refused all the same. Only refused messages
+    come here, so what every tick decodes costs nothing more."""
+    upgrade = getattr(kind, "upgrade", None)
+    if upgrade is None:
+        return None
+    try:
+        doc = msgspec.json.decode(data)
+        new = upgrade(doc) if isinstance(doc, dict) else doc
+        if new == doc:
+            return None
+        return msgspec.convert(new, kind)
+    except (msgspec.ValidationError, msgspec.DecodeError, RecursionError):
+        return None
 
 
 def json_schema(kind: type[msgspec.Struct]) -> dict[str, Any]:

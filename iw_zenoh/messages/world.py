@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated, ClassVar, Literal
+from typing import Annotated, Any, ClassVar, Literal
 
 import msgspec
 
@@ -17,8 +17,8 @@ class IrSensorMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_on
     """A proximity sensor (Table 4.4)."""
 
     id: NonNeg
-    x: float = 0.0
-    y: float = 0.0
+    x_m: float = 0.0
+    y_m: float = 0.0
     angle_deg: float = 0.0
     cone_deg: float = 60.0
     range_m: float = 4.0
@@ -28,8 +28,8 @@ class LaserMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=
     """A 2D laser range finder: ``beams`` rays over ``fov_deg`` centred on ``angle_deg``."""
 
     id: NonNeg
-    x: float = 0.0
-    y: float = 0.0
+    x_m: float = 0.0
+    y_m: float = 0.0
     angle_deg: float = 0.0
     fov_deg: float = 270.0
     beams: Annotated[int, msgspec.Meta(ge=1, le=INT64_MAX)] = 64
@@ -67,28 +67,71 @@ class BumperMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only
 
 
 class RobotSpecMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
-    """A robot registration (Tables 4.3-4.5); ranges are checked when it becomes a RobotSpec."""
+    """A robot registration (Tables 4.3-4.5); ranges are checked when it becomes a RobotSpec.
+
+    Its fields are named as :class:`~iw_zenoh.core.spec.RobotSpec`'s, units and all (``width_m``,
+    ``max_speed_mps``, ``dir_deg``), in Python, spec files, scenarios and on the wire alike; the
+    names they had before (``width``, ``max_speed``, ``dir``...) are :data:`RENAMED_SPEC_FIELDS`, still
+    read from recordings written before (:func:`upgrade_spec_names`); the schemas keep their /1, as
+    every old message still decodes.
+    """
 
     name: str
     id: NonNeg = 0
     type: Literal["Simulated", "Real", "Door"] = "Simulated"
     shape: Literal["rect", "circle"] = "rect"
-    width: float = 1.0
-    height: float = 1.0
+    width_m: float = 1.0
+    height_m: float = 1.0
     com: float = 0.5
-    x: float | None = None
-    y: float | None = None
-    dir: float | None = None
-    max_speed: float = 0.5
+    x_m: float | None = None
+    y_m: float | None = None
+    dir_deg: float | None = None
+    max_speed_mps: float = 0.5
     acceleration_curve: float = 0.5
     ir_sensors: list[IrSensorMsg] = []
     bumpers: list[BumperMsg] = []
     ticks_per_m: float = 2000.0
     noise: SensorNoiseMsg | None = None
     legacy: bool = False
-    beacon_height: float | None = None  # carries a beacon (Ciber-Rato RobotBeacon)
+    beacon_height_m: float | None = None  # carries a beacon (Ciber-Rato RobotBeacon)
     # added after /1 shipped: left out of the JSON when unset (no scanner), so it reads as before
     lasers: list[LaserMsg] | msgspec.UnsetType = msgspec.UNSET
+
+
+# a spec's fields as they were named before they carried their units (still in older recordings): old -> new
+RENAMED_SPEC_FIELDS = {
+    "width": "width_m",
+    "height": "height_m",
+    "x": "x_m",
+    "y": "y_m",
+    "dir": "dir_deg",
+    "max_speed": "max_speed_mps",
+    "beacon_height": "beacon_height_m",
+}
+RENAMED_SENSOR_FIELDS = {"x": "x_m", "y": "y_m"}  # each of ir_sensors and lasers
+
+
+def _renamed(doc: dict[str, Any], names: dict[str, str]) -> dict[str, Any]:
+    """``doc`` with its old names as the new ones (a name whose new one is there too stays: refused)."""
+    return {names[k] if k in names and names[k] not in doc else k: v for k, v in doc.items()}
+
+
+def upgrade_spec_names(spec: Any) -> Any:
+    """A spec as it was written before its fields carried their units (a decoded JSON object), renamed.
+
+    Args:
+        spec: The spec's JSON object (anything else is returned as it is, to be refused).
+
+    Returns:
+        The object with the new names.
+    """
+    if not isinstance(spec, dict):
+        return spec
+    out = _renamed(spec, RENAMED_SPEC_FIELDS)
+    for kind in ("ir_sensors", "lasers"):
+        if isinstance(out.get(kind), list):
+            out[kind] = [_renamed(s, RENAMED_SENSOR_FIELDS) if isinstance(s, dict) else s for s in out[kind]]
+    return out
 
 
 class RegisterRequest(Message, frozen=True, kw_only=True):
@@ -99,6 +142,11 @@ class RegisterRequest(Message, frozen=True, kw_only=True):
     agent: str = ""  # the liveliness name of the agent process that drives it
     request_id: str = ""  # the same id asked again gets the same answer (retries are safe)
 
+    @staticmethod
+    def upgrade(doc: dict[str, Any]) -> dict[str, Any]:
+        """A request written before the spec's fields carried their units, renamed."""
+        return {**doc, "spec": upgrade_spec_names(doc.get("spec"))} if "spec" in doc else doc
+
 
 class RegisterReply(Message, frozen=True, kw_only=True):
     """The world's answer: the accepted spec with id and start pose, or a refusal and why."""
@@ -108,6 +156,11 @@ class RegisterReply(Message, frozen=True, kw_only=True):
     robot_id: RobotId = 0
     spec: RobotSpecMsg | None = None
     reason: str = ""
+
+    @staticmethod
+    def upgrade(doc: dict[str, Any]) -> dict[str, Any]:
+        """A reply written before the spec's fields carried their units, renamed."""
+        return {**doc, "spec": upgrade_spec_names(doc.get("spec"))} if "spec" in doc else doc
 
 
 class WallMsg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -164,6 +217,12 @@ class WorldInfo(Message, frozen=True, kw_only=True):
     agents: list[str] | msgspec.UnsetType = msgspec.UNSET
     # added later too: an HMAC of the rest under the key iwz run gave its world (nodes/world_seal.py)
     seal: Annotated[str, msgspec.Meta(max_length=64)] | msgspec.UnsetType = msgspec.UNSET
+
+    @staticmethod
+    def upgrade(doc: dict[str, Any]) -> dict[str, Any]:
+        """A description written before its robots' spec fields carried their units, renamed."""
+        robots = doc.get("robots")
+        return {**doc, "robots": [upgrade_spec_names(r) for r in robots]} if isinstance(robots, list) else doc
 
     def __post_init__(self) -> None:
         """Refuses a roster that names a robot twice, or agents that are not one per robot."""

@@ -13,8 +13,10 @@ from collections.abc import Sequence
 
 from iw_zenoh import keys
 from iw_zenoh.agent import BATCH_FROM, Agent, AgentHost, RegistrationRefused
+from iw_zenoh.agent.hooks import attached_to
 from iw_zenoh.agent.programs import (
     ProgramError,
+    add_seed_argument,
     add_spec_arguments,
     available,
     find_program,
@@ -59,6 +61,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     def arguments(p: argparse.ArgumentParser) -> None:
         program.add_arguments(p)
         add_spec_arguments(p)
+        add_seed_argument(p)
         p.add_argument(
             "--batch",
             choices=["auto", "on", "off"],
@@ -97,7 +100,7 @@ def _host(proc: Process, agents: list[Agent]) -> int:
     host = AgentHost(proc.bus, proc.sim, keys.chunk(proc.name), batched=batched, io=proc.io)
     try:
         for a in agents:
-            attach_to = getattr(a, "attach_to", 0)  # a robot another process registered (a serial bridge)
+            attach_to = attached_to(a)  # a robot another process registered (a serial bridge)
             rid = host.attach(a, attach_to) if attach_to else host.add(a)
             logger.info("robot %d registered for %s", rid, a.spec().name)
         host.run()

@@ -29,7 +29,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Annotated
 
+import msgspec
 import numpy as np
 import numpy.typing as npt
 import shapely
@@ -49,7 +51,9 @@ __all__ = [
     "RunMeter",
     "RunReport",
     "Series",
+    "goals_json",
     "parse_goals",
+    "recorded_goals",
     "speeds",
 ]
 
@@ -68,6 +72,40 @@ class Goal:
     x: float
     y: float
     within_m: float = 0.5
+
+
+class RecordedGoal(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """One goal as a recording's ``goals`` metadata holds it (a JSON array of these): robot
+    ``robot`` should get within ``within_m`` of (``x_m``, ``y_m``)."""
+
+    robot: Annotated[int, msgspec.Meta(ge=0)]
+    x_m: float
+    y_m: float
+    within_m: Annotated[float, msgspec.Meta(gt=0)] = 0.5
+
+
+def goals_json(goals: dict[int, Goal]) -> str:
+    """The goals as a recording's ``goals`` metadata writes them: a JSON array of :class:`RecordedGoal`."""
+    recorded = [RecordedGoal(robot=rid, x_m=g.x, y_m=g.y, within_m=g.within_m) for rid, g in goals.items()]
+    return msgspec.json.encode(recorded).decode()
+
+
+def recorded_goals(text: str) -> dict[int, Goal]:
+    """The goals of a recording's ``goals`` metadata: the JSON array written now, or the
+    ``ID=X,Y,WITHIN;...`` text that recordings made before carry (:func:`parse_goals`).
+
+    Raises:
+        ValueError: Naming what is wrong with the goals.
+    """
+    if not text.lstrip().startswith("["):
+        return parse_goals(text)
+    try:
+        recorded = msgspec.json.decode(text, type=list[RecordedGoal])
+    except msgspec.MsgspecError as e:
+        raise ValueError(f"the recorded goals are not a JSON array of {{robot, x_m, y_m, within_m}}: {e}") from None
+    if not all(math.isfinite(v) for g in recorded for v in (g.x_m, g.y_m, g.within_m)):
+        raise ValueError("the recorded goals hold a number that is not finite")
+    return {g.robot: Goal(g.x_m, g.y_m, g.within_m) for g in recorded}
 
 
 def parse_goals(text: str) -> dict[int, Goal]:

@@ -20,7 +20,7 @@ from pathlib import Path
 from iw_zenoh.errors import IwError, RecordingError
 from iw_zenoh.messages import DriveInput, DriveState, Event, WorldInfo, WorldState
 from iw_zenoh.record.incidents import clearance_arg
-from iw_zenoh.record.metrics import Goal, RunMeter, RunReport, parse_goals
+from iw_zenoh.record.metrics import Goal, RunMeter, RunReport, parse_goals, recorded_goals
 from iw_zenoh.record.reader import discard_cut_off, file_error, open_recording, print_notes
 
 __all__ = ["GOALS_META", "ROWS", "as_json", "main", "report_of", "table"]
@@ -83,7 +83,7 @@ def report_of(path: str | Path, goals: dict[int, Goal] | None = None, *, near_m:
     """
     with open_recording(path) as rec:
         recorded = rec.metadata().get(GOALS_META[0], {}).get(GOALS_META[1], "")
-        meter = RunMeter({**parse_goals(recorded), **(goals or {})}, near_m=near_m)
+        meter = RunMeter({**recorded_goals(recorded), **(goals or {})}, near_m=near_m)
         for r in rec.records(("info", "state", "event", "drive", "driving")):
             match r.message:
                 case DriveInput() as inp:

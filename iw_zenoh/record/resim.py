@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import IO, Any
 
 from iw_zenoh import keys
-from iw_zenoh.agent.programs import add_spec_arguments, find_program, make_with_spec
+from iw_zenoh.agent.programs import add_seed_argument, add_spec_arguments, find_program, make_with_spec
 from iw_zenoh.convert import grid_from_msg, lab_from_msg
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.errors import IwError
@@ -117,6 +117,7 @@ def _make_agent(spec: str) -> tuple[int, Any]:
     p = argparse.ArgumentParser(prog=f"agent {words[0]}")
     program.add_arguments(p)
     add_spec_arguments(p)
+    add_seed_argument(p)
     agents = make_with_spec(program, p.parse_args(words[1:]))
     return int(rid_text), agents[0]
 
@@ -183,6 +184,7 @@ def resimulate(
         reading = step.readings.get(swap_id) if swapping and swap_id is not None else None
         if reading is not None and swap_agent is not None:
             c = swap_agent.on_sensors(reading, step.heard.get(reading.robot_id, []))
+            c = c.resolved(world.spec(reading.robot_id))  # a velocity: the chair's powers
             own_actions[reading.robot_id] = Actions(
                 tick=n, sim_time_ns=now, robot_id=reading.robot_id, left=c.left, right=c.right
             )

@@ -21,13 +21,14 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import msgspec
+import numpy as np
 
 from iw_zenoh.core.modes import Mode, Profile
 from iw_zenoh.errors import ConfigError, MapError
 from iw_zenoh.maps import load_grid, load_lab
 from iw_zenoh.messages import Obstacle
 from iw_zenoh.scenario.fields import apply_sets
-from iw_zenoh.scenario.specfile import SPEC_TABLE, check_spec, load_spec_file
+from iw_zenoh.scenario.specfile import SPEC_TABLE, check_spec, line_of, load_spec_file, renamed_field
 from iw_zenoh.sim.obstacles import Obstacles
 
 __all__ = [
@@ -42,6 +43,7 @@ __all__ = [
     "Scenario",
     "ScenarioFile",
     "SecuritySection",
+    "Start",
     "WorldSection",
     "load_scenario",
     "parse_scenario",
@@ -99,6 +101,7 @@ class AgentEntry(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_onl
     # its robots' spec as data (docs/spec.md): a table of the registration's fields, or a spec
     # file's path; read and checked when the scenario is, then handed to the agent as a table
     spec: dict[str, Any] | str | None = None
+    seed: Annotated[int, msgspec.Meta(ge=0)] | None = None  # its agents' args.seed; None: drawn from [world] seed
 
     @property
     def argv(self) -> list[str]:
@@ -149,6 +152,19 @@ class BridgeSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_
     scoring: Literal[0, 1, 2, 3] = 0
 
 
+class Start(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """``[chair] start = { x_m = 1.5, y_m = 3.0, dir_deg = 0.0 }``: where a chair starts."""
+
+    x_m: Coord = 1.0
+    y_m: Coord = 1.0
+    dir_deg: Annotated[float, msgspec.Meta(ge=-180.0, le=180.0)] = 0.0
+
+    @property
+    def arg(self) -> str:
+        """As a command line takes it (``--start x,y,dir_deg``)."""
+        return f"{self.x_m!r},{self.y_m!r},{self.dir_deg!r}"
+
+
 class ChairSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """``[chair]``: a real chair on a serial link (``docs/serial.md``): ``iwz bridge serial``, and
     without a ``port`` the chair emulator on a pseudo-terminal. The world must run in real time."""
@@ -157,7 +173,7 @@ class ChairSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     port: str = ""  # the chair's device or pyserial URL; "": `iwz chair emulate --pty` stands in
     robot: Annotated[int, msgspec.Meta(ge=1, le=ID_MAX)] = 1  # the robot id the bridge registers
     name: Name = "chair"
-    start: Annotated[str, msgspec.Meta(pattern=r"^[^,]+,[^,]+,[^,]+$")] = "1,1,0"  # x,y,dir_deg
+    start: Start | str = msgspec.field(default_factory=Start)  # a string ("1,1,0", as before) is refused: a table
     room: str = ""  # emulator: real obstacles not in the map, x0,y0,x1,y1;...
     seed: Annotated[int, msgspec.Meta(ge=0)] = 0  # emulator: noise seed, 64 bits at most (_numbers)
     baud: Annotated[int, msgspec.Meta(gt=0, le=10_000_000)] = 115200
@@ -216,6 +232,22 @@ class Scenario(ScenarioFile, frozen=True, forbid_unknown_fields=True, kw_only=Tr
     def robots(self) -> int:
         """Robots the agents register in all."""
         return sum(a.robots for a in self.agents)
+
+    def agent_seed(self, index: int) -> int:
+        """The seed ``agents[index]`` is handed (``--seed``, its agents' ``args.seed``): the entry's
+        own ``seed``, else the ``index``-th child of ``[world] seed`` (``np.random.SeedSequence``), so
+        every entry's differs and the world's seed changes them all, the same every run.
+
+        Args:
+            index: The entry's place in ``agents``.
+
+        Returns:
+            A seed in [0, 2**32).
+        """
+        own = self.agents[index].seed
+        if own is not None:
+            return own
+        return int(np.random.SeedSequence(self.world.seed, spawn_key=(index,)).generate_state(1)[0])
 
 
 def _dec_path(kind: type, value: Any) -> Any:
@@ -375,6 +407,8 @@ def parse_scenario(text: str, base: Path, name: str = "scenario", sets: Sequence
         if d.one_chair_within is not None and (d.x is None or d.y is None):
             raise ConfigError(f"criteria.doors[{i}].one_chair_within", "needs the doorway's middle: give x and y too")
     chair = sc.chair
+    if chair is not None and isinstance(chair.start, str):
+        raise ConfigError("chair.start", _start_table(chair.start))
     if chair is not None and world.mode != Mode.REALTIME:
         raise ConfigError("chair.hardware", "a chair on a serial link moves in real time: world.mode must be realtime")
     if chair is not None and chair.spec is not None:
@@ -382,9 +416,18 @@ def parse_scenario(text: str, base: Path, name: str = "scenario", sets: Sequence
         _exists(spec_file, "chair.spec")
         check_spec(load_spec_file(spec_file), where=f"chair.spec: {spec_file}: {SPEC_TABLE}")
         chair = msgspec.structs.replace(chair, spec=spec_file)
-    agents = tuple(_with_spec(a, i, base) for i, a in enumerate(sc.agents))
+    agents = tuple(_with_spec(a, i, base, text) for i, a in enumerate(sc.agents))
     fields = {**msgspec.structs.asdict(sc), "world": world, "bridge": bridge, "chair": chair, "agents": agents}
     return Scenario(**{**fields, "name": sc.name or name}, base=base)
+
+
+def _start_table(text: str) -> str:
+    """Why ``start = "x,y,dir_deg"`` (a string, as scenarios once wrote it) is refused, and what to write."""
+    parts = [p.strip() for p in text.split(",")]
+    form = "{ x_m = 1.5, y_m = 3.0, dir_deg = 0.0 }"
+    if len(parts) == 3 and all(re.fullmatch(r"[-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?", p) for p in parts):
+        form = f"{{ x_m = {parts[0]}, y_m = {parts[1]}, dir_deg = {parts[2]} }}"
+    return f"a table now, not a string {text!r}: write start = {form} (docs/scenarios.md)"
 
 
 def _beside(base: Path, path: Path | str) -> Path:
@@ -393,12 +436,21 @@ def _beside(base: Path, path: Path | str) -> Path:
     return Path(os.path.normpath(base / path))
 
 
-def _with_spec(agent: AgentEntry, i: int, base: Path) -> AgentEntry:
-    """An agent whose spec is read (a file's table) and checked as a registration would be."""
+def _with_spec(agent: AgentEntry, i: int, base: Path, text: str) -> AgentEntry:
+    """An agent whose spec is read (a file's table) and checked as a registration would be; a
+    field of its own table under its name from before it carried its unit is refused at its line."""
     if agent.spec is None:
         return agent
     where = f"agents[{i}].spec"
     table = agent.spec
+    renamed = renamed_field(table) if isinstance(table, dict) else None
+    if renamed is not None:
+        line = line_of(text, renamed[1])
+        at = f"line {line}: " if line else ""
+        raise ConfigError(
+            f"{at}{where}{renamed[0]}",
+            f"{renamed[1]!r} is now {renamed[2]!r}: spec fields carry their units (docs/spec.md)",
+        )
     if isinstance(table, str):
         path = _beside(base, table)
         _exists(path, where)

@@ -1,9 +1,11 @@
 """A robot's spec as data: a table of the registration's own fields laid over a chair.
 
 The table's keys are the fields of :class:`~iw_zenoh.messages.RobotSpecMsg`, the registration the
-world is sent (``width``, ``com``, ``max_speed``, ``ir_sensors = [{id, x, y, angle_deg, cone_deg,
-range_m}, ...]``, ``[noise.gps_m] std = 0.1``...), so every field a registration has (and any a
-new sensor type adds to it) can be given, and nothing else. A given field replaces the chair's,
+world is sent, named as :class:`~iw_zenoh.core.spec.RobotSpec`'s (``width_m``, ``com``,
+``max_speed_mps``, ``ir_sensors = [{id, x_m, y_m, angle_deg, cone_deg, range_m}, ...]``,
+``[noise.gps_m] std = 0.1``...), so every field a registration has (and any a new sensor type
+adds to it) can be given, and nothing else. A name from before they carried their units
+(``width``, ``max_speed``, ``dir``...) is refused with the name to write instead. A given field replaces the chair's,
 a table (``noise``) is merged field by field, a list (``ir_sensors``) replaces the chair's whole.
 ``noise = false`` (or ``true``) switches every noise of the chair off (or on) at once.
 
@@ -31,8 +33,9 @@ from iw_zenoh.convert import spec_from_msg, spec_to_msg
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.errors import ConfigError, SpecError
 from iw_zenoh.messages import RobotSpecMsg, SensorNoiseMsg
+from iw_zenoh.messages.world import RENAMED_SENSOR_FIELDS, RENAMED_SPEC_FIELDS
 
-__all__ = ["SPEC_TABLE", "apply_spec", "check_spec", "load_spec_file", "spec_with_args"]
+__all__ = ["SPEC_TABLE", "apply_spec", "check_spec", "line_of", "load_spec_file", "renamed_field", "spec_with_args"]
 
 SPEC_TABLE = "chair"  # the table of a spec file that holds the spec
 NOISE_SWITCH = "noise"  # `noise = false`: every noise off
@@ -64,7 +67,46 @@ def load_spec_file(path: str | Path) -> dict[str, Any]:
     table = doc.get(SPEC_TABLE)
     if not isinstance(table, dict):
         raise ConfigError(str(p), f"no [{SPEC_TABLE}] table: write the fields under [{SPEC_TABLE}] (docs/spec.md)")
+    old = renamed_field(table)
+    if old is not None:
+        path, name, new = old
+        line = line_of(p.read_text(encoding="utf-8", errors="replace"), name)
+        raise ConfigError(f"{p}{f', line {line}' if line else ''}: {SPEC_TABLE}{path}", _rename_reason(name, new))
     return table
+
+
+def renamed_field(table: Table) -> tuple[str, str, str] | None:
+    """The first field of a spec table written with its name from before it carried its unit.
+
+    Args:
+        table: A spec table (see the module's docstring).
+
+    Returns:
+        ``(path, old, new)``, e.g. ``(".ir_sensors[0].x", "x", "x_m")``; None when every name is current.
+    """
+    for key in table:
+        if key in RENAMED_SPEC_FIELDS:
+            return f".{key}", key, RENAMED_SPEC_FIELDS[key]
+    for kind in ("ir_sensors", "lasers"):
+        items = table.get(kind)
+        for i, item in enumerate(items if isinstance(items, list) else []):
+            for key in item if isinstance(item, dict) else ():
+                if key in RENAMED_SENSOR_FIELDS:
+                    return f".{kind}[{i}].{key}", key, RENAMED_SENSOR_FIELDS[key]
+    return None
+
+
+def _rename_reason(old: str, new: str) -> str:
+    return f"{old!r} is now {new!r}: spec fields carry their units, as in Python (docs/spec.md)"
+
+
+def line_of(text: str, key: str) -> int:
+    """The first line of TOML ``text`` that sets ``key`` (``key = ...``, also in an inline table), or 0."""
+    pattern = re.compile(rf"(?:^|[{{,\s]){re.escape(key)}\s*=")
+    for n, line in enumerate(text.splitlines(), start=1):
+        if pattern.search(line.split("#", 1)[0]):
+            return n
+    return 0
 
 
 def apply_spec(base: RobotSpec, table: Table, *, where: str = SPEC_TABLE) -> RobotSpec:
@@ -83,6 +125,9 @@ def apply_spec(base: RobotSpec, table: Table, *, where: str = SPEC_TABLE) -> Rob
     """
     if not table:
         return base
+    renamed = renamed_field(table)
+    if renamed is not None:
+        raise ConfigError(f"{where}{renamed[0]}", _rename_reason(renamed[1], renamed[2]))
     doc = msgspec.to_builtins(spec_to_msg(base))
     if not base.ir_sensors:  # the defaults of Table 4.5, placed from the body the table may change
         doc["ir_sensors"] = []

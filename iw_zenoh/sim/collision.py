@@ -38,8 +38,8 @@ class CollisionNode:
             return
         n = len(robots)
         ids = [r.id for r in robots]
-        x = [view.info.lab.width / 2 if r.x is None else r.x for r in robots]
-        y = [view.info.lab.height / 2 if r.y is None else r.y for r in robots]
+        x = [view.info.lab.width / 2 if r.x_m is None else r.x_m for r in robots]
+        y = [view.info.lab.height / 2 if r.y_m is None else r.y_m for r in robots]
         heading = [0.0] * n
         probe = Proposed(
             revision=view.info.revision,

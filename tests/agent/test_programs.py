@@ -115,7 +115,7 @@ def test_a_file_or_name_that_is_not_there_is_refused_saying_what(text: str, said
             "./mine.py:BadSpec",
             f'BadSpec(...).spec() failed: line {BAD_LINE}, in spec: return RobotSpec("bad", width_m=-1.0)',
         ),
-        ("./mine.py:BadSpec", "SpecError: width: must be > 0, got -1.0"),
+        ("./mine.py:BadSpec", "SpecError: width_m: must be > 0, got -1.0"),
     ],
 )
 def test_what_is_made_must_be_agents_with_a_spec_in_range(text: str, said: str) -> None:

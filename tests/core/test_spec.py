@@ -52,19 +52,19 @@ def test_registered_sensors_replace_the_defaults() -> None:
     [
         ({"name": ""}, "name"),
         ({"name": "x" * 21}, "name"),
-        ({"width_m": 0.0}, "width"),
-        ({"height_m": -1.0}, "height"),
+        ({"width_m": 0.0}, "width_m"),
+        ({"height_m": -1.0}, "height_m"),
         ({"com": 0.0}, "com"),
         ({"com": 1.0}, "com"),
-        ({"x_m": 0.0}, "x"),
-        ({"y_m": float("nan")}, "y"),
-        ({"dir_deg": 180.5}, "dir"),
-        ({"max_speed_mps": 0.0}, "max_speed"),
+        ({"x_m": 0.0}, "x_m"),
+        ({"y_m": float("nan")}, "y_m"),
+        ({"dir_deg": 180.5}, "dir_deg"),
+        ({"max_speed_mps": 0.0}, "max_speed_mps"),
         ({"acceleration_curve": 0.0}, "acceleration_curve"),
         ({"acceleration_curve": 1.01}, "acceleration_curve"),
         ({"id": -1}, "id"),
         ({"type": "Flying"}, "type"),
-        ({"width_m": "wide"}, "width"),
+        ({"width_m": "wide"}, "width_m"),
     ],
 )
 def test_out_of_range_fields_are_refused_with_the_field(kwargs: dict[str, object], field: str) -> None:
@@ -148,8 +148,8 @@ def _bumper(i: int, corners: int = 4) -> BumperSpec:
         ),
         ({"lasers": tuple(LaserSpec(i) for i in range(MAX_LASERS + 1))}, "lasers", f"at most 8 {EACH}, got 9 {WHY}"),
         ({"bumpers": tuple(_bumper(i) for i in range(MAX_BUMPERS + 1))}, "bumpers", f"at most 16 {EACH}, got 17 {WHY}"),
-        ({"width_m": MAX_BODY_M + 0.5}, "width", "must be at most 10 m, got 10.5"),
-        ({"height_m": 1e9}, "height", "must be at most 10 m, got 1000000000.0"),
+        ({"width_m": MAX_BODY_M + 0.5}, "width_m", "must be at most 10 m, got 10.5"),
+        ({"height_m": 1e9}, "height_m", "must be at most 10 m, got 1000000000.0"),
     ],
 )
 def test_a_registration_too_big_for_every_tick_is_refused_with_the_limit(

@@ -56,3 +56,10 @@ def test_the_first_agent_runs_by_hand_and_says_its_options(tmp_path: Path) -> No
     assert r.returncode == 0, r.stdout + r.stderr
     assert "Drives a chair straight to --goal" in r.stdout
     assert "--goal GOAL" in r.stdout
+
+
+def test_the_first_agent_imports_everything_it_uses_from_one_module() -> None:
+    code = _files(DOC.read_text())["go_to.py"]
+    ours = [line for line in code.splitlines() if re.match(r"\s*(from|import) iw_zenoh\b", line)]
+    assert ours == ["from iw_zenoh.agent import Command, SensorNoise, Spec, point_arg"]
+    assert "/ 1000" not in code  # no wheel powers worked out by hand: a velocity, through the chair's model

@@ -52,7 +52,7 @@ mode = "realtime"
 duration_s = 120
 [chair]
 robot = 1
-start = "3,5,0"
+start = { x_m = 3.0, y_m = 5.0, dir_deg = 0.0 }
 """
 
 

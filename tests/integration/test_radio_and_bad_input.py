@@ -21,7 +21,10 @@ def test_radio_delivers_within_range_and_enforces_byte_limits(net: Net) -> None:
     states = subscribe(bus, keys.state(net.sim), maxlen=1)
     # a at x=2; b 4 m away; c 10 m away; d..g near b, to fill b's 400-byte budget
     xs = {"a": 2.0, "b": 6.0, "c": 12.0, "d": 7.5, "e": 9.0, "f": 4.0, "g": 3.0}
-    regs = {n: register(bus, net.sim, RobotSpecMsg(name=n, x=x, y=5.0, width=0.5, height=0.5)) for n, x in xs.items()}
+    regs = {
+        n: register(bus, net.sim, RobotSpecMsg(name=n, x_m=x, y_m=5.0, width_m=0.5, height_m=0.5))
+        for n, x in xs.items()
+    }
     assert all(r.ok for r in regs.values()), {n: r.reason for n, r in regs.items()}
     ids = {n: r.robot_id for n, r in regs.items()}
     wait_msg(states, WorldState, lambda m: len(m.ids) == len(xs))

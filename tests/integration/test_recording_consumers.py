@@ -28,7 +28,7 @@ AGENTS = """[[agents]]
 program = "waypoint"
 args = ["--waypoints", "12,5", "--start", "5,5,0", "--robot-name", "scanner", "--id", "1"]
 name = "scanner-agent"
-spec = { lasers = [{ id = 0, x = 0.5, fov_deg = 180, beams = 9, range_m = 3 }], noise = false }
+spec = { lasers = [{ id = 0, x_m = 0.5, fov_deg = 180, beams = 9, range_m = 3 }], noise = false }
 """
 LAB = """<Lab Name="walls" Width="20" Height="10">
   <Wall Height="2"><Corner X="9" Y="0"/><Corner X="10" Y="0"/><Corner X="10" Y="3"/><Corner X="9" Y="3"/></Wall>

@@ -49,7 +49,7 @@ def test_an_agent_flooding_its_own_key_gets_bounded_refusals_and_holds_no_other_
     net.spawn("agent", "waypoint", "--waypoints", "35,7", "--start", "3,7,0", "--name", "batcher", "--batch", "on")
     before = wait_msg(states, WorldState, lambda m: len(m.ids) == 2 and min(m.speed) > 0.05 and not m.held, 60)
     others = list(before.ids)
-    reply = register(bus, net.sim, RobotSpecMsg(name="flooder", x=3.0, y=5.0, dir=0.0), agent="flooder")
+    reply = register(bus, net.sim, RobotSpecMsg(name="flooder", x_m=3.0, y_m=5.0, dir_deg=0.0), agent="flooder")
     assert reply.ok, reply.reason
     _events(events)  # what came before the flood
 

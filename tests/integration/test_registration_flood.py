@@ -39,7 +39,7 @@ def test_a_registration_flood_leaves_no_ghost_after_the_grace_and_the_recorder_b
 
     asked = []
     for k in range(FLOOD):
-        spec = RobotSpecMsg(name=f"ghost{k}", x=2.0 + 3.0 * (k % 60), y=2.0 + 3.0 * (k // 60))
+        spec = RobotSpecMsg(name=f"ghost{k}", x_m=2.0 + 3.0 * (k % 60), y_m=2.0 + 3.0 * (k // 60))
         request = RegisterRequest(spec=spec, agent=f"ghost-{k}", request_id=f"1-{k}")
         asked.append(bus.ask(keys.register(net.sim), encode(request), timeout_s=120.0))
         if k % 100 == 0:

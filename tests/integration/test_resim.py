@@ -39,18 +39,18 @@ robots = 1
 [[agents]]  # says its position on the radio each tick, sees with a 64-beam laser
 program = "convoy"
 args = ["--role", "leader", "--id", "4", "--waypoints", "34,9.5"]
-spec = {{ lasers = [{{ id = 0, x = 0.5, angle_deg = 0, fov_deg = 270, beams = 64, range_m = 10 }}] }}
+spec = {{ lasers = [{{ id = 0, x_m = 0.5, angle_deg = 0, fov_deg = 270, beams = 64, range_m = 10 }}] }}
 [[agents]]  # hears the leader
 program = "convoy"
 args = ["--role", "follower", "--id", "3", "--follow", "4"]
 [[agents]]  # two chairs head-on along the corridor, pushing blindly: collisions
 program = "probe"
 args = ["--creep", "0.15"]
-spec = {{ id = 5, x = 20.0, y = 9.5, dir = 0.0 }}
+spec = {{ id = 5, x_m = 20.0, y_m = 9.5, dir_deg = 0.0 }}
 [[agents]]  # with movement noise
 program = "probe"
 args = ["--creep", "0.15"]
-spec = {{ id = 6, x = 22.0, y = 9.5, dir = 180.0, noise = {{ motion = {{ std = 0.05 }} }} }}
+spec = {{ id = 6, x_m = 22.0, y_m = 9.5, dir_deg = 180.0, noise = {{ motion = {{ std = 0.05 }} }} }}
 """
 
 

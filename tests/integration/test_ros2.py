@@ -24,11 +24,11 @@ from tests.integration.harness import OPEN_LAB, Net, start_world, subscribe, wai
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(180)]
 
 SPEC = {
-    "x": 5.0,
-    "y": 5.0,
-    "dir": 0.0,
-    "max_speed": 0.5,
-    "height": 0.66,
+    "x_m": 5.0,
+    "y_m": 5.0,
+    "dir_deg": 0.0,
+    "max_speed_mps": 0.5,
+    "height_m": 0.66,
     "acceleration_curve": 0.2,
     "lasers": [{"id": 0, "fov_deg": 180, "beams": 9, "range_m": 12}],
     "noise": {"laser_m": {"std": 0.0}, "proximity_m": {"std": 0.0}, "motion": {"enabled": False}},

@@ -61,14 +61,14 @@ def test_registration_is_accepted_or_refused_with_its_reason(net: Net) -> None:
     bus = net.client()
     ok = register(bus, net.sim, RobotSpecMsg(name="a"))
     assert ok.ok
-    assert (ok.robot_id, ok.spec.x, ok.spec.y) == (1, 2.0, 5.0)  # type: ignore[union-attr]
+    assert (ok.robot_id, ok.spec.x_m, ok.spec.y_m) == (1, 2.0, 5.0)  # type: ignore[union-attr]
     dup = register(bus, net.sim, RobotSpecMsg(name="b", id=1))
     assert not dup.ok
     assert "id 1 is taken" in dup.reason
     bad = register(bus, net.sim, RobotSpecMsg(name="c", com=1.5))
     assert not bad.ok
     assert "com" in bad.reason
-    on_wall = register(bus, net.sim, RobotSpecMsg(name="d", x=9.5, y=1.0))
+    on_wall = register(bus, net.sim, RobotSpecMsg(name="d", x_m=9.5, y_m=1.0))
     assert not on_wall.ok
     assert "wall" in on_wall.reason
     assert register(bus, net.sim, RobotSpecMsg(name="e")).ok

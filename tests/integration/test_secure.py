@@ -185,7 +185,7 @@ def _bystander(secured: Secured, states: Inbox) -> tuple[float, float, float]:
     since fails the test rather than being registered again at its start pose (where "it did not
     move" would hold whether the grant did or not)."""
     if not secured.bystander:
-        _register_for_bystander(secured, RobotSpecMsg(name="bystander-chair", id=3, x=10.0, y=5.0, dir=0.0))
+        _register_for_bystander(secured, RobotSpecMsg(name="bystander-chair", id=3, x_m=10.0, y_m=5.0, dir_deg=0.0))
     now = wait_msg(states, WorldState).tick  # a state of 10 ticks later: every command sent before applied
     later = wait_msg(states, WorldState, lambda m: m.tick > now + 10)
     assert 3 in later.ids, "the bystander's robot 3 was removed from the world"
@@ -221,7 +221,9 @@ def test_a_serial_bridge_certificate_moves_no_real_robot_but_its_chair(secured: 
     states = Inbox(maxlen=1)
     secured.observer.subscribe(keys.state("sec"), states)
     _bystander(secured, states)  # the bystander's session, its token declared
-    owner = _register_for_bystander(secured, RobotSpecMsg(name="real", id=5, x=15.0, y=8.0, dir=0.0, type="Real"))
+    owner = _register_for_bystander(
+        secured, RobotSpecMsg(name="real", id=5, x_m=15.0, y_m=8.0, dir_deg=0.0, type="Real")
+    )
     tick = wait_msg(states, WorldState, lambda m: 5 in m.ids).tick
     report = encode(PoseReport(tick=tick, robot_id=5, x=2.0, y=2.0, dir_deg=90.0))
     _flood(2.0, (secured.session("serialer"), keys.pose_report("sec", 5), report))

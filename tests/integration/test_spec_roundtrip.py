@@ -26,23 +26,23 @@ name = "given"
 id = 7
 type = "Simulated"
 shape = "rect"
-width = 0.9
-height = 0.6
+width_m = 0.9
+height_m = 0.6
 com = 0.7
-x = 3.0
-y = 2.5
-dir = 30.0
-max_speed = 0.7
+x_m = 3.0
+y_m = 2.5
+dir_deg = 30.0
+max_speed_mps = 0.7
 acceleration_curve = 0.3
 ticks_per_m = 1500.0
 legacy = true
-beacon_height = 0.8
+beacon_height_m = 0.8
 ir_sensors = [
-    { id = 0, x = 0.6, y = 0.1, angle_deg = 10.0, cone_deg = 20.0, range_m = 2.5 },
-    { id = 5, x = -0.2, y = -0.3, angle_deg = -170.0, cone_deg = 45.0, range_m = 1.5 },
+    { id = 0, x_m = 0.6, y_m = 0.1, angle_deg = 10.0, cone_deg = 20.0, range_m = 2.5 },
+    { id = 5, x_m = -0.2, y_m = -0.3, angle_deg = -170.0, cone_deg = 45.0, range_m = 1.5 },
 ]
 bumpers = [{ id = 2, corners = [[0.6, -0.3], [0.65, -0.3], [0.65, 0.3], [0.6, 0.3]] }]
-lasers = [{ id = 1, x = 0.5, y = 0.05, angle_deg = 5.0, fov_deg = 180.0, beams = 33, range_m = 6.0 }]
+lasers = [{ id = 1, x_m = 0.5, y_m = 0.05, angle_deg = 5.0, fov_deg = 180.0, beams = 33, range_m = 6.0 }]
 
 [agents.spec.noise]
 proximity_m = { mean = 0.01, std = 0.02, enabled = true }
@@ -102,7 +102,7 @@ def test_every_spec_field_from_a_scenario_is_the_worlds_accepted_spec(tmp_path: 
     assert all(set(s) == set(IrSensorMsg.__struct_fields__) for s in given["ir_sensors"])
     assert all(set(s) == set(LaserMsg.__struct_fields__) for s in given["lasers"])
     defaults = msgspec.to_builtins(RobotSpecMsg(name="x"))
-    assert all(given[f] != defaults[f] for f in ("width", "height", "com", "max_speed", "acceleration_curve"))
+    assert all(given[f] != defaults[f] for f in ("width_m", "height_m", "com", "max_speed_mps", "acceleration_curve"))
     scenario = tmp_path / "spec.toml"
     scenario.write_text(SCENARIO.format(map=MAPS / "open-room.xml", spec=SPEC))
     rec = tmp_path / "run.mcap"

@@ -24,7 +24,7 @@ AGENTS = """[[agents]]
 program = "waypoint"
 args = ["--waypoints", "12,5", "--start", "5,5,0", "--robot-name", "scanner", "--id", "1"]
 name = "scanner-agent"
-spec = { lasers = [{ id = 0, x = 0.5, fov_deg = 180, beams = 9, range_m = 12 }], noise = false }
+spec = { lasers = [{ id = 0, x_m = 0.5, fov_deg = 180, beams = 9, range_m = 12 }], noise = false }
 
 [[agents]]
 program = "waypoint"

@@ -19,7 +19,7 @@ from tests.integration.browser import hooked, record_run, replay_page
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(300)]
 
 SIM = "scansent"
-LASER = "spec = { lasers = [{ id = 0, x = 0.5, fov_deg = 90, beams = 5, range_m = 12 }], noise = false }"
+LASER = "spec = { lasers = [{ id = 0, x_m = 0.5, fov_deg = 90, beams = 5, range_m = 12 }], noise = false }"
 # both chairs drive east towards the wall: every tick each scan moves by a few centimetres
 AGENTS = f"""[[agents]]
 program = "waypoint"

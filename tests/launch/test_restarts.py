@@ -68,7 +68,7 @@ def test_a_restarted_world_is_handed_the_last_committed_state_in_its_options(tmp
     world.start = lambda env: started.append(True)  # type: ignore[method-assign]
     launcher.tally.info = WorldInfo(
         revision=3, lab=LabMsg(name="t", width=40.0, height=20.0), period_ns=100_000_000,
-        robots=[RobotSpecMsg(name="slalom", id=1, x=10.0, y=6.1)],
+        robots=[RobotSpecMsg(name="slalom", id=1, x_m=10.0, y_m=6.1)],
     )  # fmt: skip
     launcher.tally.on_state(
         WorldState(

@@ -76,7 +76,7 @@ def test_the_snapshot_holds_the_last_state_the_roster_and_each_robots_agent() ->
         revision=4,
         lab=LabMsg(name="t", width=10.0, height=5.0),
         period_ns=100_000_000,
-        robots=[RobotSpecMsg(name="a", id=1, x=1.0, y=0.5), RobotSpecMsg(name="b", id=2, x=3.0, y=0.5)],
+        robots=[RobotSpecMsg(name="a", id=1, x_m=1.0, y_m=0.5), RobotSpecMsg(name="b", id=2, x_m=3.0, y_m=0.5)],
     )
     snap = t.snapshot()
     assert snap is not None

@@ -72,7 +72,9 @@ def _reading(rid: int, tick: int = 3) -> SensorReading:
 
 SAMPLES: dict[type[Message], Message] = {
     RegisterRequest: RegisterRequest(
-        spec=RobotSpecMsg(name="chair", id=2, x=1.0, y=1.0, lasers=[LaserMsg(id=0, beams=3)]), agent="a", request_id="1"
+        spec=RobotSpecMsg(name="chair", id=2, x_m=1.0, y_m=1.0, lasers=[LaserMsg(id=0, beams=3)]),
+        agent="a",
+        request_id="1",
     ),
     RegisterReply: RegisterReply(ok=True, robot_id=2, spec=RobotSpecMsg(name="chair", id=2)),
     WorldInfo: WorldInfo(

@@ -23,7 +23,7 @@ from tests.support.scenarios import SCENARIO
 
 def test_only_the_world_s_own_descriptions_hold_its_seal() -> None:
     core = WorldCore(WorldConfig(sim="t"), Lab("t", 20.0, 10.0), Grid(()))
-    assert core.register(RegisterRequest(spec=RobotSpecMsg(name="a", x=3.0, y=3.0), agent="ag"), 0)[0].ok
+    assert core.register(RegisterRequest(spec=RobotSpecMsg(name="a", x_m=3.0, y_m=3.0), agent="ag"), 0)[0].ok
     key, other = bytes.fromhex(new_key()), bytes.fromhex(new_key())
     info = decode(encode(seal(core.info(), key)), WorldInfo)  # as the launcher hears it
     assert sealed(info, key)
@@ -43,7 +43,7 @@ def test_a_replayed_genuine_older_description_is_not_adopted(tmp_path: Path) -> 
     key = bytes.fromhex(launcher.seal)
     core = WorldCore(WorldConfig(sim="judged"), Lab("t", 20.0, 10.0), Grid(()))
     old = encode(seal(core.info(), key))  # recorded by an eavesdropper: no robot yet
-    assert core.register(RegisterRequest(spec=RobotSpecMsg(name="a", x=3.0, y=3.0), agent="ag"), 0)[0].ok
+    assert core.register(RegisterRequest(spec=RobotSpecMsg(name="a", x_m=3.0, y_m=3.0), agent="ag"), 0)[0].ok
     infos = Inbox()
     infos.put((keys.info("judged"), encode(seal(core.info(), key)), 0))
     infos.put((keys.info("judged"), old, 0))  # replayed just before the world crashes

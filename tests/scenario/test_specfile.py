@@ -25,7 +25,7 @@ EXAMPLE = ROOT / "maps" / "chair.toml"
 
 def test_a_table_changes_only_the_fields_it_gives() -> None:
     base = prototype_chair("c")
-    spec = apply_spec(base, {"max_speed": 0.8, "noise": {"gps_m": {"std": 0.1}}})
+    spec = apply_spec(base, {"max_speed_mps": 0.8, "noise": {"gps_m": {"std": 0.1}}})
     assert spec.max_speed_mps == 0.8
     assert spec.noise.gps_m.std == 0.1
     assert spec.noise.gps_m.mean == base.noise.gps_m.mean  # a table is merged field by field
@@ -42,7 +42,7 @@ def test_a_laser_scanner_comes_through_a_table_like_any_sensor() -> None:
 
 
 def test_a_chair_with_the_default_sensors_keeps_them_placed_on_its_new_body() -> None:
-    spec = apply_spec(RobotSpec("c"), {"width": 2.0, "com": 0.75})
+    spec = apply_spec(RobotSpec("c"), {"width_m": 2.0, "com": 0.75})
     assert spec.ir_sensors == ()
     assert spec.sensors[0].x_m == 1.5  # the front sensor at the new front
 
@@ -58,21 +58,21 @@ def test_a_list_replaces_the_chairs_whole_and_noise_false_switches_every_noise_o
 @pytest.mark.parametrize(
     ("table", "path", "reason"),
     [
-        ({"width": -1.0}, "width", "must be > 0, got -1.0"),
+        ({"width_m": -1.0}, "width_m", "must be > 0, got -1.0"),
         ({"com": 1.0}, "com", "must be in ]0;1[, got 1.0"),
         ({"acceleration_curve": 0.0}, "acceleration_curve", "must be in ]0;1], got 0.0"),
         ({"ticks_per_m": 0}, "ticks_per_m", "must be > 0, got 0.0"),
         ({"ir_sensors": [{"id": 0}, {"id": 1}, {"id": 2, "range_m": 0.0}]}, "ir_sensors[2].range_m", "must be > 0"),
         ({"ir_sensors": [{"id": 3, "cone_deg": 180}]}, "ir_sensors[0].cone_deg", "must be in ]0;180[, got 180.0"),
         ({"ir_sensors": [{"id": 3, "angle_deg": 270}]}, "ir_sensors[0].angle_deg", "must be in [-180;180]"),
-        ({"ir_sensors": [{"x": 0.3}]}, "ir_sensors[0].id", "is required"),
+        ({"ir_sensors": [{"x_m": 0.3}]}, "ir_sensors[0].id", "is required"),
         ({"noise": {"gps_m": {"std": -0.5}}}, "noise.gps_m.std", "must be >= 0, got -0.5"),
         ({"noise": {"gps_m": {"sdt": 1}}}, "noise.gps_m.sdt", "unknown field"),
         ({"wheels": 3}, "wheels", "unknown field"),
-        ({"width": "wide"}, "width", "Expected `float`, got `str`"),
+        ({"width_m": "wide"}, "width_m", "Expected `float`, got `str`"),
         ({"shape": "hexagon"}, "shape", "Invalid enum value 'hexagon'"),
         ({"bumpers": [{"id": 0, "corners": [[0, 0], [1, 0]]}]}, "bumpers[0]", "needs at least 3 corners"),
-        ({"max_speed": float("inf")}, "max_speed", "must be a finite number"),
+        ({"max_speed_mps": float("inf")}, "max_speed_mps", "must be a finite number"),
         ({"lasers": [{"id": 0, "fov_deg": 400.0}]}, "lasers[0].fov_deg", "must be in ]0;360], got 400.0"),
         ({"lasers": [{"id": 0, "beams": 0}]}, "lasers[0].beams", ">= 1"),
     ],
@@ -91,9 +91,9 @@ def test_the_example_spec_file_loads_and_a_bad_file_is_refused_naming_it(tmp_pat
     assert len(spec.bumpers) == 1
     bad = tmp_path / "bad.toml"
     for text, said in [
-        ("width = 1\n", "width: not under [chair]"),
+        ("width_m = 1\n", "width_m: not under [chair]"),
         ("", "no [chair] table"),
-        ("[chair]\nwidth = 1\n[robot]\n", "robot: not under [chair]"),
+        ("[chair]\nwidth_m = 1\n[robot]\n", "robot: not under [chair]"),
         ("[chair\n", "not a TOML file"),
     ]:
         bad.write_text(text)
@@ -109,11 +109,11 @@ def test_a_scenario_reads_its_agents_spec_file_or_table_and_refuses_a_bad_one(tm
     head = '[world]\nmap = "m.xml"\n'
     sc = parse_scenario(
         head + '[[agents]]\nprogram = "waypoint"\nspec = "chair.toml"\n'
-        '[[agents]]\nprogram = "waypoint"\nspec = { width = 1.2, noise = false }\n',
+        '[[agents]]\nprogram = "waypoint"\nspec = { width_m = 1.2, noise = false }\n',
         tmp_path,
     )
     assert sc.agents[0].spec == load_spec_file(EXAMPLE)
-    assert sc.agents[1].spec == {"width": 1.2, "noise": False}
+    assert sc.agents[1].spec == {"width_m": 1.2, "noise": False}
     bad = (
         head
         + '[[agents]]\nprogram = "x"\n[[agents]]\nprogram = "y"\nspec = { ir_sensors = [{ id = 0 }, { id = 1, range_m = -2 }] }\n'
@@ -140,7 +140,7 @@ def test_iwz_agent_spec_changes_the_chair_a_program_builds_and_a_users_agent_reg
         p = argparse.ArgumentParser()
         program.add_arguments(p)
         add_spec_arguments(p)
-        args = p.parse_args([*argv, "--spec", str(EXAMPLE), "--spec-json", json.dumps({"max_speed": 0.9})])
+        args = p.parse_args([*argv, "--spec", str(EXAMPLE), "--spec-json", json.dumps({"max_speed_mps": 0.9})])
         (agent,) = make_with_spec(program, args)
         spec = agent.spec()
         assert (spec.width_m, spec.max_speed_mps, len(spec.ir_sensors)) == (1.04, 0.9, 8)
@@ -165,13 +165,13 @@ def test_iwz_run_hands_a_scenarios_spec_to_its_agent_and_to_the_serial_chair(tmp
     (tmp_path / "chair.toml").write_text(EXAMPLE.read_text())
     sc = parse_scenario(
         '[world]\nmap = "m.xml"\n[chair]\nspec = "chair.toml"\n'
-        '[[agents]]\nprogram = "waypoint"\nspec = { width = 1.2 }\n',
+        '[[agents]]\nprogram = "waypoint"\nspec = { width_m = 1.2 }\n',
         tmp_path,
     )
     launcher = Launcher(sc, port=1, log_dir=tmp_path / "logs", record=None)
     launcher.plan()
     argv = {c.name: c.argv for c in launcher.children}
     agent = argv["agent-1-waypoint"]
-    assert json.loads(agent[agent.index("--spec-json") + 1]) == {"width": 1.2}
+    assert json.loads(agent[agent.index("--spec-json") + 1]) == {"width_m": 1.2}
     for name in ("chair", "bridge-serial"):
         assert argv[name][argv[name].index("--spec") + 1] == str(tmp_path / "chair.toml")

@@ -33,7 +33,7 @@ def _ciber2001(profile: Profile) -> list[RegisterReply]:
 def test_the_ciber2001_grid_takes_its_three_robots_in_the_ciberrato_profile() -> None:
     replies = _ciber2001(Profile.CIBERRATO)
     assert [r.ok for r in replies] == [True, True, True], [r.reason for r in replies]
-    assert [(r.spec.x, r.spec.y) for r in replies if r.spec] == [(0.75, 1.0), (1.75, 1.0), (2.75, 1.0)]
+    assert [(r.spec.x_m, r.spec.y_m) for r in replies if r.spec] == [(0.75, 1.0), (1.75, 1.0), (2.75, 1.0)]
 
 
 def test_the_native_profile_refuses_a_start_on_another_body() -> None:

@@ -16,7 +16,7 @@ from iw_zenoh.core.spec import LaserSpec, NoiseSpec, RobotSpec, RobotType, proto
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import SensorReading, WorldState
 from iw_zenoh.sim.local import ArrayStep, LocalWorld
-from tests.conftest import box_wall
+from tests.support.builders import box_wall
 
 LASER = LaserSpec(id=0, x_m=0.5, angle_deg=0.0, fov_deg=270.0, beams=32, range_m=10.0)
 

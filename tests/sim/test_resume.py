@@ -85,7 +85,7 @@ def test_a_restarted_agent_gets_its_robot_back_where_it_is() -> None:
     )
     assert reply.ok
     assert reply.robot_id == 1
-    assert (reply.spec.x, reply.spec.y) == pytest.approx((x, y))  # type: ignore[union-attr]
+    assert (reply.spec.x_m, reply.spec.y_m) == pytest.approx((x, y))  # type: ignore[union-attr]
     assert "registered" in _kinds(out)
     assert core.registry.ids == [1, 2]
     # the same process asking for the same id again is refused as before

@@ -26,7 +26,7 @@ def test_registration_takes_the_first_free_grid_slot_and_announces_it() -> None:
     reply, out = core.register(RegisterRequest(spec=RobotSpecMsg(name="a")), 0)
     assert reply.ok
     assert reply.robot_id == 1
-    assert (reply.spec.x, reply.spec.y) == (2.0, 5.0)  # type: ignore[union-attr]
+    assert (reply.spec.x_m, reply.spec.y_m) == (2.0, 5.0)  # type: ignore[union-attr]
     assert "registered" in _kinds(out)
 
 
@@ -35,11 +35,11 @@ def test_registration_takes_the_first_free_grid_slot_and_announces_it() -> None:
     [
         (RobotSpecMsg(name="b", id=1), "id 1 is taken"),
         (RobotSpecMsg(name="c", id=3), "beyond the grid"),
-        (RobotSpecMsg(name="d", x=9.5, y=1.0), "wall"),
-        (RobotSpecMsg(name="e", x=2.5, y=5.0), "robot 1"),
-        (RobotSpecMsg(name="f", x=25.0, y=5.0), "outside the lab"),
-        (RobotSpecMsg(name="g", max_speed=-1.0), "max_speed"),
-        (RobotSpecMsg(name="h", max_speed=1e12), "max_speed: must be in ]0;100], got 1000000000000.0"),
+        (RobotSpecMsg(name="d", x_m=9.5, y_m=1.0), "wall"),
+        (RobotSpecMsg(name="e", x_m=2.5, y_m=5.0), "robot 1"),
+        (RobotSpecMsg(name="f", x_m=25.0, y_m=5.0), "outside the lab"),
+        (RobotSpecMsg(name="g", max_speed_mps=-1.0), "max_speed"),
+        (RobotSpecMsg(name="h", max_speed_mps=1e12), "max_speed_mps: must be in ]0;100], got 1000000000000.0"),
     ],
 )
 def test_refusals_say_why(spec: RobotSpecMsg, reason: str) -> None:
@@ -53,7 +53,7 @@ def test_refusals_say_why(spec: RobotSpecMsg, reason: str) -> None:
 
 def test_the_fastest_chair_at_full_power_keeps_its_poses_within_the_wire_s_limits() -> None:
     core = _core()
-    reply, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="a", max_speed=100.0)), 0)
+    reply, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="a", max_speed_mps=100.0)), 0)
     assert reply.ok
     core.collision_alive.add("c")
     for k in range(20):  # full power on both wheels for 20 ticks: each proposal must encode
@@ -333,12 +333,12 @@ def test_robots_registered_between_ticks_are_built_once_and_placed_apart(monkeyp
         return real(specs)  # type: ignore[arg-type]
 
     monkeypatch.setattr(world_core.Bodies, "from_specs", staticmethod(counted))
-    assert core.register(RegisterRequest(spec=RobotSpecMsg(name="a", x=4.0, y=8.0)), 0)[0].ok
+    assert core.register(RegisterRequest(spec=RobotSpecMsg(name="a", x_m=4.0, y_m=8.0)), 0)[0].ok
     # the second asks for the first one's place before any tick: still refused (it is there)
-    on_it = core.register(RegisterRequest(spec=RobotSpecMsg(name="b", x=4.2, y=8.0)), 0)[0]
+    on_it = core.register(RegisterRequest(spec=RobotSpecMsg(name="b", x_m=4.2, y_m=8.0)), 0)[0]
     assert not on_it.ok
     assert "robot" in on_it.reason
-    assert core.register(RegisterRequest(spec=RobotSpecMsg(name="c", x=7.0, y=8.0)), 0)[0].ok
+    assert core.register(RegisterRequest(spec=RobotSpecMsg(name="c", x_m=7.0, y_m=8.0)), 0)[0].ok
     assert builds == []  # nothing rebuilt per registration
     st = _tick(core, 100 * MS)
     assert builds == [2]  # once, when the tick began
@@ -360,22 +360,24 @@ def test_removing_a_robot_the_world_does_not_have_is_refused_with_its_id() -> No
 def test_the_leaves_of_a_revolving_door_are_placed_on_one_hub_and_a_chair_is_not() -> None:
     core = _core()
     for i, deg in enumerate((0.0, 120.0, -120.0)):
-        leaf = RobotSpecMsg(name=f"leaf{i}", type="Door", width=1.6, height=0.1, com=0.98, x=15.0, y=5.0, dir=deg)
+        leaf = RobotSpecMsg(
+            name=f"leaf{i}", type="Door", width_m=1.6, height_m=0.1, com=0.98, x_m=15.0, y_m=5.0, dir_deg=deg
+        )
         reply, _ = core.register(RegisterRequest(spec=leaf), 0)
         assert reply.ok, reply.reason  # a door may stand on another door
-    reply, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="chair", x=15.5, y=5.0)), 0)
+    reply, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="chair", x_m=15.5, y_m=5.0)), 0)
     assert not reply.ok
     assert "robot" in reply.reason
 
 
 def test_the_largest_id_then_id_0_overflows_nothing_and_ids_past_the_bound_are_refused() -> None:
     core = _core()
-    huge, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="huge", id=2**63 - 1, x=12.0, y=5.0)), 0)
+    huge, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="huge", id=2**63 - 1, x_m=12.0, y_m=5.0)), 0)
     assert not huge.ok
     assert f"beyond the largest robot id, {MAX_ROBOT_ID}" in huge.reason
-    top, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="top", id=MAX_ROBOT_ID, x=12.0, y=5.0)), 0)
+    top, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="top", id=MAX_ROBOT_ID, x_m=12.0, y_m=5.0)), 0)
     assert top.ok  # the largest id there is: the next robot placed by its pose takes the first free one
-    any_id, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="any", x=15.0, y=5.0)), 0)
+    any_id, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="any", x_m=15.0, y_m=5.0)), 0)
     assert any_id.ok, any_id.reason
     assert any_id.robot_id == 3  # past the grid's two
     st = _tick(core, 0)  # overflowed in registry.py (max + 1) and core/bodies.py (int64)
@@ -386,11 +388,13 @@ def test_a_world_holds_a_bounded_number_of_robots_per_agent(monkeypatch: pytest.
     monkeypatch.setattr(registry, "MAX_ROBOTS_PER_AGENT", 2)
     core = _core()
     for k in range(2):
-        reply, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name=f"r{k}", x=12.0 + 2 * k, y=5.0), agent="a"), 0)
+        reply, _ = core.register(
+            RegisterRequest(spec=RobotSpecMsg(name=f"r{k}", x_m=12.0 + 2 * k, y_m=5.0), agent="a"), 0
+        )
         assert reply.ok, reply.reason
-    reply, out = core.register(RegisterRequest(spec=RobotSpecMsg(name="r2", x=17.0, y=5.0), agent="a"), 0)
+    reply, out = core.register(RegisterRequest(spec=RobotSpecMsg(name="r2", x_m=17.0, y_m=5.0), agent="a"), 0)
     assert not reply.ok
     assert "agent 'a' has 2 robots, the most one agent may register" in reply.reason
     assert "refused" in _kinds(out)
-    other, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="b", x=17.0, y=5.0), agent="b"), 0)
+    other, _ = core.register(RegisterRequest(spec=RobotSpecMsg(name="b", x_m=17.0, y_m=5.0), agent="b"), 0)
     assert other.ok  # another agent is not refused for it

@@ -27,12 +27,12 @@ def _open_world(grace_ms: float = 1000.0) -> WorldCore:
 def test_robots_of_agents_whose_liveliness_never_appears_are_removed_after_the_grace() -> None:
     core = _open_world()
     core.on_alive("agent", "real", True, 0)
-    assert core.register(RegisterRequest(spec=RobotSpecMsg(name="r", x=1.0, y=1.0), agent="real"), 0)[0].ok
-    late = RegisterRequest(spec=RobotSpecMsg(name="late", x=1.0, y=3.0), agent="late")
+    assert core.register(RegisterRequest(spec=RobotSpecMsg(name="r", x_m=1.0, y_m=1.0), agent="real"), 0)[0].ok
+    late = RegisterRequest(spec=RobotSpecMsg(name="late", x_m=1.0, y_m=3.0), agent="late")
     assert core.register(late, 0)[0].ok  # its token comes after its registration: it stays
     for k in range(200):  # a flood: each for an agent that does not exist
         ghost = RegisterRequest(
-            spec=RobotSpecMsg(name=f"g{k}", x=3.0 + 2 * (k % 15), y=5.0 + 2 * (k // 15)), agent=f"ghost-{k}"
+            spec=RobotSpecMsg(name=f"g{k}", x_m=3.0 + 2 * (k % 15), y_m=5.0 + 2 * (k // 15)), agent=f"ghost-{k}"
         )
         assert core.register(ghost, 10 * MS)[0].ok
     core.on_alive("agent", "late", True, 500 * MS)
@@ -52,12 +52,12 @@ def test_robots_of_agents_whose_liveliness_never_appears_are_removed_after_the_g
 def test_an_agent_stopped_past_its_lease_gets_its_own_robot_back_from_the_same_process() -> None:
     core = _open_world(grace_ms=5000.0)
     core.on_alive("agent", "host", True, 0)
-    ask = RegisterRequest(spec=RobotSpecMsg(name="chair", x=5.0, y=5.0), agent="host", request_id="4242-1")
+    ask = RegisterRequest(spec=RobotSpecMsg(name="chair", x_m=5.0, y_m=5.0), agent="host", request_id="4242-1")
     first, _ = core.register(ask, 0)
     assert first.ok
     core.on_alive("agent", "host", False, 1000 * MS)  # SIGSTOP past its lease: its token is gone
     core.on_alive("agent", "host", True, 4000 * MS)  # SIGCONT: its session is back
-    again = RegisterRequest(spec=RobotSpecMsg(name="chair", x=5.0, y=5.0), agent="host", request_id="4242-2")
+    again = RegisterRequest(spec=RobotSpecMsg(name="chair", x_m=5.0, y_m=5.0), agent="host", request_id="4242-2")
     reply, _ = core.register(again, 4000 * MS)
     assert reply.ok, reply.reason  # was: 'start (5, 5) puts the body on robot 1': its own old body
     assert reply.robot_id == first.robot_id

@@ -114,7 +114,7 @@ def agent_host(*agents: Agent, world_tick: int = 50) -> tuple[AgentHost, FakeBus
 
     def answer(key: str, payload: bytes) -> list[bytes]:
         rid = next(ids)
-        spec = RobotSpecMsg(name=f"r{rid}", id=rid, x=1.0, y=float(rid))
+        spec = RobotSpecMsg(name=f"r{rid}", id=rid, x_m=1.0, y_m=float(rid))
         return [encode(RegisterReply(tick=world_tick, ok=True, robot_id=rid, spec=spec))]
 
     bus.answer = answer

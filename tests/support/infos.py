@@ -11,5 +11,5 @@ INFO_LAB = Lab("t", 10.0, 6.0, (box_wall(4.0, 0.0, 4.2, 3.0),))
 
 
 def world_info(revision: int, robots: int = 0) -> WorldInfo:
-    specs = [RobotSpecMsg(name=f"r{i}", id=i, x=1.0 + i, y=4.0, legacy=True) for i in range(1, robots + 1)]
+    specs = [RobotSpecMsg(name=f"r{i}", id=i, x_m=1.0 + i, y_m=4.0, legacy=True) for i in range(1, robots + 1)]
     return WorldInfo(revision=revision, lab=lab_to_msg(INFO_LAB), period_ns=50_000_000, robots=specs)

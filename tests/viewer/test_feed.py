@@ -47,7 +47,7 @@ def _info(revision: int, ids: list[int], obstacles: list[Obstacle] = []) -> Worl
         revision=revision,
         lab=LabMsg(name="lab", width=20.0, height=10.0, walls=walls),
         period_ns=100_000_000,
-        robots=[RobotSpecMsg(name=f"r{i}", id=i, width=1.0, height=0.6, com=0.8) for i in ids],
+        robots=[RobotSpecMsg(name=f"r{i}", id=i, width_m=1.0, height_m=0.6, com=0.8) for i in ids],
         obstacles=obstacles,
     )
 
@@ -209,7 +209,7 @@ def test_an_older_description_without_agents_keeps_the_agent_its_registered_even
 
 
 def _scanner_info() -> WorldInfo:
-    laser = LaserMsg(id=3, x=0.5, fov_deg=180.0, beams=3, range_m=5.0)
+    laser = LaserMsg(id=3, x_m=0.5, fov_deg=180.0, beams=3, range_m=5.0)
     robots = [RobotSpecMsg(name="scan", id=1, lasers=[laser]), RobotSpecMsg(name="plain", id=2)]
     return WorldInfo(revision=1, lab=LabMsg(name="lab", width=20.0, height=10.0), period_ns=1, robots=robots)
 

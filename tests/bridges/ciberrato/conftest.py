@@ -16,7 +16,7 @@ from tests.support.fakes import FakeBus, FakeTransport, Rig, Transports
 def rig() -> Iterator[Rig]:
     """The bridge, its bus, its reception socket and the transports it made; closed after."""
     bus, reception, made = FakeBus(), FakeTransport(), Transports()
-    accept = RegisterReply(ok=True, robot_id=7, spec=RobotSpecMsg(name="bot1", id=7, x=1.0, y=2.0))
+    accept = RegisterReply(ok=True, robot_id=7, spec=RobotSpecMsg(name="bot1", id=7, x_m=1.0, y_m=2.0))
     bus.answer = lambda key, payload: [encode(accept)]
     bridge = Bridge(bus, "s", reception, new_transport=made, pace=False)
     yield bridge, bus, reception, made

@@ -49,7 +49,7 @@ def test_a_robot_that_asks_before_the_worlds_description_is_told_the_world_that_
     # the world's queryables come up one by one: the registration may be answered by a world
     # whose description the bridge has not had yet (it told the robot 0 beacons, 50 ms cycles)
     bridge, bus, reception, made = rig
-    accept = encode(RegisterReply(ok=True, robot_id=7, spec=RobotSpecMsg(name="bot1", id=7, x=1.0, y=2.0)))
+    accept = encode(RegisterReply(ok=True, robot_id=7, spec=RobotSpecMsg(name="bot1", id=7, x_m=1.0, y_m=2.0)))
     beacons = [(1.0, 1.0, 2.0), (2.0, 2.0, 2.0), (3.0, 3.0, 2.0)]
     info = WorldInfo(revision=1, lab=LabMsg(name="l", width=28, height=14, beacons=beacons), period_ns=75_000_000)
 

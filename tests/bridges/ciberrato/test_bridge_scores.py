@@ -87,7 +87,7 @@ def made() -> Iterator[Transports]:
 
 def _bridge(mode: Mode, made: Transports, world_tick: list[int]) -> tuple[Bridge, FakeBus, FakeTransport]:
     bus, reception = FakeBus(), FakeTransport()
-    spec = RobotSpecMsg(name="r", id=RID, x=START[0], y=START[1])
+    spec = RobotSpecMsg(name="r", id=RID, x_m=START[0], y_m=START[1])
     bus.answer = lambda key, payload: [encode(RegisterReply(tick=world_tick[0], ok=True, robot_id=RID, spec=spec))]
     info = WorldInfo(revision=1, lab=lab_to_msg(LAB), profile=Profile.CIBERRATO, period_ns=PERIOD_NS)
     bus.info.append(encode(info))

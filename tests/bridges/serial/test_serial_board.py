@@ -71,7 +71,7 @@ def test_ranges_see_the_real_room_in_millimetres() -> None:
 
 def test_chair_spec_reads_a_toml_file(tmp_path) -> None:  # type: ignore[no-untyped-def]
     f = tmp_path / "chair.toml"
-    f.write_text("[chair]\nmax_speed = 0.4\nticks_per_m = 1000\n")
+    f.write_text("[chair]\nmax_speed_mps = 0.4\nticks_per_m = 1000\n")
     spec = chair_spec("c", path=str(f))
     assert spec.max_speed_mps == 0.4
     assert spec.encoder.ticks_per_m == 1000

@@ -21,7 +21,7 @@ def test_step_window_finds_the_step_to_top_power() -> None:
 
 def test_calibrate_fits_the_chair_from_the_bridges_log(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     log, spec = tmp_path / "bridge.csv", tmp_path / "chair.toml"
-    spec.write_text("[chair]\nacceleration_curve = 0.9\nmax_speed = 0.49\n")  # the real chair's slow rise (7.2)
+    spec.write_text("[chair]\nacceleration_curve = 0.9\nmax_speed_mps = 0.49\n")  # the real chair's slow rise (7.2)
     _bridge_log(log, spec)
     assert calibrate([str(log), "--period-ms", "50"]) == 0
     out = capsys.readouterr().out

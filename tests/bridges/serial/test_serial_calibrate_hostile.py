@@ -62,7 +62,7 @@ CASES: dict[str, tuple[Edit, int | None, str]] = {  # edit, the line named (None
 @pytest.fixture
 def good_log(tmp_path: Path) -> list[str]:
     spec = tmp_path / "chair.toml"
-    spec.write_text("[chair]\nacceleration_curve = 0.9\nmax_speed = 0.49\n")
+    spec.write_text("[chair]\nacceleration_curve = 0.9\nmax_speed_mps = 0.49\n")
     log = tmp_path / "good.csv"
     _bridge_log(log, spec)
     lines = log.read_text().splitlines()
