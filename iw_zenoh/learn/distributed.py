@@ -83,8 +83,9 @@ def _learner_entry(sc: Scenario, robot: int) -> int:
 
 
 class DistributedEnv(ScenarioEnv):
-    """A scenario over the distributed system (see the module doc); arguments as
-    :class:`~iw_zenoh.learn.scenario.ScenarioEnv`'s, and:
+    """A scenario over the distributed system (see the module doc).
+
+    Arguments as :class:`~iw_zenoh.learn.scenario.ScenarioEnv`'s, and:
 
     Args:
         record: Record each episode's run to this MCAP file (None: not recorded).

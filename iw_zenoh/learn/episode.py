@@ -163,6 +163,8 @@ class _Lazy:
             rolled_right=rr,
             speed=[0.0] * n,
         )
+
+
 def _powers(cmd: Any, spec: RobotSpec) -> Any:
     """An agent's command in wheel powers (a ``Command.from_velocity`` through its chair's model)."""
     return cmd.resolved(spec) if isinstance(cmd, Command) else cmd

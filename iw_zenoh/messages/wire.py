@@ -148,6 +148,8 @@ def prepare_decoders(*modules: ModuleType) -> int:
                 _DECODERS.setdefault(value, msgspec.json.Decoder(value))
                 made += 1
     return made
+
+
 def _upgraded(data: bytes, kind: type[T]) -> T | None:
     """A message its type's ``upgrade(doc)`` reads as an older version wrote it (renamed fields),
     or None: a type without one, or a message that is refused all the same. Only refused messages
