@@ -35,16 +35,16 @@ def test_values_are_read_as_toml_and_otherwise_as_text() -> None:
     assert parse_set("world.duration_s=30") == ("world.duration_s", 30)
     assert parse_set("roles.radio=false") == ("roles.radio", False)
     assert parse_set('agents[0].args=["--id", "1"]') == ("agents[0].args", ["--id", "1"])
-    assert parse_set("agents[0].spec={ max_speed = 0.4 }") == ("agents[0].spec", {"max_speed": 0.4})
+    assert parse_set("agents[0].spec={ max_speed_mps = 0.4 }") == ("agents[0].spec", {"max_speed_mps": 0.4})
     assert parse_set("world.map=../other.xml") == ("world.map", "../other.xml")
 
 
 def test_a_scenario_takes_its_fields_changed(base: Path) -> None:
-    sets = [parse_set(s) for s in ("world.duration_s=30", "world.seed=9", "agents[0].spec.max_speed=0.4")]
+    sets = [parse_set(s) for s in ("world.duration_s=30", "world.seed=9", "agents[0].spec.max_speed_mps=0.4")]
     sc = parse_scenario(TOML, base, "s", sets)
     assert sc.world.duration_s == 30.0
     assert sc.world.seed == 9
-    assert sc.agents[0].spec == {"max_speed": 0.4}
+    assert sc.agents[0].spec == {"max_speed_mps": 0.4}
 
 
 @pytest.mark.parametrize(

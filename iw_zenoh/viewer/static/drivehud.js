@@ -79,7 +79,7 @@ export class DriveHud {
     const st = w.states[i] || "driving";
     const driving = s && s.robot === id ? s : null;
     const v = driving ? driving.v_mps : this.speed;
-    const top = r && typeof r.spec.max_speed === "number" ? r.spec.max_speed : 1;
+    const top = r && typeof r.spec.max_speed_mps === "number" ? r.spec.max_speed_mps : 1;
     let h = `<div class="hud-chair">chair ${id}${r ? ` \u00b7 ${esc(r.name)}` : ""}<span class="hud-state ${st}">${STATE_MEANS[st].split(" (")[0]}</span></div>`;
     h += `<div class="hud-speed"><b>${Math.abs(v).toFixed(2)}</b> m/s<span class="hud-bar"><i style="width:${Math.min(100, (100 * Math.abs(v)) / top).toFixed(0)}%"></i></span></div>`;
     const near = driving ? driving.nearest_m : nearestSeen(w, id);

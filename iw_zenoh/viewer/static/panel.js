@@ -20,16 +20,16 @@ function num(v, d = 3) { return v === null || v === undefined ? "-" : Number(v).
 const SPEC_ROWS = [
   ["type", "type", "", -1],
   ["shape", "shape", "", -1],
-  ["width", "length (along the heading)", "m", 2],
-  ["height", "width (wheel base)", "m", 2],
+  ["width_m", "length (along the heading)", "m", 2],
+  ["height_m", "width (wheel base)", "m", 2],
   ["com", "front ahead of the wheel axis", "of the length", 2],
-  ["max_speed", "top speed", "m/s", 2],
+  ["max_speed_mps", "top speed", "m/s", 2],
   ["acceleration_curve", "motor inertia (0 none, 1 never moves)", "", 2],
   ["ticks_per_m", "encoder", "ticks/m", 0],
-  ["x", "start x", "m", 2],
-  ["y", "start y", "m", 2],
-  ["dir", "start heading", "\u00b0", 1],
-  ["beacon_height", "carries a beacon", "m high", 2],
+  ["x_m", "start x", "m", 2],
+  ["y_m", "start y", "m", 2],
+  ["dir_deg", "start heading", "\u00b0", 1],
+  ["beacon_height_m", "carries a beacon", "m high", 2],
 ];
 
 /** @param {any} v @param {string} unit @param {number} d */

@@ -43,7 +43,7 @@
  * @property {string} type  "Simulated", "Real" or "Door"
  * @property {Xy[]} outline  in its own frame (origin: centre of movement, x along the heading)
  * @property {PageSensor[]} sensors
- * @property {Record<string, any>} spec  its RobotSpecMsg (width, height, com, max_speed, ...)
+ * @property {Record<string, any>} spec  its RobotSpecMsg (width_m, height_m, com, max_speed_mps, ...)
  * @property {string} agent  the agent process that drives it ("": not known)
  * @property {PageLaser[]} lasers
  */

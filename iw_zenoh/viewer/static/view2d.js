@@ -171,7 +171,7 @@ export class View2D {
     let bestD = Infinity;
     for (let i = 0; i < w.ids.length; i++) {
       const r = w.robots.get(w.ids[i]);
-      const reach = r ? Math.max(r.spec.width, r.spec.height) * 0.75 : 0.5;
+      const reach = r ? Math.max(r.spec.width_m, r.spec.height_m) * 0.75 : 0.5;
       const d = Math.hypot(w.x[i] - x, w.y[i] - y);
       if (d < reach && d < bestD) { best = w.ids[i]; bestD = d; }
     }
@@ -399,7 +399,7 @@ export class View2D {
         if (k === 0) p.moveTo(sx, sy); else p.lineTo(sx, sy);
       }
       p.closePath();
-      const front = r ? r.spec.width * r.spec.com : 0.3;
+      const front = r ? r.spec.width_m * r.spec.com : 0.3;
       const [ax, ay] = this.toScreen(w.x[i], w.y[i]);
       noses.moveTo(ax, ay);
       noses.lineTo(...this.toScreen(w.x[i] + c * front * 1.2, w.y[i] + s * front * 1.2));
@@ -421,7 +421,7 @@ export class View2D {
     g.fillStyle = "#fff"; g.font = "11px system-ui"; g.textAlign = "center";
     for (let i = 0; i < w.ids.length; i++) {
       const r = w.robots.get(w.ids[i]);
-      const size = (r ? Math.max(r.spec.width, r.spec.height) : 0.6) * this.scale;
+      const size = (r ? Math.max(r.spec.width_m, r.spec.height_m) : 0.6) * this.scale;
       if (size < LABEL_MIN_PX) continue;
       const [sx, sy] = this.toScreen(w.x[i], w.y[i]);
       g.fillText(`${w.ids[i]} ${r ? r.name : ""}`, sx, sy - size * 0.6 - 3);

@@ -296,8 +296,8 @@ export class View3D {
 
   /** a chair's parts in its own frame (cached by footprint and type) @param {import("./types.js").PageRobot} r */
   shape(r) {
-    const L = Number(r.spec.width) || 1;
-    const W = Number(r.spec.height) || 1;
+    const L = Number(r.spec.width_m) || 1;
+    const W = Number(r.spec.height_m) || 1;
     const com = Number(r.spec.com) || 0.5;
     const key = `${r.type}:${L}:${W}:${com}`;
     let got = this.shapes.get(key);
