@@ -41,7 +41,7 @@ class RunPlan:
 
     Attributes:
         scenario: The scenario.
-        world: The world's options and the rest of its ``world.args`` (``world_options``).
+        world: The world's options and the rest of its command line (``world_options``).
         sim: Simulation name (a valid key chunk).
         listen: Where the router listens.
         endpoint: Where every other process connects.

@@ -123,8 +123,9 @@ class DistributedEnv(ScenarioEnv):
         """The scenario this process runs: the seed, lock-step, the learner's agent left out (but
         its robot awaited), and the world waiting for the learner as long as it takes."""
         sc = self.scenario
-        args = (*sc.world.args, "--expect", str(sc.robots), "--lockstep-timeout-ms", str(PATIENCE_MS))
-        world = msgspec.structs.replace(sc.world, seed=seed, mode=Mode.LOCKSTEP, args=args)
+        world = msgspec.structs.replace(
+            sc.world, seed=seed, mode=Mode.LOCKSTEP, expect=sc.robots, lockstep_timeout_ms=float(PATIENCE_MS)
+        )
         agents = tuple(a for i, a in enumerate(sc.agents) if i != self.entry)
         return msgspec.structs.replace(sc, world=world, agents=agents)
 

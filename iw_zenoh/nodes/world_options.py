@@ -1,7 +1,7 @@
 """The options of ``iwz world`` (a msgspec Struct) and the flags that fill it.
 
 Apart from the world process itself so that ``iwz run`` builds a world's options from a scenario
-(and reads a scenario's ``world.args`` with the world's own flags) without the world's loop.
+(from a scenario's typed ``[world]`` table) without the world's loop.
 """
 
 from __future__ import annotations
@@ -12,10 +12,10 @@ from typing import Annotated
 import msgspec
 
 from iw_zenoh.core.modes import Mode, Profile, Silence
-from iw_zenoh.errors import ConfigError, IwError
+from iw_zenoh.errors import IwError
 from iw_zenoh.launch.secure_run import SERIAL_BRIDGE, agent_name, asked_id
 from iw_zenoh.messages import Obstacle
-from iw_zenoh.process.options import Flag, add_option_flags, option, options_from_argv
+from iw_zenoh.process.options import Flag, add_option_flags, option
 from iw_zenoh.scenario.file import DURATION_S_MAX, PERIOD_MS, Scenario
 from iw_zenoh.secure.policy import load_policy, owners
 from iw_zenoh.sim.config import WorldConfig
@@ -206,11 +206,8 @@ def scenario_ids(sc: Scenario) -> dict[str, list[int]]:
 
 
 def world_options(sc: Scenario) -> tuple[WorldOptions, list[str]]:
-    """The world's options for a scenario, and what of its ``world.args`` is not an option flag.
-
-    Raises:
-        ConfigError: A ``world.args`` flag the world refuses (naming the scenario field).
-    """
+    """The world's options for a scenario (its ``[world]`` fields, roster and obstacles), and the
+    command line's rest (none: ``[world]`` is typed, checked when the scenario was read)."""
     w = sc.world
     options = WorldOptions(
         map=str(w.map),
@@ -219,12 +216,15 @@ def world_options(sc: Scenario) -> tuple[WorldOptions, list[str]]:
         mode=w.mode,
         profile=w.profile,
         seed=w.seed,
+        action_timeout_ms=w.action_timeout_ms,
+        grace_ms=w.grace_ms,
+        lockstep_timeout_ms=w.lockstep_timeout_ms,
         duration_s=w.duration_s,
-        expect=sc.robots,
+        start_paused=w.start_paused,
+        motors_noise_pct=w.motors_noise_pct,
+        silence=w.silence,
+        expect=sc.robots if w.expect is None else w.expect,
         obstacles=sc.obstacles,
         reserved=scenario_ids(sc) or None,
     )
-    try:
-        return options_from_argv(w.argv, WorldOptions, add_arguments, base=options, prog="iwz world")
-    except IwError as e:
-        raise ConfigError(f"{sc.name}: world.args", str(e)) from None
+    return options, []

@@ -23,12 +23,14 @@ from typing import Annotated, Any, Literal
 import msgspec
 import numpy as np
 
-from iw_zenoh.core.modes import Mode, Profile
+from iw_zenoh.core.modes import Mode, Profile, Silence
 from iw_zenoh.errors import ConfigError, MapError
 from iw_zenoh.maps import load_grid, load_lab
 from iw_zenoh.messages import Obstacle
 from iw_zenoh.scenario.fields import apply_sets
+from iw_zenoh.scenario.refused import args_table, line_in, start_table
 from iw_zenoh.scenario.specfile import SPEC_TABLE, check_spec, line_of, load_spec_file, renamed_field
+from iw_zenoh.sim.config import WorldConfig
 from iw_zenoh.sim.obstacles import Obstacles
 
 __all__ = [
@@ -57,6 +59,8 @@ SEED_MAX = 2**64 - 1  # numpy's seeds are 64-bit here
 ID_MAX = 2**63 - 1  # a robot id: 63 bits
 PERIOD_MS = (1.0, 60_000.0)  # a tick from 1 ms to a minute
 DURATION_S_MAX = 7 * 86_400.0  # a week of simulated time
+TIMEOUT_MS_MAX = 86_400_000.0  # a day: the longest wait or timeout of [world]
+_CORE = WorldConfig()  # the world core's defaults are [world]'s
 ROBOTS_MAX = 1000  # robots one agent process registers
 EXTENT_M = 10_000.0  # any coordinate or length, m (obstacles, goals, doorways)
 DEPTH_MAX = 16  # tables and arrays nested deeper are refused (no scenario needs more than 4)
@@ -66,7 +70,8 @@ Coord = Annotated[float, msgspec.Meta(ge=-EXTENT_M, le=EXTENT_M)]
 
 
 class WorldSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
-    """``[world]``: the map and how the world runs."""
+    """``[world]``: the map and how the world runs, each of ``iwz world``'s options a typed field
+    (its defaults the world core's, :class:`~iw_zenoh.sim.config.WorldConfig`)."""
 
     map: Path
     grid: Path | None = None
@@ -75,12 +80,14 @@ class WorldSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     period_ms: Annotated[float, msgspec.Meta(ge=PERIOD_MS[0], le=PERIOD_MS[1])] = 100.0
     seed: Annotated[int, msgspec.Meta(ge=0)] = 0  # numpy takes no negative seed; 64 bits at most (_numbers)
     duration_s: Annotated[float, msgspec.Meta(gt=0, le=DURATION_S_MAX)] = 60.0
-    args: tuple[Arg, ...] = ()
-
-    @property
-    def argv(self) -> list[str]:
-        """``args`` as a command line takes them."""
-        return [str(a) for a in self.args]
+    action_timeout_ms: Annotated[float, msgspec.Meta(gt=0, le=TIMEOUT_MS_MAX)] = _CORE.action_timeout_ms
+    grace_ms: Annotated[float, msgspec.Meta(ge=0, le=TIMEOUT_MS_MAX)] = _CORE.grace_ms
+    lockstep_timeout_ms: Annotated[float, msgspec.Meta(gt=0, le=TIMEOUT_MS_MAX)] = _CORE.lockstep_timeout_ms
+    motors_noise_pct: Annotated[float, msgspec.Meta(ge=0, le=100)] = _CORE.motors_noise_pct
+    silence: Silence | None = _CORE.silence  # None: the profile's (native stop, ciberrato keep)
+    start_paused: bool = _CORE.start_paused
+    expect: Annotated[int, msgspec.Meta(ge=0, le=ID_MAX)] | None = None  # None: the robots the agents register
+    args: tuple[Arg, ...] = ()  # refused (the argv of before): the fields above say it typed (refused.args_table)
 
 
 class RolesSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -406,9 +413,13 @@ def parse_scenario(text: str, base: Path, name: str = "scenario", sets: Sequence
     for i, d in enumerate(sc.criteria.doors):
         if d.one_chair_within is not None and (d.x is None or d.y is None):
             raise ConfigError(f"criteria.doors[{i}].one_chair_within", "needs the doorway's middle: give x and y too")
+    if sc.world.args:
+        line = line_in(text, "world", "args")
+        at = f"line {line}: " if line else ""
+        raise ConfigError(f"{at}world.args", args_table(sc.world.args))
     chair = sc.chair
     if chair is not None and isinstance(chair.start, str):
-        raise ConfigError("chair.start", _start_table(chair.start))
+        raise ConfigError("chair.start", start_table(chair.start))
     if chair is not None and world.mode != Mode.REALTIME:
         raise ConfigError("chair.hardware", "a chair on a serial link moves in real time: world.mode must be realtime")
     if chair is not None and chair.spec is not None:
@@ -419,15 +430,6 @@ def parse_scenario(text: str, base: Path, name: str = "scenario", sets: Sequence
     agents = tuple(_with_spec(a, i, base, text) for i, a in enumerate(sc.agents))
     fields = {**msgspec.structs.asdict(sc), "world": world, "bridge": bridge, "chair": chair, "agents": agents}
     return Scenario(**{**fields, "name": sc.name or name}, base=base)
-
-
-def _start_table(text: str) -> str:
-    """Why ``start = "x,y,dir_deg"`` (a string, as scenarios once wrote it) is refused, and what to write."""
-    parts = [p.strip() for p in text.split(",")]
-    form = "{ x_m = 1.5, y_m = 3.0, dir_deg = 0.0 }"
-    if len(parts) == 3 and all(re.fullmatch(r"[-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?", p) for p in parts):
-        form = f"{{ x_m = {parts[0]}, y_m = {parts[1]}, dir_deg = {parts[2]} }}"
-    return f"a table now, not a string {text!r}: write start = {form} (docs/scenarios.md)"
 
 
 def _beside(base: Path, path: Path | str) -> Path:

@@ -29,7 +29,13 @@ LEGS = ";".join(["8,5;3,5"] * 20)  # back and forth for as long as the run lasts
 
 
 def fault_scenario(
-    tmp: Path, *, duration_s: float, world_args: str = "", mode: str = "realtime", legs: str = LEGS, goal_x: float = 8.0
+    tmp: Path,
+    *,
+    duration_s: float,
+    world_fields: str = "",
+    mode: str = "realtime",
+    legs: str = LEGS,
+    goal_x: float = 8.0,
 ) -> Path:
     (tmp / "lab.xml").write_text(LAB)
     (tmp / "grid.xml").write_text(GRID)
@@ -41,7 +47,7 @@ map = "lab.xml"
 grid = "grid.xml"
 mode = "{mode}"
 duration_s = {duration_s}
-args = [{world_args}]
+{world_fields}
 [[agents]]
 program = "waypoint"
 name = "driver"

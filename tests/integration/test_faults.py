@@ -106,7 +106,7 @@ def _the_recording_is_in_two_parts_and_mends(recording: Path, out: str) -> None:
 
 
 def test_an_agent_stopped_past_its_grace_drives_again_once_resumed(tmp_path: Path) -> None:
-    run = _Run(_scenario(tmp_path, duration_s=60, world_args='"--grace-ms", "1000"'), tmp_path, status=True)
+    run = _Run(_scenario(tmp_path, duration_s=60, world_fields="grace_ms = 1000"), tmp_path, status=True)
     try:
         run.wait_moving(timeout_s=60)
         pid = run.pid("agent")

@@ -18,7 +18,7 @@ from tests.integration.harness import wait_event, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
 
-PATIENT = '"--lockstep-timeout-ms", "60000"'  # a minute for a verdict or an answer (docs/agents.md)
+PATIENT = "lockstep_timeout_ms = 60000"  # a minute for a verdict or an answer (docs/agents.md)
 
 
 def _moving_again(run: _Run, before: WorldState, timeout_s: float) -> float:
@@ -36,7 +36,7 @@ def _moving_again(run: _Run, before: WorldState, timeout_s: float) -> float:
 def test_a_collision_kill_and_a_collision_and_agent_kill_cost_their_restart_not_the_lockstep_timeout(
     tmp_path: Path,
 ) -> None:
-    scenario = _scenario(tmp_path, duration_s=300, world_args=PATIENT, mode="lockstep", legs="18,5", goal_x=18.0)
+    scenario = _scenario(tmp_path, duration_s=300, world_fields=PATIENT, mode="lockstep", legs="18,5", goal_x=18.0)
     run = _Run(scenario, tmp_path)
     try:
         run.wait_moving(timeout_s=60)

@@ -27,7 +27,7 @@ grid = "{grid}"
 mode = "lockstep"
 seed = 5
 duration_s = 4
-args = ["--lockstep-timeout-ms", "60000"]  # a busy machine's laggard would make the run depend on it
+lockstep_timeout_ms = 60000  # a busy machine's laggard would make the run depend on it
 [[agents]]
 program = "wanderer"
 args = ["--count", "1", "--seed", "3"]

@@ -78,11 +78,11 @@ def test_world_args_are_read_into_the_options() -> None:
     assert rest == []
 
 
-def test_a_bad_world_arg_refuses_the_scenario(tmp_path: Path) -> None:
-    (tmp_path / "s.toml").write_text(f'[world]\nmap = "{MAPS / "liacc.xml"}"\nargs = ["--motors-noise", "x"]\n')
+def test_a_bad_world_option_refuses_the_scenario(tmp_path: Path) -> None:
+    (tmp_path / "s.toml").write_text(f'[world]\nmap = "{MAPS / "liacc.xml"}"\nmotors_noise_pct = "x"\n')
     with pytest.raises(ConfigError) as e:
         world_options(load_scenario(tmp_path / "s.toml"))
-    assert "world.args" in e.value.field
+    assert "world.motors_noise_pct" in e.value.field
 
 
 def test_the_world_child_gets_one_options_argument(tmp_path: Path) -> None:

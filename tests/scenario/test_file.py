@@ -97,3 +97,45 @@ def test_bad_door_criteria_are_refused_naming_the_field(toml: str, field: str) -
     with pytest.raises(ConfigError) as e:
         parse_scenario(toml, MAPS)
     assert e.value.field.startswith(field), e.value
+
+
+@pytest.mark.parametrize(
+    ("args", "written"),
+    [
+        ('["--lockstep-timeout-ms", "60000"]', "lockstep_timeout_ms = 60000"),
+        ('["--motors-noise", 1.5, "--paused"]', "motors_noise_pct = 1.5; start_paused = true"),
+        ('["--silence", "keep"]', 'silence = "keep"'),
+    ],
+)
+def test_world_args_are_refused_at_their_line_with_the_fields_to_write(args: str, written: str) -> None:
+    text = f'name = "old"\n[world]\nmap = "liacc.xml"\n# a comment\nargs = {args}\n[[agents]]\nprogram = "waypoint"\nargs = []\n'
+    with pytest.raises(ConfigError) as e:
+        parse_scenario(text, MAPS)
+    assert e.value.field == "line 5: world.args"
+    assert f"write {written} " in e.value.reason
+
+
+def test_the_world_options_are_typed_fields_of_world() -> None:
+    text = (
+        '[world]\nmap = "liacc.xml"\nlockstep_timeout_ms = 60000\ngrace_ms = 1000\nmotors_noise_pct = 1.5\n'
+        'silence = "keep"\nstart_paused = true\naction_timeout_ms = 300\nexpect = 2\n'
+    )
+    w = parse_scenario(text, MAPS).world
+    assert (w.lockstep_timeout_ms, w.grace_ms, w.motors_noise_pct, w.silence) == (60000, 1000, 1.5, "keep")
+    assert (w.start_paused, w.action_timeout_ms, w.expect) == (True, 300, 2)
+
+
+@pytest.mark.parametrize(
+    ("toml", "field"),
+    [
+        ('lockstep_timeout_ms = "60000"', "world.lockstep_timeout_ms"),
+        ("lockstep_timeout_ms = -1", "world.lockstep_timeout_ms"),
+        ('silence = "sometimes"', "world.silence"),
+        ("motors_noise_pct = 200", "world.motors_noise_pct"),
+        ("expect = -1", "world.expect"),
+    ],
+)
+def test_bad_world_options_are_refused_naming_the_field(toml: str, field: str) -> None:
+    with pytest.raises(ConfigError) as e:
+        parse_scenario(f'[world]\nmap = "liacc.xml"\n{toml}\n', MAPS)
+    assert e.value.field == field
