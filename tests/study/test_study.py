@@ -32,7 +32,7 @@ args = ["--id", "1", "--start", "3,5,0", "--waypoints", "10,5"]
 [[agents]]
 program = "wanderer"
 args = ["--count", "1", "--seed", "4"]
-spec = { id = 2, x = 6.0, y = 2.0, dir = 90.0 }
+spec = { id = 2, x_m = 6.0, y_m = 2.0, dir_deg = 90.0 }
 [criteria]
 max_collisions = 0
 [[criteria.reach]]
