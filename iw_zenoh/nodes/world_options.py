@@ -16,9 +16,9 @@ from iw_zenoh.errors import IwError
 from iw_zenoh.launch.secure_run import SERIAL_BRIDGE, agent_name, asked_id
 from iw_zenoh.messages import Obstacle
 from iw_zenoh.process.options import Flag, add_option_flags, option
-from iw_zenoh.scenario.file import DURATION_S_MAX, PERIOD_MS, Scenario
+from iw_zenoh.scenario.file import DURATION_S_MAX, Scenario
 from iw_zenoh.secure.policy import load_policy, owners
-from iw_zenoh.sim.config import WorldConfig
+from iw_zenoh.sim.config import WorldConfig, WorldSettings
 from iw_zenoh.sim.resume import WorldSnapshot
 
 __all__ = ["WorldOptions", "add_arguments", "parse_obstacle", "world_options"]
@@ -26,25 +26,17 @@ __all__ = ["WorldOptions", "add_arguments", "parse_obstacle", "world_options"]
 _CORE = WorldConfig()  # the world core's defaults are the options' defaults
 
 
-class WorldOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+class WorldOptions(WorldSettings, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """How ``iwz world`` runs: filled by its flags, or whole by ``--options JSON`` (``iwz run``).
+
+    :class:`~iw_zenoh.sim.config.WorldSettings` (the settings a scenario's ``[world]`` shares,
+    declared there once) and what only the process has.
 
     Attributes:
         map: Lab XML file (Ciber-Rato / Intellwheels).
         grid: Grid XML file of start positions ("": none; robots then give X and Y).
-        period_ms: Tick period, ms.
-        mode: ``realtime`` or ``lockstep``.
-        profile: Motion and collision rules, ``native`` or ``ciberrato``.
-        seed: Seeds movement noise.
-        action_timeout_ms: Actions older than this zero a robot's motors (when silence stops it).
-        grace_ms: A robot is removed this long after its agent is gone.
-        lockstep_timeout_ms: Lock-step waits this long for a tick's actions.
         expect: Robots to wait for before the first tick.
         duration_s: Stop after this many simulated seconds (0: run until stopped).
-        start_paused: Do not tick until a ``start`` control arrives.
-        motors_noise_pct: Ciber-Rato MotorsNoise, percent (legacy profile).
-        silence: What a robot whose actions stop coming does: ``stop`` (the watchdog) or
-            ``keep`` (its last command for ever); None: the profile's (native stop, ciberrato keep).
         obstacles: Rectangular obstacles placed before the first tick.
         owners: A secured run's agents and the robots each may register (from ``--policy``;
             ``None`` for a bridge: any); None: every agent registers any robot.
@@ -56,18 +48,8 @@ class WorldOptions(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
 
     map: str = ""
     grid: str = ""
-    period_ms: Annotated[float, msgspec.Meta(ge=PERIOD_MS[0], le=PERIOD_MS[1])] = _CORE.period_ms
-    mode: Mode = _CORE.mode
-    profile: Profile = _CORE.profile
-    seed: Annotated[int, msgspec.Meta(ge=0)] = _CORE.seed  # numpy takes no negative seed
-    action_timeout_ms: float = _CORE.action_timeout_ms
-    grace_ms: float = _CORE.grace_ms
-    lockstep_timeout_ms: float = _CORE.lockstep_timeout_ms
     expect: int = _CORE.expect
     duration_s: Annotated[float, msgspec.Meta(ge=0, le=DURATION_S_MAX)] = 0.0
-    start_paused: bool = _CORE.start_paused
-    motors_noise_pct: float = _CORE.motors_noise_pct
-    silence: Silence | None = _CORE.silence
     obstacles: tuple[Obstacle, ...] = ()
     owners: dict[str, list[int] | None] | None = None
     resume: WorldSnapshot | None = None
@@ -209,20 +191,12 @@ def world_options(sc: Scenario) -> tuple[WorldOptions, list[str]]:
     """The world's options for a scenario (its ``[world]`` fields, roster and obstacles), and the
     command line's rest (none: ``[world]`` is typed, checked when the scenario was read)."""
     w = sc.world
+    shared = {f: getattr(w, f) for f in WorldSettings.__struct_fields__}  # [world] says them as they are
     options = WorldOptions(
+        **shared,
         map=str(w.map),
         grid=str(w.grid) if w.grid else "",
-        period_ms=w.period_ms,
-        mode=w.mode,
-        profile=w.profile,
-        seed=w.seed,
-        action_timeout_ms=w.action_timeout_ms,
-        grace_ms=w.grace_ms,
-        lockstep_timeout_ms=w.lockstep_timeout_ms,
         duration_s=w.duration_s,
-        start_paused=w.start_paused,
-        motors_noise_pct=w.motors_noise_pct,
-        silence=w.silence,
         expect=sc.robots if w.expect is None else w.expect,
         obstacles=sc.obstacles,
         reserved=scenario_ids(sc) or None,

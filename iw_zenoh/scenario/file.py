@@ -23,14 +23,14 @@ from typing import Annotated, Any, Literal
 import msgspec
 import numpy as np
 
-from iw_zenoh.core.modes import Mode, Profile, Silence
+from iw_zenoh.core.modes import Mode
 from iw_zenoh.errors import ConfigError, MapError
 from iw_zenoh.maps import load_grid, load_lab
 from iw_zenoh.messages import Obstacle
 from iw_zenoh.scenario.fields import apply_sets
 from iw_zenoh.scenario.refused import args_table, line_in, start_table
 from iw_zenoh.scenario.specfile import SPEC_TABLE, check_spec, line_of, load_spec_file, renamed_field
-from iw_zenoh.sim.config import WorldConfig
+from iw_zenoh.sim.config import WorldSettings
 from iw_zenoh.sim.obstacles import Obstacles
 
 __all__ = [
@@ -57,10 +57,7 @@ Arg = str | int | float  # an argument as TOML writes it; handed on as its text
 # the ranges of docs/scenarios.md, checked when the file is read (before anything starts)
 SEED_MAX = 2**64 - 1  # numpy's seeds are 64-bit here
 ID_MAX = 2**63 - 1  # a robot id: 63 bits
-PERIOD_MS = (1.0, 60_000.0)  # a tick from 1 ms to a minute
 DURATION_S_MAX = 7 * 86_400.0  # a week of simulated time
-TIMEOUT_MS_MAX = 86_400_000.0  # a day: the longest wait or timeout of [world]
-_CORE = WorldConfig()  # the world core's defaults are [world]'s
 ROBOTS_MAX = 1000  # robots one agent process registers
 EXTENT_M = 10_000.0  # any coordinate or length, m (obstacles, goals, doorways)
 DEPTH_MAX = 16  # tables and arrays nested deeper are refused (no scenario needs more than 4)
@@ -69,23 +66,13 @@ Name = Annotated[str, msgspec.Meta(pattern=NAME)]
 Coord = Annotated[float, msgspec.Meta(ge=-EXTENT_M, le=EXTENT_M)]
 
 
-class WorldSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
-    """``[world]``: the map and how the world runs, each of ``iwz world``'s options a typed field
-    (its defaults the world core's, :class:`~iw_zenoh.sim.config.WorldConfig`)."""
+class WorldSection(WorldSettings, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """``[world]``: the map and how the world runs: :class:`~iw_zenoh.sim.config.WorldSettings`
+    (each of ``iwz world``'s options a typed field, declared there once) and what a scenario adds."""
 
     map: Path
     grid: Path | None = None
-    mode: Mode = Mode.REALTIME
-    profile: Profile = Profile.NATIVE
-    period_ms: Annotated[float, msgspec.Meta(ge=PERIOD_MS[0], le=PERIOD_MS[1])] = 100.0
-    seed: Annotated[int, msgspec.Meta(ge=0)] = 0  # numpy takes no negative seed; 64 bits at most (_numbers)
     duration_s: Annotated[float, msgspec.Meta(gt=0, le=DURATION_S_MAX)] = 60.0
-    action_timeout_ms: Annotated[float, msgspec.Meta(gt=0, le=TIMEOUT_MS_MAX)] = _CORE.action_timeout_ms
-    grace_ms: Annotated[float, msgspec.Meta(ge=0, le=TIMEOUT_MS_MAX)] = _CORE.grace_ms
-    lockstep_timeout_ms: Annotated[float, msgspec.Meta(gt=0, le=TIMEOUT_MS_MAX)] = _CORE.lockstep_timeout_ms
-    motors_noise_pct: Annotated[float, msgspec.Meta(ge=0, le=100)] = _CORE.motors_noise_pct
-    silence: Silence | None = _CORE.silence  # None: the profile's (native stop, ciberrato keep)
-    start_paused: bool = _CORE.start_paused
     expect: Annotated[int, msgspec.Meta(ge=0, le=ID_MAX)] | None = None  # None: the robots the agents register
     args: tuple[Arg, ...] = ()  # refused (the argv of before): the fields above say it typed (refused.args_table)
 

@@ -4,12 +4,17 @@ options, a scenario, or a recording to re-simulate)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Annotated
+
+import msgspec
 
 from iw_zenoh.core.modes import Mode, Profile, Silence
 
-__all__ = ["MS", "VERDICT_MARGIN_MS", "WorldConfig"]
+__all__ = ["MS", "PERIOD_MS", "TIMEOUT_MS_MAX", "VERDICT_MARGIN_MS", "WorldConfig", "WorldSettings"]
 
 MS = 1_000_000
+PERIOD_MS = (1.0, 60_000.0)  # a tick from 1 ms to a minute
+TIMEOUT_MS_MAX = 86_400_000.0  # a day: the longest wait or timeout of the world's settings
 VERDICT_MARGIN_MS = 5.0  # real time: the verdict wait ends this long before the next tick is due
 
 
@@ -80,3 +85,37 @@ class WorldConfig:
     def period_ns(self) -> int:
         """The period in ns."""
         return int(round(self.period_ms * MS))
+
+
+_CORE = WorldConfig()
+
+
+class WorldSettings(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """How the world runs, declared once: a scenario's ``[world]`` (``WorldSection``) and ``iwz
+    world``'s options (``WorldOptions``) are this with what each adds; the defaults are the world
+    core's (:class:`WorldConfig`), which the options become (``world_config``).
+
+    Attributes:
+        period_ms: Tick period, ms.
+        mode: ``realtime`` or ``lockstep``.
+        profile: Motion and collision rules, ``native`` or ``ciberrato``.
+        seed: Seeds movement noise (numpy takes no negative seed).
+        action_timeout_ms: Actions older than this zero a robot's motors (when silence stops it).
+        grace_ms: A robot is removed this long after its agent is gone.
+        lockstep_timeout_ms: Lock-step waits this long for a tick's actions.
+        motors_noise_pct: Ciber-Rato MotorsNoise, percent.
+        silence: What a robot whose actions stop coming does: ``stop`` or ``keep``; None: the
+            profile's (native stop, ciberrato keep).
+        start_paused: Do not tick until a ``start`` control arrives.
+    """
+
+    period_ms: Annotated[float, msgspec.Meta(ge=PERIOD_MS[0], le=PERIOD_MS[1])] = _CORE.period_ms
+    mode: Mode = _CORE.mode
+    profile: Profile = _CORE.profile
+    seed: Annotated[int, msgspec.Meta(ge=0)] = _CORE.seed
+    action_timeout_ms: Annotated[float, msgspec.Meta(gt=0, le=TIMEOUT_MS_MAX)] = _CORE.action_timeout_ms
+    grace_ms: Annotated[float, msgspec.Meta(ge=0, le=TIMEOUT_MS_MAX)] = _CORE.grace_ms
+    lockstep_timeout_ms: Annotated[float, msgspec.Meta(gt=0, le=TIMEOUT_MS_MAX)] = _CORE.lockstep_timeout_ms
+    motors_noise_pct: Annotated[float, msgspec.Meta(ge=0, le=100)] = _CORE.motors_noise_pct
+    silence: Silence | None = _CORE.silence
+    start_paused: bool = _CORE.start_paused
