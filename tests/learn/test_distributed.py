@@ -30,15 +30,15 @@ duration_s = 30
 [[agents]]
 program = "convoy"
 args = ["--role", "leader", "--id", "1", "--waypoints", "16,5"]
-spec = {{ x = 6.0, y = 5.0, dir = 0.0, lasers = [{{ id = 0, x = 0.5, angle_deg = 0, fov_deg = 270, beams = 32, range_m = 10 }}] }}
+spec = {{ x_m = 6.0, y_m = 5.0, dir_deg = 0.0, lasers = [{{ id = 0, x_m = 0.5, angle_deg = 0, fov_deg = 270, beams = 32, range_m = 10 }}] }}
 [[agents]]
 program = "convoy"
 args = ["--role", "follower", "--id", "2", "--follow", "1"]
-spec = {{ x = 3.0, y = 5.0, dir = 0.0 }}
+spec = {{ x_m = 3.0, y_m = 5.0, dir_deg = 0.0 }}
 [[agents]]
 program = "wanderer"
 args = ["--count", "1", "--seed", "3"]
-spec = {{ id = 3, x = 10.0, y = 2.0, dir = 90.0, noise = {{ motion = {{ std = 0.05 }} }} }}
+spec = {{ id = 3, x_m = 10.0, y_m = 2.0, dir_deg = 90.0, noise = {{ motion = {{ std = 0.05 }} }} }}
 """
 STEPS = 25
 
