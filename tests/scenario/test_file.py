@@ -139,3 +139,4 @@ def test_bad_world_options_are_refused_naming_the_field(toml: str, field: str) -
     with pytest.raises(ConfigError) as e:
         parse_scenario(f'[world]\nmap = "liacc.xml"\n{toml}\n', MAPS)
     assert e.value.field == field
+    assert "unknown" not in e.value.reason  # a field of [world], its value refused
