@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, settings
 
-from iw_zenoh.core import cones, contact
 from iw_zenoh.core.lab import Lab, Scene
 from tests.support.builders import box_wall
 
@@ -96,6 +95,8 @@ def _kernels_for_processes(request: pytest.FixtureRequest) -> None:
     (a sensors or collision process or an agent that plans would otherwise each compile them, for
     seconds, in a fresh checkout); a quick run (``-m "not slow"``) compiles only what its tests call."""
     if not _warm and request.node.get_closest_marker("slow") is not None:
+        from iw_zenoh.core import cones, contact  # here: collection and a quick run need not import numba
+
         cones.warm_up()
         contact.warm_up()
         _warm.append(True)

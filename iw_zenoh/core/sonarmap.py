@@ -47,6 +47,37 @@ class Cone:
     mark: bool = True
 
 
+def _sector_extent(angle_rad: float, half_rad: float, radius: float) -> tuple[float, float, float, float]:
+    """The box (min dx, max dx, min dy, max dy) about a cone's origin that holds its sector of
+    ``radius``: the apex, the two edges' ends and the arc's points facing an axis."""
+    if half_rad >= math.pi:
+        return -radius, radius, -radius, radius
+    lo, hi = angle_rad - half_rad, angle_rad + half_rad
+    quarter = math.pi / 2
+    angles = [lo, hi] + [k * quarter for k in range(math.ceil(lo / quarter), math.floor(hi / quarter) + 1)]
+    xs = [0.0] + [radius * math.cos(a) for a in angles]
+    ys = [0.0] + [radius * math.sin(a) for a in angles]
+    return min(xs), max(xs), min(ys), max(ys)
+
+
+def _window(cone: Cone, reach: float, c: float, rows: int, cols: int) -> tuple[int, int, int, int]:
+    """The rows r0:r1 and columns c0:c1 whose cells a cone may carve or mark: the box of its
+    sector (a cell beyond its reach or reading, and one cell of margin), within the box of its whole
+    circle. Cells outside the sector are never carved nor marked, so the narrow cones a mapping
+    chair carries look at a sliver of the cells (the same cells in the same order)."""
+    r0 = max(0, int((cone.y - reach) / c) - 1)
+    r1 = min(rows, int((cone.y + reach) / c) + 2)
+    c0 = max(0, int((cone.x - reach) / c) - 1)
+    c1 = min(cols, int((cone.x + reach) / c) + 2)
+    far = reach if cone.distance_m is None else max(reach, cone.distance_m)  # an arc lies 0.75 cell about it
+    x0, x1, y0, y1 = _sector_extent(cone.angle_rad, cone.half_rad, far + c)
+    r0 = max(r0, math.floor((cone.y + y0) / c) - 1)
+    r1 = min(r1, math.floor((cone.y + y1) / c) + 2)
+    c0 = max(c0, math.floor((cone.x + x0) / c) - 1)
+    c1 = min(c1, math.floor((cone.x + x1) / c) + 2)
+    return r0, r1, c0, c1
+
+
 class SonarMap:
     """Obstacles found by cones, on the lab's grid.
 
@@ -103,10 +134,7 @@ class SonarMap:
         marks: list[tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], bool]] = []
         for cone in cones:
             reach = cone.range_m if cone.distance_m is None else min(cone.distance_m, cone.range_m)
-            r0 = max(0, int((cone.y - reach) / c) - 1)
-            r1 = min(self.rows, int((cone.y + reach) / c) + 2)
-            c0 = max(0, int((cone.x - reach) / c) - 1)
-            c1 = min(self.cols, int((cone.x + reach) / c) + 2)
+            r0, r1, c0, c1 = _window(cone, reach, c, self.rows, self.cols)
             if r0 >= r1 or c0 >= c1:
                 continue
             rr, cc = np.mgrid[r0:r1, c0:c1]

@@ -37,6 +37,7 @@ def _drive(known: Lab, ticks: int = 1200) -> tuple[LocalWorld, Autopilot, str]:
     return world, ap, status
 
 
+@pytest.mark.slow  # a whole drive (hundreds of ticks of planning, sonar mapping and contact): seconds to a minute
 def test_a_chair_that_knows_the_box_plans_round_it_and_arrives_without_touching() -> None:
     world, ap, status = _drive(ROOM)
     assert status == "arrived"
@@ -46,6 +47,7 @@ def test_a_chair_that_knows_the_box_plans_round_it_and_arrives_without_touching(
     assert ap.replans == 0
 
 
+@pytest.mark.slow  # a whole drive (hundreds of ticks of planning, sonar mapping and contact): seconds to a minute
 def test_a_chair_that_does_not_know_the_box_finds_it_replans_and_arrives_without_touching() -> None:
     world, ap, status = _drive(KNOWN)
     assert status == "arrived"
@@ -54,6 +56,7 @@ def test_a_chair_that_does_not_know_the_box_finds_it_replans_and_arrives_without
     assert ap.sonar.occupied.any()  # what it found is on its map
 
 
+@pytest.mark.slow  # its one plan finds no path only after the planner's whole budget (60,000 states)
 def test_a_chair_with_no_way_through_stands_still() -> None:
     shut = Lab("shut", 12.0, 6.0, (box_wall(5.9, 0.0, 6.1, 6.0),))
     spec = mapping_chair("c", id=1, x_m=1.5, y_m=3.0, dir_deg=0.0)
@@ -86,6 +89,7 @@ def test_odometry_follows_the_encoders_and_drifts_only_when_wheels_slip(slip: fl
         assert err > 0.01  # slip: the odometry pose drifts from the truth
 
 
+@pytest.mark.slow  # a whole drive (hundreds of ticks of planning, sonar mapping and contact): seconds to a minute
 def test_a_chair_nose_in_to_a_dead_end_backs_out_to_a_goal_behind_it_without_touching() -> None:
     spec = mapping_chair("c", id=1, x_m=4.0, y_m=1.5, dir_deg=0.0)
     world = LocalWorld(DEAD_END, [spec], seed=1)
@@ -118,6 +122,7 @@ def test_the_guard_refuses_a_turn_that_would_swing_the_front_into_a_wall() -> No
     assert not ap.touches(pose, Drive(-0.08, 0.08, "turning"))  # away from the wall
 
 
+@pytest.mark.slow  # a whole drive (hundreds of ticks of planning, sonar mapping and contact): seconds to a minute
 def test_a_chair_the_lattice_has_touching_in_a_tight_gap_turns_out_of_it_and_goes_on() -> None:
     # the stall of slalom-serial (recorded 2026-11-24): under obstacle A, 0.97 m above the
     # corridor's wall, the chair followed its plan 2 degrees off; at -20.6 degrees its nearest

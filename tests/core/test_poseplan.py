@@ -2,6 +2,7 @@ from __future__ import annotations
 
 import math
 
+import pytest
 import shapely
 
 from iw_zenoh.core.lab import Lab
@@ -58,6 +59,7 @@ def test_a_disc_planner_would_have_let_the_corners_hit() -> None:
     assert not space.free(3.0, 3.0, math.pi / 2)
 
 
+@pytest.mark.slow  # no path is known only after the planner's whole budget (60,000 states)
 def test_no_path_through_a_closed_door_and_one_once_it_is_open() -> None:
     closed = Lab("l", 10.0, 6.0, (box_wall(4.9, 0, 5.1, 6),))
     space = PoseSpace(occupancy(closed, 0.05), 0.05, CHAIR)

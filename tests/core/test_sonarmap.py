@@ -3,7 +3,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
+from iw_zenoh.core import sonarmap
 from iw_zenoh.core.sonarmap import Cone, SonarMap
 
 
@@ -58,3 +62,43 @@ def test_a_narrow_cone_near_a_mark_finds_it_though_no_cell_centre_lies_inside() 
     cone = Cone(0.45, 0.5, math.radians(2.0), math.radians(2.5), 3.0, 0.27)
     assert 0.2 < m.nearest(cone) < 0.3
     assert m.nearest(Cone(0.45, 0.5, math.radians(30.0), math.radians(2.5), 3.0, 0.27)) == math.inf
+
+
+def _whole_circle(cone: Cone, reach: float, c: float, rows: int, cols: int) -> tuple[int, int, int, int]:
+    """The window before it was cut to the cone's sector: the box of the whole circle."""
+    return (
+        max(0, int((cone.y - reach) / c) - 1),
+        min(rows, int((cone.y + reach) / c) + 2),
+        max(0, int((cone.x - reach) / c) - 1),
+        min(cols, int((cone.x + reach) / c) + 2),
+    )
+
+
+_cone = st.builds(
+    Cone,
+    x=st.floats(-0.5, 6.5),
+    y=st.floats(-0.5, 4.5),
+    angle_rad=st.floats(-7.0, 7.0),
+    half_rad=st.sampled_from([0.04, 0.3, 0.52, 1.2, 1.6, 3.2]),
+    range_m=st.floats(0.3, 3.0),
+    distance_m=st.none() | st.floats(0.05, 3.5),
+    mark=st.booleans(),
+)
+
+
+@given(ticks=st.lists(st.lists(_cone, max_size=6), min_size=1, max_size=4))
+def test_looking_only_at_the_cells_of_the_cones_sector_maps_exactly_as_the_whole_circle(
+    ticks: list[list[Cone]],
+) -> None:
+    known = np.zeros((80, 120), dtype=bool)
+    known[30:34, 50:70] = True
+    cut, whole = SonarMap(known, 0.05, forget_ticks=2), SonarMap(known, 0.05, forget_ticks=2)
+    for cones in ticks:
+        got = cut.update(cones)
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(sonarmap, "_window", _whole_circle)
+            want = whole.update(cones)
+        assert np.array_equal(got, want)
+        assert np.array_equal(cut.occupied, whole.occupied)
+        assert np.array_equal(cut.confirmed, whole.confirmed)
+        assert np.array_equal(cut.carved_at, whole.carved_at)
