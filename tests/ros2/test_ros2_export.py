@@ -95,7 +95,7 @@ def test_a_recording_in_two_parts_exports_to_one_bag_rosbags_reads(tmp_path: Pat
     assert [s for s, _ in poses] == [k * 100_000_000 for k in range(1, 41)]
     assert [o.pose.pose.position.x for _, o in poses] == [0.1 * k for k in range(1, 41)]
     o = poses[0][1]
-    assert o.twist.twist.angular.z == pytest.approx((0.02 - 0.01) / SPEC.height / 0.1)
+    assert o.twist.twist.angular.z == pytest.approx((0.02 - 0.01) / SPEC.height_m / 0.1)
 
 
 def test_refusals_name_the_problem(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
