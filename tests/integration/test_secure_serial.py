@@ -34,7 +34,7 @@ duration_s = 240
 [chair]
 hardware = "serial"
 robot = 1
-start = { x_m = 10.0, y_m = 6.1, dir_deg = 0.0 }
+start = {{ x_m = 10.0, y_m = 6.1, dir_deg = 0.0 }}
 seed = 5
 [[agents]]
 program = "wheelchair"

@@ -41,7 +41,7 @@ args = ["--policy", "./steer.py:steer", "--goal", "12,7", "--id", "1", "--start"
 [[agents]]
 program = "wanderer"
 args = ["--count", "1", "--seed", "5"]
-spec = { id = 2, x = 8.0, y = 2.0, dir = 90.0 }
+spec = { id = 2, x_m = 8.0, y_m = 2.0, dir_deg = 90.0 }
 [[criteria.reach]]
 robot = 1
 x = 12.0

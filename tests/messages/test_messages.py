@@ -264,7 +264,7 @@ print(len(firsts))
 def test_threads_decoding_a_message_type_for_the_first_time_at_once_do_not_crash_the_process() -> None:
     # msgspec makes a type's decoding on its first use, unlocked: a thread could read it half
     # made and die of SIGSEGV (4 processes in 10 did here before every type was made at import)
-    sample = Path(__file__).resolve().parents[1] / "recordings" / "demo-sample.mcap"
+    sample = Path(__file__).resolve().parents[2] / "recordings" / "demo-sample.mcap"
     for _ in range(8):
         p = subprocess.run(
             [sys.executable, "-c", _FIRST_DECODES, str(sample)], capture_output=True, text=True, timeout=60
