@@ -393,7 +393,7 @@ def test_a_registration_the_world_is_slow_to_answer_stalls_no_other_client(
 
     def accept(q: PendingQuery, robot_id: int) -> None:
         req = decode(q.payload, RegisterRequest)
-        spec = RobotSpecMsg(**{**msgspec.structs.asdict(req.spec), "id": robot_id, "x": 2.0, "y": 2.0 * robot_id})
+        spec = RobotSpecMsg(**{**msgspec.structs.asdict(req.spec), "id": robot_id, "x_m": 2.0, "y_m": 2.0 * robot_id})
         q.reply(encode(RegisterReply(ok=True, robot_id=robot_id, spec=spec)))
 
     a = LegacyClient(port)

@@ -80,7 +80,11 @@ def test_unplug_and_replug_mid_run_and_the_run_goes_on(net: Net) -> None:
     state = subscribe(bus, keys.state(net.sim), maxlen=1)
     chair = subscribe(bus, keys.chair(net.sim, 1))
     wait_msg(chair, ChairReading, lambda r: r.link == "up", timeout_s=60)
-    drive(bus, net.sim, 0.08, 0.5)
+    for _ in range(20):  # until the world has moved it: its robot may join a moment after the link is up
+        drive(bus, net.sim, 0.08, 0.5)
+        moving = wait_msg(state, WorldState, lambda s: 1 in s.ids, 5)
+        if moving.x[moving.ids.index(1)] > 10.0:
+            break
     emu.popen.send_signal(signal.SIGUSR1)  # pull the cable
     wait_event(events, "serial-link-lost", timeout_s=10)
     held = wait_msg(state, WorldState, lambda s: 1 in s.ids, 5)
