@@ -12,6 +12,7 @@ import subprocess
 import sys
 import threading
 import time
+import zlib
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -71,6 +72,8 @@ class RunJob:
             "--no-status",
             "--port",
             str(port),
+            "--sim",  # a key space of its own: runs side by side never hear each other, even on one router
+            f"study-{zlib.crc32(self.condition.name.encode()):08x}-seed-{self.seed}",
             "--log-dir",
             str(self.stem),
             "--record",
