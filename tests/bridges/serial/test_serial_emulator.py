@@ -16,7 +16,7 @@ from iw_zenoh.bridges.serial.protocol import FrameDecoder, Motors, Status, encod
 
 from iw_zenoh.core.lab import Lab
 
-SLACK_S = 0.1  # scheduling on a loaded 2-core machine
+SLACK_S = 0.3  # scheduling on a busy 2-core machine (the suite runs two workers): the 200 ms rule itself is test_serial_board's, on a fake clock
 
 
 @pytest.fixture
