@@ -4,8 +4,11 @@
 
 The bag holds what ``iwz ros2`` publishes live, for every chair of the recording: ``odom`` and
 ``/tf`` and ``/clock`` from each world state, ``scan`` per laser and ``range/s{id}`` per cone from
-each tick's readings, each message stamped (and logged) at its simulation time. Any recording we
-write is read, its parts included (``iw_zenoh.record.reader``).
+each tick's readings, each message stamped (and logged) at its simulation time; and ``joy``
+(``sensor_msgs/Joy``) per input a driver gave a chair from the page or a gamepad (``robot/{id}/drive``),
+stamped at the simulation time of the world's last state before it (an input carries no time of
+its own; the page sends them at 20 Hz, so within a tick of when the chair heard it). Any recording we write is read, its
+parts included (``iw_zenoh.record.reader``).
 """
 
 from __future__ import annotations
@@ -20,7 +23,7 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 
 from iw_zenoh.convert import spec_from_msg
 from iw_zenoh.errors import IwError, RecordingError
-from iw_zenoh.messages import SensorReading, WorldInfo, WorldState
+from iw_zenoh.messages import DriveInput, SensorReading, WorldInfo, WorldState
 from iw_zenoh.record.reader import open_recording, print_notes
 from iw_zenoh.ros2 import convert
 from iw_zenoh.ros2 import types as t
@@ -69,10 +72,11 @@ def export_ros2(
         raise IwError(f"{out} exists: rosbag2 writes a new folder; give -o a path that does not exist yet")
     chairs: dict[int, ChairTopics] = {}
     period_s = 0.1
+    now_ns = 0  # the simulation time of the last world state read
     with open_recording(recording) as rec, Writer(out, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
         bag = _Bag(writer)
         done = 0.0
-        for r in rec.records(("info", "state", "sensors")):
+        for r in rec.records(("info", "state", "sensors", "drive")):
             msg = r.message
             if isinstance(msg, WorldInfo):
                 period_s = msg.period_ns / 1e9 or period_s
@@ -80,9 +84,12 @@ def export_ros2(
                     spec = spec_from_msg(spec_msg)
                     chairs[spec.id] = ChairTopics(spec.id, namespace_of(namespace, spec.id), spec)
             elif isinstance(msg, WorldState):
+                now_ns = msg.sim_time_ns
                 _state(bag, chairs, msg, period_s)
             elif isinstance(msg, SensorReading) and msg.robot_id in chairs:
                 _reading(bag, chairs[msg.robot_id], msg)
+            elif isinstance(msg, DriveInput) and msg.robot_id in chairs:
+                _drive(bag, chairs[msg.robot_id], msg, now_ns)
             if progress is not None and rec.progress() - done >= PROGRESS_EVERY:
                 done = rec.progress()
                 progress(done)
@@ -109,6 +116,11 @@ def _reading(bag: _Bag, ch: ChairTopics, r: SensorReading) -> None:
         bag.write(ch.scan_topic(lid), t.LASER_SCAN, r.sim_time_ns, data)
     for sid, data in ch.ranges(r):
         bag.write(ch.range_topic(sid), t.RANGE, r.sim_time_ns, data)
+
+
+def _drive(bag: _Bag, ch: ChairTopics, d: DriveInput, sim_time_ns: int) -> None:
+    data = convert.joy(sim_time_ns, ch.frames.base, x=d.x, y=d.y, buttons=d.buttons)
+    bag.write(ch.joy_topic(), t.JOY, sim_time_ns, data)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -54,6 +54,10 @@ class ChairTopics:
         """``scan`` for a chair's only scanner, ``scan{id}`` for each of several."""
         return f"{self.namespace}/scan" if len(self.spec.lasers) == 1 else f"{self.namespace}/scan{laser_id}"
 
+    def joy_topic(self) -> str:
+        """The topic of its driver's inputs in an exported bag (``sensor_msgs/Joy``)."""
+        return f"{self.namespace}/joy"
+
     def range_topic(self, sensor_id: int) -> str:
         """The topic of its proximity sensor ``sensor_id`` (``sensor_msgs/Range``)."""
         return f"{self.namespace}/range/s{sensor_id}"

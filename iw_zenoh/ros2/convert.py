@@ -183,6 +183,20 @@ def clock(sim_time_ns: int) -> bytes:
     return t.serialize(t.new(t.CLOCK, clock=stamp(sim_time_ns)))
 
 
+def joy(sim_time_ns: int, frame: str, *, x: float, y: float, buttons: int, bits: int = 16) -> bytes:
+    """sensor_msgs/Joy of a driver's input: ``axes`` ``[-x, y]`` (ROS's stick convention: axis 0
+    positive to the left, axis 1 positive forward; ``x`` is our stick's rightward), ``buttons``
+    the ``bits`` low bits of ``buttons``, bit 0 (the dead-man) first."""
+    return t.serialize(
+        t.new(
+            t.JOY,
+            header=_header(sim_time_ns, frame),
+            axes=np.array([-float(x), float(y)], dtype=np.float32),
+            buttons=np.array([(buttons >> b) & 1 for b in range(bits)], dtype=np.int32),
+        )
+    )
+
+
 def twist(v: float, w: float, *, stamped: bool = False, sim_time_ns: int = 0, frame: str = "") -> bytes:
     """A velocity command's CDR (Twist, or TwistStamped): what a ROS 2 stack sends on cmd_vel."""
     tw = t.new(t.TWIST, linear=_vec(v), angular=_vec(z=w))

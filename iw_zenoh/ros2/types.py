@@ -21,6 +21,7 @@ from iw_zenoh.errors import DecodeError
 
 __all__ = [
     "CLOCK",
+    "JOY",
     "LASER_SCAN",
     "MAX_PAYLOAD",
     "ODOMETRY",
@@ -44,7 +45,8 @@ TF_MESSAGE = "tf2_msgs/msg/TFMessage"
 CLOCK = "rosgraph_msgs/msg/Clock"
 TWIST = "geometry_msgs/msg/Twist"
 TWIST_STAMPED = "geometry_msgs/msg/TwistStamped"
-TYPES = (ODOMETRY, LASER_SCAN, RANGE, TF_MESSAGE, CLOCK, TWIST, TWIST_STAMPED)
+TYPES = (ODOMETRY, LASER_SCAN, RANGE, TF_MESSAGE, CLOCK, TWIST, TWIST_STAMPED)  # on the live bus (golden hashes)
+JOY = "sensor_msgs/msg/Joy"  # a driver's recorded inputs, in exported bags only (iwz export --ros2)
 # the largest command taken from the bus: a TwistStamped with a frame name of a few hundred
 # characters is under 1 KiB; anything far larger is refused before it is parsed
 MAX_PAYLOAD = 4096

@@ -1,6 +1,7 @@
 """``iwz export --ros2`` of a recording in two parts (a restarted recorder's) writes one rosbag2
 bag that rosbags' own reader reads: every part's states and readings, as odom, tf, clock, scan and
-range, each at its simulation time; refusals name the problem."""
+range, each at its simulation time; a driver's inputs as sensor_msgs/Joy; refusals name the
+problem."""
 
 from __future__ import annotations
 
@@ -10,7 +11,17 @@ import pytest
 from rosbags.rosbag2 import Reader
 
 from iw_zenoh import keys
-from iw_zenoh.messages import LabMsg, LaserMsg, LaserScan, RobotSpecMsg, SensorReading, WorldInfo, WorldState, encode
+from iw_zenoh.messages import (
+    DriveInput,
+    LabMsg,
+    LaserMsg,
+    LaserScan,
+    RobotSpecMsg,
+    SensorReading,
+    WorldInfo,
+    WorldState,
+    encode,
+)
 from iw_zenoh.messages.world import IrSensorMsg
 from iw_zenoh.record.parts import PART_META, next_part
 from iw_zenoh.record.recording import Recorder
@@ -57,7 +68,7 @@ def _reading(tick: int) -> bytes:
     )
 
 
-def _part(first: Path, ticks: range, run: str | None) -> None:
+def _part(first: Path, ticks: range, run: str | None, drive: bool = False) -> None:
     path, part, user = next_part(first, run)
     with path.open("wb") as f:
         rec = Recorder(f, {PART_META: part, "iw.user": user or {"scenario": "unit"}}, chunk_size=1500, scene=False)
@@ -74,6 +85,9 @@ def _part(first: Path, ticks: range, run: str | None) -> None:
             at = T0 + k * 100_000_000
             rec.add(keys.state("s"), _state(k), at)
             rec.add(keys.sensors("s", 1), _reading(k), at + 1)
+            if drive:  # a driver pushing forward and to the right, the dead-man held on even ticks
+                d = DriveInput(robot_id=1, driver="page-1", seq=k, x=0.25, y=0.5, buttons=(k + 1) % 2 | 0b100)
+                rec.add(keys.drive("s", 1), encode(d), at + 2)
         rec.finish()
 
 
@@ -107,3 +121,19 @@ def test_refusals_name_the_problem(tmp_path: Path, capsys: pytest.CaptureFixture
     assert main([str(tmp_path / "junk.mcap"), "--ros2", "-o", str(tmp_path / "bag2")]) == 2
     assert "junk.mcap" in capsys.readouterr().err
     assert not (tmp_path / "bag2").exists()
+
+
+def test_a_drivers_inputs_export_as_joy_at_the_simulation_time_they_were_given(tmp_path: Path) -> None:
+    _part(tmp_path / "run.mcap", range(1, 11), None, drive=True)
+    counts = export_ros2(tmp_path / "run.mcap", tmp_path / "bag")
+    assert counts["/robot1/joy"] == 10
+    with Reader(tmp_path / "bag") as r:
+        conns = [c for c in r.connections if c.topic == "/robot1/joy"]
+        assert [c.msgtype for c in conns] == [t.JOY]
+        joys = [(stamp, t.store().deserialize_cdr(d, t.JOY)) for _, stamp, d in r.messages(connections=conns)]
+    assert [s for s, _ in joys] == [k * 100_000_000 for k in range(1, 11)]  # the state's time before each
+    for k, (stamp, j) in zip(range(1, 11), joys, strict=True):
+        assert (j.header.stamp.sec, j.header.stamp.nanosec) == divmod(stamp, 1_000_000_000)
+        assert j.header.frame_id == "robot1/base_link"
+        assert list(j.axes) == [-0.25, 0.5]  # ROS's axis 0 is positive to the left; ours, to the right
+        assert list(j.buttons) == [(k + 1) % 2, 0, 1] + [0] * 13  # bit 0, the dead-man, first
