@@ -155,7 +155,7 @@ class RunPlan:
         sc = self.scenario
         meta = {"scenario": sc.name, "seed": str(sc.world.seed), "map": str(sc.world.map)}
         if sc.criteria.reach:  # iwz report's time to goal: a JSON array (record/metrics.py recorded_goals reads it)
-            meta["goals"] = goals_json({r.robot: Goal(r.x, r.y, r.within) for r in sc.criteria.reach})
+            meta["goals"] = goals_json({r.robot: Goal(r.x_m, r.y_m, r.within_m) for r in sc.criteria.reach})
         rec = RecorderOptions(output=str(self.record), meta=meta, quiet=True, continue_run=uuid.uuid4().hex)
         self.child("record", "recorder", options=rec)
 

@@ -28,7 +28,7 @@ from iw_zenoh.errors import ConfigError, MapError
 from iw_zenoh.maps import load_grid, load_lab
 from iw_zenoh.messages import Obstacle
 from iw_zenoh.scenario.fields import apply_sets
-from iw_zenoh.scenario.refused import args_table, line_in, start_table
+from iw_zenoh.scenario.refused import args_table, line_in, old_names, start_table
 from iw_zenoh.scenario.specfile import SPEC_TABLE, check_spec, line_of, load_spec_file, renamed_field
 from iw_zenoh.sim.config import WorldSettings
 from iw_zenoh.sim.obstacles import Obstacles
@@ -104,12 +104,12 @@ class AgentEntry(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_onl
 
 
 class Reach(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
-    """``[[criteria.reach]]``: robot ``robot`` must come within ``within`` metres of (x, y)."""
+    """``[[criteria.reach]]``: robot ``robot`` must come within ``within_m`` metres of (``x_m``, ``y_m``)."""
 
     robot: Annotated[int, msgspec.Meta(ge=0, le=ID_MAX)]
-    x: Coord
-    y: Coord
-    within: Annotated[float, msgspec.Meta(gt=0, le=EXTENT_M)] = 0.5
+    x_m: Coord
+    y_m: Coord
+    within_m: Annotated[float, msgspec.Meta(gt=0, le=EXTENT_M)] = 0.5
 
 
 class DoorCriterion(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -123,9 +123,9 @@ class DoorCriterion(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_
     robot: Annotated[int, msgspec.Meta(ge=0, le=ID_MAX)]
     opened: bool = True
     closed_again: bool = True
-    x: Coord | None = None
-    y: Coord | None = None
-    one_chair_within: Annotated[float, msgspec.Meta(gt=0, le=EXTENT_M)] | None = None
+    x_m: Coord | None = None
+    y_m: Coord | None = None
+    one_chair_within_m: Annotated[float, msgspec.Meta(gt=0, le=EXTENT_M)] | None = None
     symmetry_deg: Annotated[float, msgspec.Meta(gt=0, le=360)] = 360.0
 
 
@@ -382,6 +382,7 @@ def parse_scenario(text: str, base: Path, name: str = "scenario", sets: Sequence
     doc = _toml(text, name)
     if sets:
         _numbers(apply_sets(doc, sets))
+    old_names(doc, text)
     try:
         sc = msgspec.convert(doc, ScenarioFile, dec_hook=_dec_path)
     except msgspec.ValidationError as e:
@@ -398,8 +399,8 @@ def parse_scenario(text: str, base: Path, name: str = "scenario", sets: Sequence
         bridge = msgspec.structs.replace(bridge, params=_beside(base, bridge.params))
         _exists(bridge.params, "bridge.params")
     for i, d in enumerate(sc.criteria.doors):
-        if d.one_chair_within is not None and (d.x is None or d.y is None):
-            raise ConfigError(f"criteria.doors[{i}].one_chair_within", "needs the doorway's middle: give x and y too")
+        if d.one_chair_within_m is not None and (d.x_m is None or d.y_m is None):
+            raise ConfigError(f"criteria.doors[{i}].one_chair_within_m", "needs the doorway's middle: x_m and y_m")
     if sc.world.args:
         line = line_in(text, "world", "args")
         at = f"line {line}: " if line else ""

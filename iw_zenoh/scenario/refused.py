@@ -1,15 +1,24 @@
 """Forms scenarios once wrote, refused with what to write instead: ``[world] args`` (``iwz world``
-flags as strings, now typed fields of ``[world]``) and ``[chair] start = "x,y,dir"`` (now a table)."""
+flags as strings, now typed fields of ``[world]``), ``[chair] start = "x,y,dir"`` (now a table),
+and the criteria's lengths named without their unit (``x``, ``within``: now ``x_m``, ``within_m``)."""
 
 from __future__ import annotations
 
 import json
 import re
 from collections.abc import Sequence
+from typing import Any
 
+from iw_zenoh.errors import ConfigError
 from iw_zenoh.scenario.specfile import line_of
 
-__all__ = ["args_table", "line_in", "start_table"]
+__all__ = ["RENAMED", "args_table", "line_in", "old_names", "start_table"]
+
+# the fields of a scenario's tables renamed to carry their unit, by table: old name -> new name
+RENAMED: dict[str, dict[str, str]] = {
+    "criteria.reach": {"x": "x_m", "y": "y_m", "within": "within_m"},
+    "criteria.doors": {"x": "x_m", "y": "y_m", "one_chair_within": "one_chair_within_m"},
+}
 
 Arg = str | int | float  # an argument as TOML writes it
 
@@ -74,3 +83,36 @@ def args_table(args: Sequence[Arg]) -> str:
         else "each option as its field (--lockstep-timeout-ms 60000: lockstep_timeout_ms = 60000)"
     )
     return f"is gone: [world] takes the world's options as typed fields: write {form} (docs/scenarios.md)"
+
+
+def _item_line(text: str, array: str, index: int, key: str) -> int:
+    """The line of TOML ``text`` that sets ``key`` in the ``index``-th ``[[array]]`` (1-based), or 0."""
+    lines = text.splitlines()
+    header = re.compile(rf"^\s*\[\[\s*{re.escape(array)}\s*\]\]")
+    starts = [n for n, line in enumerate(lines) if header.match(line)]
+    if index >= len(starts):
+        return 0  # written inline (reach = [{ ... }]) or set from the command line
+    start = starts[index]
+    end = next((n for n in range(start + 1, len(lines)) if re.match(r"^\s*\[", lines[n])), len(lines))
+    found = line_of("\n".join(lines[start + 1 : end]), key)
+    return start + 1 + found if found else 0
+
+
+def old_names(doc: dict[str, Any], text: str) -> None:
+    """Refuses a field of a scenario's table under its name from before it carried its unit
+    (:data:`RENAMED`), at its line, naming the field to write.
+
+    Raises:
+        ConfigError: ``line N: criteria.reach[0].x``: ``'x' is now 'x_m'``.
+    """
+    for path, names in RENAMED.items():
+        table, _, array = path.partition(".")
+        items = doc.get(table, {}).get(array, []) if isinstance(doc.get(table), dict) else []
+        for i, item in enumerate(items if isinstance(items, list) else []):
+            for old in (k for k in names if isinstance(item, dict) and k in item):
+                line = _item_line(text, path, i, old)
+                at = f"line {line}: " if line else ""
+                raise ConfigError(
+                    f"{at}{path}[{i}].{old}",
+                    f"{old!r} is now {names[old]!r}: lengths carry their unit (docs/scenarios.md)",
+                )
