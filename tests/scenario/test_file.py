@@ -68,7 +68,27 @@ def test_a_serial_chair_scenario_names_its_bridge_and_emulator() -> None:
     sc = load_scenario(MAPS / "scenarios" / "find-the-box-serial.toml")
     assert sc.chair is not None
     assert (sc.chair.hardware, sc.chair.port, sc.chair.robot) == ("serial", "", 1)
-    assert sc.chair.room == "8.2,3.4,8.8,5.0"
+    assert not isinstance(sc.chair.room, str)
+    assert [box.arg for box in sc.chair.room] == ["8.2,3.4,8.8,5.0"]  # as the emulator's --room takes it
+
+
+@pytest.mark.parametrize(
+    ("room", "written"),
+    [
+        ('"8.2,3.4,8.8,5.0"', "room = [{ x0_m = 8.2, y0_m = 3.4, x1_m = 8.8, y1_m = 5.0 }]"),
+        (
+            '"1,2,3,4;5,6,7,8"',
+            "room = [{ x0_m = 1, y0_m = 2, x1_m = 3, y1_m = 4 }, { x0_m = 5, y0_m = 6, x1_m = 7, y1_m = 8 }]",
+        ),
+        ('""', "room = []"),
+    ],
+)
+def test_a_chair_room_as_a_string_is_refused_at_its_line_with_the_table_to_write(room: str, written: str) -> None:
+    text = f'[world]\nmap = "liacc.xml"\n[chair]\nport = "/dev/null"\nroom = {room}\n'
+    with pytest.raises(ConfigError) as e:
+        parse_scenario(text, MAPS)
+    assert e.value.field == "line 5: chair.room"
+    assert f"write {written} (docs/scenarios.md)" in e.value.reason
 
 
 @pytest.mark.parametrize(
