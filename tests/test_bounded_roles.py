@@ -109,7 +109,7 @@ def test_a_live_viewer_page_source_keeps_the_newest_deliveries() -> None:
 
 def test_the_tally_forgets_robots_that_left_but_not_one_the_criteria_judge() -> None:
     t = Tally()
-    crit = Criteria(reach=(Reach(robot=2, x=1.0, y=1.0, within=0.5),))
+    crit = Criteria(reach=(Reach(robot=2, x_m=1.0, y_m=1.0, within_m=0.5),))
     t.on_state(world_state(1, [1, 2], collided=True), crit.reach)  # robot 2 reaches its goal ...
     for tick in range(2, COMERS):  # ... and leaves; others come and go
         t.on_state(world_state(tick, [1, tick + 10], x=3.0, collided=True), crit.reach)
@@ -123,7 +123,7 @@ def test_the_tally_forgets_robots_that_left_but_not_one_the_criteria_judge() -> 
 
 def test_a_robot_named_by_the_criteria_that_left_is_judged_where_it_was_last_seen() -> None:
     t = Tally()
-    crit = Criteria(reach=(Reach(robot=2, x=9.0, y=1.0, within=0.5),))
+    crit = Criteria(reach=(Reach(robot=2, x_m=9.0, y_m=1.0, within_m=0.5),))
     t.on_state(world_state(1, [1, 2], x=4.0, collided=True), crit.reach)
     for tick in range(2, 100):
         t.on_state(world_state(tick, [1], x=5.0, collided=True), crit.reach)

@@ -154,7 +154,7 @@ def test_goals_are_recorded_as_typed_json_and_the_old_text_is_still_read(tmp_pat
     from iw_zenoh.record.metrics import Goal, recorded_goals
 
     (tmp_path / "m.xml").write_text('<Lab Name="m" Width="20" Height="10"></Lab>')
-    text = '[world]\nmap = "m.xml"\n[[criteria.reach]]\nrobot = 1\nx = 10.5\ny = 3\n[[criteria.reach]]\nrobot = 2\nx = 4\ny = 5\nwithin = 0.25\n'
+    text = '[world]\nmap = "m.xml"\n[[criteria.reach]]\nrobot = 1\nx_m = 10.5\ny_m = 3\n[[criteria.reach]]\nrobot = 2\nx_m = 4\ny_m = 5\nwithin_m = 0.25\n'
     launcher = Launcher(
         parse_scenario(text, tmp_path), port=7447, log_dir=tmp_path, status=False, record=tmp_path / "r.mcap"
     )

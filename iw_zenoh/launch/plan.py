@@ -155,7 +155,7 @@ class RunPlan:
         sc = self.scenario
         meta = {"scenario": sc.name, "seed": str(sc.world.seed), "map": str(sc.world.map)}
         if sc.criteria.reach:  # iwz report's time to goal: a JSON array (record/metrics.py recorded_goals reads it)
-            meta["goals"] = goals_json({r.robot: Goal(r.x, r.y, r.within) for r in sc.criteria.reach})
+            meta["goals"] = goals_json({r.robot: Goal(r.x_m, r.y_m, r.within_m) for r in sc.criteria.reach})
         rec = RecorderOptions(output=str(self.record), meta=meta, quiet=True, continue_run=uuid.uuid4().hex)
         self.child("record", "recorder", options=rec)
 
@@ -164,6 +164,7 @@ class RunPlan:
         ch, sc = self.scenario.chair, self.scenario
         assert ch is not None
         start = ch.start.arg if isinstance(ch.start, Start) else ch.start  # a string is refused on reading
+        room = ch.room if isinstance(ch.room, str) else ";".join(box.arg for box in ch.room)  # as is start
         port = ch.port
         if not port:
             port = str(self.log_dir / "chair-pty")  # a stable link to the emulator's pty
@@ -171,7 +172,7 @@ class RunPlan:
             emulate += ["--spec", str(ch.spec)] if ch.spec is not None else []
             emulate += [
                 "--room",
-                ch.room,
+                room,
                 "--seed",
                 str(ch.seed),
                 "--wheels-log",

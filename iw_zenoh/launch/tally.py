@@ -80,7 +80,7 @@ class Tally:
             self.doors.observe(doors, self.sim_s, poses, door_ids)
         for r in reach:
             p = self.positions.get(r.robot)
-            if p is not None and r.robot not in self.reached and math.hypot(p[0] - r.x, p[1] - r.y) <= r.within:
+            if p is not None and r.robot not in self.reached and math.hypot(p[0] - r.x_m, p[1] - r.y_m) <= r.within_m:
                 self.reached[r.robot] = self.sim_s
 
     def robots_alive(self) -> int:
@@ -125,7 +125,7 @@ class Tally:
             at = self.positions.get(r.robot)
             where = f"last at ({at[0]:.2f}, {at[1]:.2f})" if at else "never seen"
             lines.append(
-                f"{'PASS' if good else 'FAIL'} robot {r.robot} within {r.within:g} m of ({r.x:g}, {r.y:g})"
+                f"{'PASS' if good else 'FAIL'} robot {r.robot} within {r.within_m:g} m of ({r.x_m:g}, {r.y_m:g})"
                 + (f" at t={when:.1f} s" if good else f": {where}")
             )
         good, door_lines = self.doors.verdict(crit.doors)

@@ -86,7 +86,7 @@ class ChairsEnv(ParallelEnv[str, np.ndarray, np.ndarray]):  # type: ignore[misc]
         self.scenario = None if scenario is None else load_scenario(scenario)
         self._seed: int | None = None
         if self.scenario is not None:
-            self._goals = {r.robot: Goal(r.x, r.y, r.within) for r in self.scenario.criteria.reach}
+            self._goals = {r.robot: Goal(r.x_m, r.y_m, r.within_m) for r in self.scenario.criteria.reach}
             if not self._goals:
                 raise IwError(f"{scenario}: no [[criteria.reach]]: no robot has a goal to learn")
             world, _ = build(self.scenario, self.scenario.world.seed)

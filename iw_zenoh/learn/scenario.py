@@ -116,7 +116,7 @@ class ScenarioEnv(gym.Env[np.ndarray, np.ndarray]):
             reach = [r for r in self.scenario.criteria.reach if r.robot == robot]
             if not reach:
                 raise IwError(f"{path}: no [[criteria.reach]] for robot {robot}; give make_env a goal=(x, y)")
-            goal = (reach[0].x, reach[0].y, reach[0].within)
+            goal = (reach[0].x_m, reach[0].y_m, reach[0].within_m)
         self.goal = Goal(*goal)
         world, _ = build(self.scenario, self.scenario.world.seed)
         if robot not in world.ids:

@@ -39,7 +39,7 @@ from iw_zenoh.messages import (
 from iw_zenoh.nodes.world_options import WorldOptions, add_arguments, parse_obstacle
 from iw_zenoh.nodes.world_seal import seal, seal_key
 from iw_zenoh.process.runtime import NodeIO, Process, options_from_args, start_role
-from iw_zenoh.sim.config import MS, WorldConfig
+from iw_zenoh.sim.config import MS, WorldConfig, WorldSettings
 from iw_zenoh.sim.registry import MAX_ROBOTS
 from iw_zenoh.sim.resume import resume
 from iw_zenoh.sim.world import WorldCore
@@ -359,20 +359,12 @@ def run(bus: Bus, core: WorldCore, clock: Clock | None = None, *, name: str = "w
 
 def world_config(opts: WorldOptions, sim: str) -> WorldConfig:
     """The world core's configuration from the options, in simulation ``sim``."""
+    shared = {f: getattr(opts, f) for f in WorldSettings.__struct_fields__}  # declared once, copied by name
     return WorldConfig(
+        **shared,
         sim=sim,
-        period_ms=opts.period_ms,
-        mode=opts.mode,
-        profile=opts.profile,
-        seed=opts.seed,
-        action_timeout_ms=opts.action_timeout_ms,
-        grace_ms=opts.grace_ms,
-        lockstep_timeout_ms=opts.lockstep_timeout_ms,
         expect=opts.expect,
         duration_ticks=int(round(opts.duration_s * 1000.0 / opts.period_ms)) if opts.duration_s > 0 else 0,
-        start_paused=opts.start_paused,
-        motors_noise_pct=opts.motors_noise_pct,
-        silence=opts.silence,
         owners=None if opts.owners is None else {a: None if r is None else tuple(r) for a, r in opts.owners.items()},
         reserved=None if opts.reserved is None else {a: tuple(r) for a, r in opts.reserved.items()},
     )

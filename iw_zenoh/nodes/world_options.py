@@ -11,11 +11,10 @@ from typing import Annotated
 
 import msgspec
 
-from iw_zenoh.core.modes import Mode, Profile, Silence
 from iw_zenoh.errors import IwError
 from iw_zenoh.launch.secure_run import SERIAL_BRIDGE, agent_name, asked_id
 from iw_zenoh.messages import Obstacle
-from iw_zenoh.process.options import Flag, add_option_flags, option
+from iw_zenoh.process.options import add_option_flags, declared_flags, option
 from iw_zenoh.scenario.file import DURATION_S_MAX, Scenario
 from iw_zenoh.secure.policy import load_policy, owners
 from iw_zenoh.sim.config import WorldConfig, WorldSettings
@@ -24,36 +23,6 @@ from iw_zenoh.sim.resume import WorldSnapshot
 __all__ = ["WorldOptions", "add_arguments", "parse_obstacle", "world_options"]
 
 _CORE = WorldConfig()  # the world core's defaults are the options' defaults
-
-
-class WorldOptions(WorldSettings, frozen=True, forbid_unknown_fields=True, kw_only=True):
-    """How ``iwz world`` runs: filled by its flags, or whole by ``--options JSON`` (``iwz run``).
-
-    :class:`~iw_zenoh.sim.config.WorldSettings` (the settings a scenario's ``[world]`` shares,
-    declared there once) and what only the process has.
-
-    Attributes:
-        map: Lab XML file (Ciber-Rato / Intellwheels).
-        grid: Grid XML file of start positions ("": none; robots then give X and Y).
-        expect: Robots to wait for before the first tick.
-        duration_s: Stop after this many simulated seconds (0: run until stopped).
-        obstacles: Rectangular obstacles placed before the first tick.
-        owners: A secured run's agents and the robots each may register (from ``--policy``;
-            ``None`` for a bridge: any); None: every agent registers any robot.
-        reserved: The ids a scenario gives its agents (``--id``), by agent name: no one else
-            takes them by asking for any id (``iwz run`` sets it); None: none.
-        resume: Go on from this last committed state (``iwz run`` restarting a world that died;
-            its obstacles replace ``obstacles``); None: a new run.
-    """
-
-    map: str = ""
-    grid: str = ""
-    expect: int = _CORE.expect
-    duration_s: Annotated[float, msgspec.Meta(ge=0, le=DURATION_S_MAX)] = 0.0
-    obstacles: tuple[Obstacle, ...] = ()
-    owners: dict[str, list[int] | None] | None = None
-    resume: WorldSnapshot | None = None
-    reserved: dict[str, list[int]] | None = None
 
 
 def parse_obstacle(text: str) -> Obstacle:
@@ -86,87 +55,72 @@ def _obstacle_flag(text: str) -> Obstacle:
         raise argparse.ArgumentTypeError(str(e)) from None
 
 
-# each flag of ``iwz world``: the field it fills, how argparse reads it, its help ({default}: the field's)
-_FLAGS: tuple[Flag, ...] = (
-    ("--grid", "grid", {"metavar": "FILE"}, "Grid XML file of start positions (default: none; robots give X, Y)"),
-    (
-        "--period-ms",
-        "period_ms",
-        {"type": float, "metavar": "MS"},
-        "tick period in ms (default {default:g}; Ciber-Rato uses 50)",
-    ),
-    (
-        "--lockstep",
-        "mode",
-        {"action": "store_const", "const": Mode.LOCKSTEP.value},
-        "lock-step: wait for every live agent's actions each tick (default: real time)",
-    ),
-    ("--profile", "profile", {"choices": [p.value for p in Profile]}, "motion and collision rules (default {default})"),
-    ("--seed", "seed", {"type": int, "metavar": "N"}, "seed of movement noise (default {default})"),
-    (
-        "--action-timeout-ms",
-        "action_timeout_ms",
-        {"type": float, "metavar": "MS"},
-        "zero a robot's motors when its actions are older, if silence stops it (default {default:g})",
-    ),
-    (
-        "--silence",
-        "silence",
-        {"choices": [s.value for s in Silence]},
-        "what a robot whose actions stop coming does: stop (its motors zeroed after --action-timeout-ms) "
-        "or keep (its last command for ever, as the legacy simulator); default: the profile's, "
-        "native stop, ciberrato keep",
-    ),
-    (
-        "--grace-ms",
-        "grace_ms",
-        {"type": float, "metavar": "MS"},
-        "remove a robot this long after its agent is gone (default {default:g})",
-    ),
-    (
-        "--lockstep-timeout-ms",
-        "lockstep_timeout_ms",
-        {"type": float, "metavar": "MS"},
-        "lock-step: wait this long for a tick's actions (default {default:g})",
-    ),
-    (
-        "--expect",
-        "expect",
-        {"type": int, "metavar": "N"},
-        "wait for this many robots before the first tick (default {default})",
-    ),
-    (
-        "--duration",
-        "duration_s",
-        {"type": float, "metavar": "S"},
-        "stop after this many simulated seconds (default: run until stopped)",
-    ),
-    ("--paused", "start_paused", {"action": "store_true"}, "start paused; a 'start' control runs it"),
-    (
-        "--motors-noise",
-        "motors_noise_pct",
-        {"type": float, "metavar": "PCT"},
-        "Ciber-Rato MotorsNoise, percent (legacy profile)",
-    ),
-    (
-        "--policy",
-        "owners",
-        {"type": _owners_flag, "metavar": "TOML"},
-        "a secured run's policy: each agent registers only its own robots, and only under its own name",
-    ),
-    (
-        "--obstacle",
-        "obstacles",
-        {"action": "append", "type": _obstacle_flag, "metavar": "NAME:X0,Y0,X1,Y1[,H]"},
-        "a rectangular obstacle from the start (repeatable)",
-    ),
-)
+class WorldOptions(WorldSettings, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """How ``iwz world`` runs: filled by its flags, or whole by ``--options JSON`` (``iwz run``).
+
+    :class:`~iw_zenoh.sim.config.WorldSettings` (the settings a scenario's ``[world]`` shares,
+    declared there once) and what only the process has.
+
+    Attributes:
+        map: Lab XML file (Ciber-Rato / Intellwheels).
+        grid: Grid XML file of start positions ("": none; robots then give X and Y).
+        expect: Robots to wait for before the first tick.
+        duration_s: Stop after this many simulated seconds (0: run until stopped).
+        obstacles: Rectangular obstacles placed before the first tick.
+        owners: A secured run's agents and the robots each may register (from ``--policy``;
+            ``None`` for a bridge: any); None: every agent registers any robot.
+        reserved: The ids a scenario gives its agents (``--id``), by agent name: no one else
+            takes them by asking for any id (``iwz run`` sets it); None: none.
+        resume: Go on from this last committed state (``iwz run`` restarting a world that died;
+            its obstacles replace ``obstacles``); None: a new run.
+    """
+
+    map: str = ""
+    grid: Annotated[
+        str,
+        msgspec.Meta(
+            description="Grid XML file of start positions (default: none; robots give X, Y)", extra={"metavar": "FILE"}
+        ),
+    ] = ""
+    expect: Annotated[
+        int,
+        msgspec.Meta(
+            description="wait for this many robots before the first tick (default {default})", extra={"metavar": "N"}
+        ),
+    ] = _CORE.expect
+    duration_s: Annotated[
+        float,
+        msgspec.Meta(
+            ge=0,
+            le=DURATION_S_MAX,
+            description="stop after this many simulated seconds (default: run until stopped)",
+            extra={"flag": "--duration", "metavar": "S"},
+        ),
+    ] = 0.0
+    obstacles: Annotated[
+        tuple[Obstacle, ...],
+        msgspec.Meta(
+            description="a rectangular obstacle from the start (repeatable)",
+            extra={"flag": "--obstacle", "action": "append", "type": _obstacle_flag, "metavar": "NAME:X0,Y0,X1,Y1[,H]"},
+        ),
+    ] = ()
+    owners: Annotated[
+        dict[str, list[int] | None] | None,
+        msgspec.Meta(
+            description="a secured run's policy: each agent registers only its own robots, and only under its own name",
+            extra={"flag": "--policy", "type": _owners_flag, "metavar": "TOML"},
+        ),
+    ] = None
+    resume: WorldSnapshot | None = None
+    reserved: dict[str, list[int]] | None = None
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Adds the flags of ``iwz world``, each filling a field of :class:`WorldOptions`.
 
-    A flag not given leaves its field to ``--options`` or the default (``argparse.SUPPRESS``).
+    The flags are generated from the fields (their ``msgspec.Meta``: help, range, spelling), so
+    a new option is one line in :class:`~iw_zenoh.sim.config.WorldSettings` or here. A flag not
+    given leaves its field to ``--options`` or the default (``argparse.SUPPRESS``).
     """
     p.add_argument(
         option("map"),
@@ -175,7 +129,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default=argparse.SUPPRESS,
         help="Lab XML file (Ciber-Rato / Intellwheels)",
     )
-    add_option_flags(p, WorldOptions, _FLAGS)
+    add_option_flags(p, WorldOptions, declared_flags(WorldOptions))  # each field's Meta says its flag
 
 
 def scenario_ids(sc: Scenario) -> dict[str, list[int]]:

@@ -23,6 +23,7 @@ __all__ = [
     "Flag",
     "add_option_flags",
     "add_options_argument",
+    "declared_flags",
     "option",
     "options_from_args",
     "options_from_argv",
@@ -59,6 +60,62 @@ def add_option_flags(parser: argparse.ArgumentParser, kind: type[msgspec.Struct]
             how = {"metavar": names.split()[-1].lstrip("-").upper(), **how}  # not OPTION:FIELD
         parser.add_argument(*names.split(), dest=option(name), default=argparse.SUPPRESS, help=text, **how)
     add_options_argument(parser, kind)
+
+
+def declared_flags(kind: type[msgspec.Struct]) -> tuple[Flag, ...]:
+    """A role's flags generated from its options Struct: one for each field whose type carries a
+    ``msgspec.Meta(description=...)``, so that a new option is one line in the Struct.
+
+    The flag is ``--`` and the field's name with ``-`` for ``_``, unless ``Meta.extra["flag"]``
+    spells it; argparse reads it as the field's type says (a number as ``int``/``float``, an enum
+    as its values' ``choices``, a ``bool`` as a switch, ``extra["const"]`` as a switch setting
+    that value); the rest of ``extra`` (``metavar``, ``type``, ``action``) goes to argparse as
+    is. The help is the description (``{default}`` is the field's default, see
+    :func:`add_option_flags`) and the range the type declares; the range itself is checked when
+    the options are built (:func:`options_from_args`), naming the field.
+    """
+    flags: list[Flag] = []
+    for field in msgspec.inspect.type_info(kind).fields:  # type: ignore[attr-defined]
+        declared = field.type
+        if not isinstance(declared, msgspec.inspect.Metadata):
+            continue
+        text = (declared.extra_json_schema or {}).get("description")
+        if not text:
+            continue
+        extra = dict(declared.extra or {})
+        names = extra.pop("flag", "--" + field.name.replace("_", "-"))
+        how = {**_reading(declared.type, extra), **extra}
+        flags.append((names, field.name, how, text + _range(declared.type)))
+    return tuple(flags)
+
+
+def _reading(declared: Any, extra: dict[str, Any]) -> dict[str, Any]:
+    """How argparse reads a value of the inspected type ``declared``."""
+    inspect = msgspec.inspect
+    if "const" in extra:
+        return {"action": "store_const"}
+    if isinstance(declared, inspect.UnionType):  # X | None: a flag gives an X
+        given = [t for t in declared.types if not isinstance(t, inspect.NoneType)]
+        declared = given[0] if len(given) == 1 else declared
+    if isinstance(declared, inspect.BoolType):
+        return {"action": "store_true"}
+    if isinstance(declared, inspect.IntType):
+        return {"type": int}
+    if isinstance(declared, inspect.FloatType):
+        return {"type": float}
+    if isinstance(declared, inspect.EnumType):
+        return {"choices": [e.value for e in declared.cls]}
+    return {}
+
+
+def _range(declared: Any) -> str:
+    """The range a number's inspected type declares, as the flag's help says it ("" if none)."""
+    bound = {name: getattr(declared, name, None) for name in ("ge", "gt", "le", "lt")}
+    if bound["ge"] is not None and bound["le"] is not None and bound["gt"] is bound["lt"] is None:
+        return f" ({bound['ge']:.15g} to {bound['le']:.15g})"
+    words = {"ge": "at least", "gt": "more than", "le": "at most", "lt": "less than"}
+    said = [f"{words[name]} {value:.15g}" for name, value in bound.items() if value is not None]
+    return f" ({', '.join(said)})" if said else ""
 
 
 def options_json(options: msgspec.Struct) -> str:

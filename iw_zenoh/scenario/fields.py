@@ -2,7 +2,7 @@
 ``iwz study``).
 
 ``FIELD`` is the field's path in the scenario file, tables joined by ``.`` and array items by
-``[i]``: ``world.seed``, ``world.duration_s``, ``agents[0].args``, ``agents[1].spec.max_speed``,
+``[i]``: ``world.seed``, ``world.duration_s``, ``agents[0].args``, ``agents[1].spec.max_speed_mps``,
 ``criteria.max_collisions``. ``VALUE`` is written as in the file (TOML): ``0.1``, ``true``,
 ``"text"``, ``[1, 2]``, ``{ std = 0.05 }``; a value that is not TOML is taken as text
 (``--set world.map=../hall.xml``: paths are the file's, relative to the scenario's folder). A

@@ -28,7 +28,7 @@ from iw_zenoh.errors import ConfigError, MapError
 from iw_zenoh.maps import load_grid, load_lab
 from iw_zenoh.messages import Obstacle
 from iw_zenoh.scenario.fields import apply_sets
-from iw_zenoh.scenario.refused import args_table, line_in, start_table
+from iw_zenoh.scenario.refused import args_table, at_line, old_names, room_table, start_table
 from iw_zenoh.scenario.specfile import SPEC_TABLE, check_spec, line_of, load_spec_file, renamed_field
 from iw_zenoh.sim.config import WorldSettings
 from iw_zenoh.sim.obstacles import Obstacles
@@ -104,12 +104,12 @@ class AgentEntry(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_onl
 
 
 class Reach(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
-    """``[[criteria.reach]]``: robot ``robot`` must come within ``within`` metres of (x, y)."""
+    """``[[criteria.reach]]``: robot ``robot`` must come within ``within_m`` metres of (``x_m``, ``y_m``)."""
 
     robot: Annotated[int, msgspec.Meta(ge=0, le=ID_MAX)]
-    x: Coord
-    y: Coord
-    within: Annotated[float, msgspec.Meta(gt=0, le=EXTENT_M)] = 0.5
+    x_m: Coord
+    y_m: Coord
+    within_m: Annotated[float, msgspec.Meta(gt=0, le=EXTENT_M)] = 0.5
 
 
 class DoorCriterion(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -123,9 +123,9 @@ class DoorCriterion(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_
     robot: Annotated[int, msgspec.Meta(ge=0, le=ID_MAX)]
     opened: bool = True
     closed_again: bool = True
-    x: Coord | None = None
-    y: Coord | None = None
-    one_chair_within: Annotated[float, msgspec.Meta(gt=0, le=EXTENT_M)] | None = None
+    x_m: Coord | None = None
+    y_m: Coord | None = None
+    one_chair_within_m: Annotated[float, msgspec.Meta(gt=0, le=EXTENT_M)] | None = None
     symmetry_deg: Annotated[float, msgspec.Meta(gt=0, le=360)] = 360.0
 
 
@@ -159,6 +159,20 @@ class Start(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=Tru
         return f"{self.x_m!r},{self.y_m!r},{self.dir_deg!r}"
 
 
+class RoomBox(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """``[chair] room = [{ x0_m = 8.2, y0_m = 3.4, x1_m = 8.8, y1_m = 5.0 }]``: a box of an emulated chair's room."""
+
+    x0_m: Coord
+    y0_m: Coord
+    x1_m: Coord
+    y1_m: Coord
+
+    @property
+    def arg(self) -> str:
+        """As a command line takes it (``--room x0,y0,x1,y1;...``, one part)."""
+        return f"{self.x0_m!r},{self.y0_m!r},{self.x1_m!r},{self.y1_m!r}"
+
+
 class ChairSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """``[chair]``: a real chair on a serial link (``docs/serial.md``): ``iwz bridge serial``, and
     without a ``port`` the chair emulator on a pseudo-terminal. The world must run in real time."""
@@ -168,7 +182,7 @@ class ChairSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_o
     robot: Annotated[int, msgspec.Meta(ge=1, le=ID_MAX)] = 1  # the robot id the bridge registers
     name: Name = "chair"
     start: Start | str = msgspec.field(default_factory=Start)  # a string ("1,1,0", as before) is refused: a table
-    room: str = ""  # emulator: real obstacles not in the map, x0,y0,x1,y1;...
+    room: tuple[RoomBox, ...] | str = ()  # emulator: real obstacles not in the map; a string (as before) is refused
     seed: Annotated[int, msgspec.Meta(ge=0)] = 0  # emulator: noise seed, 64 bits at most (_numbers)
     baud: Annotated[int, msgspec.Meta(gt=0, le=10_000_000)] = 115200
     spec: Path | None = None  # a spec file (docs/spec.md) the bridge and the emulator both read
@@ -382,6 +396,7 @@ def parse_scenario(text: str, base: Path, name: str = "scenario", sets: Sequence
     doc = _toml(text, name)
     if sets:
         _numbers(apply_sets(doc, sets))
+    old_names(doc, text)
     try:
         sc = msgspec.convert(doc, ScenarioFile, dec_hook=_dec_path)
     except msgspec.ValidationError as e:
@@ -398,15 +413,15 @@ def parse_scenario(text: str, base: Path, name: str = "scenario", sets: Sequence
         bridge = msgspec.structs.replace(bridge, params=_beside(base, bridge.params))
         _exists(bridge.params, "bridge.params")
     for i, d in enumerate(sc.criteria.doors):
-        if d.one_chair_within is not None and (d.x is None or d.y is None):
-            raise ConfigError(f"criteria.doors[{i}].one_chair_within", "needs the doorway's middle: give x and y too")
+        if d.one_chair_within_m is not None and (d.x_m is None or d.y_m is None):
+            raise ConfigError(f"criteria.doors[{i}].one_chair_within_m", "needs the doorway's middle: x_m and y_m")
     if sc.world.args:
-        line = line_in(text, "world", "args")
-        at = f"line {line}: " if line else ""
-        raise ConfigError(f"{at}world.args", args_table(sc.world.args))
+        raise ConfigError(f"{at_line(text, 'world', 'args')}world.args", args_table(sc.world.args))
     chair = sc.chair
     if chair is not None and isinstance(chair.start, str):
         raise ConfigError("chair.start", start_table(chair.start))
+    if chair is not None and isinstance(chair.room, str):
+        raise ConfigError(f"{at_line(text, 'chair', 'room')}chair.room", room_table(chair.room))
     if chair is not None and world.mode != Mode.REALTIME:
         raise ConfigError("chair.hardware", "a chair on a serial link moves in real time: world.mode must be realtime")
     if chair is not None and chair.spec is not None:

@@ -3,7 +3,6 @@ options, a scenario, or a recording to re-simulate)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Annotated
 
 import msgspec
@@ -18,28 +17,112 @@ TIMEOUT_MS_MAX = 86_400_000.0  # a day: the longest wait or timeout of the world
 VERDICT_MARGIN_MS = 5.0  # real time: the verdict wait ends this long before the next tick is due
 
 
-@dataclass(frozen=True)
-class WorldConfig:
-    """How the world runs.
+class WorldSettings(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """How the world runs, declared once: a scenario's ``[world]`` (``WorldSection``), ``iwz
+    world``'s options (``WorldOptions``) and the world core's configuration (:class:`WorldConfig`)
+    are this with what each adds.
+
+    Each field says its type, range and default, and, for ``iwz world``'s flag that sets it
+    (generated from it, :func:`~iw_zenoh.process.options.declared_flags`), its help
+    (``description``, ``{default}`` replaced by the default) and the flag's own spelling where it
+    is not the field's name (``extra``).
+
+    Attributes:
+        period_ms: Tick period, ms (simulated time per tick; real time too in real-time mode).
+        mode: ``realtime`` or ``lockstep``.
+        profile: Motion and collision rules, ``native`` or ``ciberrato``.
+        seed: Seeds movement noise (numpy takes no negative seed).
+        action_timeout_ms: Actions older than this (wall clock) zero a robot's motors (when
+            silence stops it).
+        grace_ms: A robot is removed this long after its agent is gone.
+        lockstep_timeout_ms: Lock-step waits this long for a tick's actions before going on.
+        motors_noise_pct: Ciber-Rato MotorsNoise, percent.
+        silence: What a robot whose actions stop coming does: ``stop`` or ``keep``; None: the
+            profile's (native stop, ciberrato keep; :meth:`Silence.of`).
+        start_paused: Do not tick until a ``start`` control arrives.
+    """
+
+    period_ms: Annotated[
+        float,
+        msgspec.Meta(
+            ge=PERIOD_MS[0],
+            le=PERIOD_MS[1],
+            description="tick period in ms (default {default:g}; Ciber-Rato uses 50)",
+            extra={"metavar": "MS"},
+        ),
+    ] = 100.0
+    mode: Annotated[
+        Mode,
+        msgspec.Meta(
+            description="lock-step: wait for every live agent's actions each tick (default: real time)",
+            extra={"flag": "--lockstep", "const": Mode.LOCKSTEP.value},
+        ),
+    ] = Mode.REALTIME
+    profile: Annotated[Profile, msgspec.Meta(description="motion and collision rules (default {default})")] = (
+        Profile.NATIVE
+    )
+    seed: Annotated[
+        int, msgspec.Meta(ge=0, description="seed of movement noise (default {default})", extra={"metavar": "N"})
+    ] = 0
+    action_timeout_ms: Annotated[
+        float,
+        msgspec.Meta(
+            gt=0,
+            le=TIMEOUT_MS_MAX,
+            description="zero a robot's motors when its actions are older, if silence stops it (default {default:g})",
+            extra={"metavar": "MS"},
+        ),
+    ] = 500.0
+    grace_ms: Annotated[
+        float,
+        msgspec.Meta(
+            ge=0,
+            le=TIMEOUT_MS_MAX,
+            description="remove a robot this long after its agent is gone (default {default:g})",
+            extra={"metavar": "MS"},
+        ),
+    ] = 5000.0
+    lockstep_timeout_ms: Annotated[
+        float,
+        msgspec.Meta(
+            gt=0,
+            le=TIMEOUT_MS_MAX,
+            description="lock-step: wait this long for a tick's actions (default {default:g})",
+            extra={"metavar": "MS"},
+        ),
+    ] = 2000.0
+    motors_noise_pct: Annotated[
+        float,
+        msgspec.Meta(
+            ge=0,
+            le=100,
+            description="Ciber-Rato MotorsNoise, percent (legacy profile)",
+            extra={"flag": "--motors-noise", "metavar": "PCT"},
+        ),
+    ] = 0.0
+    silence: Annotated[
+        Silence | None,
+        msgspec.Meta(
+            description="what a robot whose actions stop coming does: stop (its motors zeroed after "
+            "--action-timeout-ms) or keep (its last command for ever, as the legacy simulator); "
+            "default: the profile's, native stop, ciberrato keep"
+        ),
+    ] = None
+    start_paused: Annotated[
+        bool, msgspec.Meta(description="start paused; a 'start' control runs it", extra={"flag": "--paused"})
+    ] = False
+
+
+class WorldConfig(WorldSettings, frozen=True, kw_only=True):
+    """How the world core runs: :class:`WorldSettings` (the defaults are theirs) and what only the
+    core has (``world_config`` in ``iw_zenoh/nodes/world.py`` builds it from ``iwz world``'s options).
 
     Attributes:
         sim: Simulation name.
-        period_ms: Tick period (simulated time per tick; real time too in real-time mode).
-        mode: ``realtime`` or ``lockstep``.
-        profile: ``native`` or ``ciberrato``.
-        seed: Seeds movement noise.
-        action_timeout_ms: Actions older than this (wall clock) zero the motors, when silence
-            stops a robot.
-        grace_ms: A robot whose agent is gone is removed after this.
-        lockstep_timeout_ms: Lock-step waits this long for a tick's actions before going on.
         verdict_timeout_ms: Longest wait for a collision verdict in lock-step (see
             :attr:`verdict_wait_ns`).
         expect: Robots to wait for before the first tick (a scenario's roster).
         duration_ticks: Stop after this many ticks (0: run until stopped).
-        start_paused: Do not tick until a ``start`` control arrives.
-        motors_noise_pct: Ciber-Rato MotorsNoise (legacy profile).
-        silence: What a robot whose actions stop coming does (None: its profile's rule,
-            :meth:`Silence.of`).
         owners: A secured run's agents and the robots each may register (``None`` for any
             robot: a trusted bridge); an agent not listed registers nothing. ``None``: open.
         reserved: The ids a scenario gives its agents, by agent name: another registration asking
@@ -47,19 +130,9 @@ class WorldConfig:
     """
 
     sim: str = "default"
-    period_ms: float = 100.0
-    mode: Mode = Mode.REALTIME
-    profile: Profile = Profile.NATIVE
-    seed: int = 0
-    action_timeout_ms: float = 500.0
-    grace_ms: float = 5000.0
-    lockstep_timeout_ms: float = 2000.0
     verdict_timeout_ms: float = 2000.0
     expect: int = 0
     duration_ticks: int = 0
-    start_paused: bool = False
-    motors_noise_pct: float = 0.0
-    silence: Silence | None = None
     owners: dict[str, tuple[int, ...] | None] | None = None
     reserved: dict[str, tuple[int, ...]] | None = None
 
@@ -85,37 +158,3 @@ class WorldConfig:
     def period_ns(self) -> int:
         """The period in ns."""
         return int(round(self.period_ms * MS))
-
-
-_CORE = WorldConfig()
-
-
-class WorldSettings(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
-    """How the world runs, declared once: a scenario's ``[world]`` (``WorldSection``) and ``iwz
-    world``'s options (``WorldOptions``) are this with what each adds; the defaults are the world
-    core's (:class:`WorldConfig`), which the options become (``world_config``).
-
-    Attributes:
-        period_ms: Tick period, ms.
-        mode: ``realtime`` or ``lockstep``.
-        profile: Motion and collision rules, ``native`` or ``ciberrato``.
-        seed: Seeds movement noise (numpy takes no negative seed).
-        action_timeout_ms: Actions older than this zero a robot's motors (when silence stops it).
-        grace_ms: A robot is removed this long after its agent is gone.
-        lockstep_timeout_ms: Lock-step waits this long for a tick's actions.
-        motors_noise_pct: Ciber-Rato MotorsNoise, percent.
-        silence: What a robot whose actions stop coming does: ``stop`` or ``keep``; None: the
-            profile's (native stop, ciberrato keep).
-        start_paused: Do not tick until a ``start`` control arrives.
-    """
-
-    period_ms: Annotated[float, msgspec.Meta(ge=PERIOD_MS[0], le=PERIOD_MS[1])] = _CORE.period_ms
-    mode: Mode = _CORE.mode
-    profile: Profile = _CORE.profile
-    seed: Annotated[int, msgspec.Meta(ge=0)] = _CORE.seed
-    action_timeout_ms: Annotated[float, msgspec.Meta(gt=0, le=TIMEOUT_MS_MAX)] = _CORE.action_timeout_ms
-    grace_ms: Annotated[float, msgspec.Meta(ge=0, le=TIMEOUT_MS_MAX)] = _CORE.grace_ms
-    lockstep_timeout_ms: Annotated[float, msgspec.Meta(gt=0, le=TIMEOUT_MS_MAX)] = _CORE.lockstep_timeout_ms
-    motors_noise_pct: Annotated[float, msgspec.Meta(ge=0, le=100)] = _CORE.motors_noise_pct
-    silence: Silence | None = _CORE.silence
-    start_paused: bool = _CORE.start_paused

@@ -6,7 +6,7 @@ turned :data:`OPEN_DEG` from there (its heading unwrapped tick by tick, so a rev
 half turn counts as 180 degrees); it is *closed again* at a later tick standing still back within
 :data:`SHUT_M` and :data:`SHUT_DEG` of that pose, its turn taken modulo the criterion's
 ``symmetry_deg``. *One chair at a time*: no two robots other than doors are ever within
-``one_chair_within`` of the doorway's middle at once.
+``one_chair_within_m`` of the doorway's middle at once.
 """
 
 from __future__ import annotations
@@ -82,13 +82,13 @@ class DoorWatch:
                 self._door(c, sim_s, poses[c.robot])
         doors = door_ids | {c.robot for c in criteria}
         for i, c in enumerate(criteria):
-            if c.one_chair_within is None or c.x is None or c.y is None:
+            if c.one_chair_within_m is None or c.x_m is None or c.y_m is None:
                 continue
             near = tuple(
                 sorted(
                     rid
                     for rid, (x, y, _) in poses.items()
-                    if rid not in doors and math.hypot(x - c.x, y - c.y) <= c.one_chair_within
+                    if rid not in doors and math.hypot(x - c.x_m, y - c.y_m) <= c.one_chair_within_m
                 )
             )
             crowd = self.crowds.setdefault(i, _Crowd())
@@ -143,11 +143,11 @@ class DoorWatch:
             good, mine = self._lines_ok(c)
             ok &= good
             lines += mine
-            if c.one_chair_within is not None:
+            if c.one_chair_within_m is not None:
                 crowd = self.crowds.get(i, _Crowd())
                 good = crowd.most <= 1
                 ok &= good
-                where = f"within {c.one_chair_within:g} m of ({c.x:g}, {c.y:g})"
+                where = f"within {c.one_chair_within_m:g} m of ({c.x_m:g}, {c.y_m:g})"
                 who = ", ".join(map(str, crowd.who))
                 lines.append(
                     f"PASS door {c.robot}: never two chairs {where}"

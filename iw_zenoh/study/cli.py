@@ -34,7 +34,7 @@ NAME = r"[A-Za-z0-9][A-Za-z0-9._-]{0,63}"  # a condition's name: its runs' folde
 EPILOG = """examples:
   iwz study demo --seeds 1-20                          20 seeds of a shipped scenario, the cores busy
   iwz study room.toml --seeds 1-50 --jobs 2 --out out  its JSON and page in out/
-  iwz study room.toml --seeds 1-10 --set world.duration_s=30 --set 'agents[0].spec.max_speed=0.4'
+  iwz study room.toml --seeds 1-10 --set world.duration_s=30 --set 'agents[0].spec.max_speed_mps=0.4'
   iwz study room.toml --seeds 1-20 --set world.duration_s=30 \\
       --condition slow --set 'agents[0].args=["--speed", "0.05", "--waypoints", "8,5"]' \\
       --condition fast --set 'agents[0].args=["--speed", "0.12", "--waypoints", "8,5"]'

@@ -57,9 +57,9 @@ max_collisions = 0
 stop_when_reached = {"false" if legs == LEGS else "true"}
 [[criteria.reach]]
 robot = 1
-x = {goal_x}
-y = 5.0
-within = 0.5
+x_m = {goal_x}
+y_m = 5.0
+within_m = 0.5
 """
     )
     return path

@@ -29,8 +29,8 @@ args = ["--id", "2"]
 
 [[criteria.reach]]
 robot = 1
-x = 8
-y = 3
+x_m = 8
+y_m = 3
 """
 
 

@@ -30,9 +30,9 @@ max_collisions = 0
 stop_when_reached = true
 [[criteria.reach]]
 robot = 1
-x = 10.0
-y = 5.0
-within = 0.5
+x_m = 10.0
+y_m = 5.0
+within_m = 0.5
 """
 MAX_SPEED_MPS = 0.5  # the LIACC prototype's, which the waypoint agent drives
 

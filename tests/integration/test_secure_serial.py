@@ -45,9 +45,9 @@ max_collisions = 0
 stop_when_reached = true
 [[criteria.reach]]
 robot = 1
-x = 12.0
-y = 6.1
-within = 0.5
+x_m = 12.0
+y_m = 6.1
+within_m = 0.5
 """
 
 

@@ -33,9 +33,9 @@ args = ["--id", "1", "--waypoints", "{GOAL[0]},{GOAL[1]};17,5"]
 [criteria]
 [[criteria.reach]]
 robot = 1
-x = {GOAL[0]}
-y = {GOAL[1]}
-within = {GOAL[2]}
+x_m = {GOAL[0]}
+y_m = {GOAL[1]}
+within_m = {GOAL[2]}
 """
 
 

@@ -23,7 +23,7 @@ def _state(tick: int, x: float) -> WorldState:
 
 def test_a_goal_is_noted_when_first_reached_and_judged() -> None:
     t = Tally()
-    crit = Criteria(max_collisions=0, reach=(Reach(robot=1, x=5.0, y=0.0, within=0.5),))
+    crit = Criteria(max_collisions=0, reach=(Reach(robot=1, x_m=5.0, y_m=0.0, within_m=0.5),))
     for tick, x in enumerate([0.0, 4.6, 5.0]):
         t.on_state(_state(tick, x), crit.reach)
     assert t.reached == {1: 0.1}

@@ -44,8 +44,8 @@ args = ["--count", "1", "--seed", "5"]
 spec = { id = 2, x_m = 8.0, y_m = 2.0, dir_deg = 90.0 }
 [[criteria.reach]]
 robot = 1
-x = 12.0
-y = 7.0
+x_m = 12.0
+y_m = 7.0
 """
 
 

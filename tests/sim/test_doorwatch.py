@@ -7,7 +7,7 @@ from iw_zenoh.messages import WorldState
 from iw_zenoh.scenario.file import Criteria, DoorCriterion
 from iw_zenoh.sim.doorwatch import DoorWatch
 
-HINGED = DoorCriterion(robot=1, x=10.0, y=5.0, one_chair_within=1.0)
+HINGED = DoorCriterion(robot=1, x_m=10.0, y_m=5.0, one_chair_within_m=1.0)
 
 
 def _watch(crit: DoorCriterion, track: list[dict[int, tuple[float, float, float]]]) -> DoorWatch:
@@ -75,7 +75,7 @@ def test_two_chairs_in_the_doorway_at_once_fail_naming_them_and_when() -> None:
 
 
 def test_other_doors_are_not_chairs() -> None:
-    crit = DoorCriterion(robot=1, opened=False, closed_again=False, x=10.0, y=5.0, one_chair_within=1.0)
+    crit = DoorCriterion(robot=1, opened=False, closed_again=False, x_m=10.0, y_m=5.0, one_chair_within_m=1.0)
     w = DoorWatch()
     w.observe((crit,), 0.0, {1: (10.0, 5.0, 0.0), 2: (10.2, 5.0, 0.0), 7: (10.5, 5.0, 0.0)}, {7})
     assert w.verdict((crit,))[0]  # robot 7 is a door (the world's Door type): one chair only

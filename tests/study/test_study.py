@@ -37,8 +37,8 @@ spec = { id = 2, x_m = 6.0, y_m = 2.0, dir_deg = 90.0 }
 max_collisions = 0
 [[criteria.reach]]
 robot = 1
-x = 10.0
-y = 5.0
+x_m = 10.0
+y_m = 5.0
 """
 IWZ = [sys.executable, "-m", "iw_zenoh.cli"]
 

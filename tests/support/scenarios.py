@@ -12,7 +12,7 @@ program = "waypoint"
 args = ["--id", "1", "--waypoints", "9,5"]
 [[criteria.reach]]
 robot = 1
-x = 9.0
-y = 5.0
-within = 0.5
+x_m = 9.0
+y_m = 5.0
+within_m = 0.5
 """
