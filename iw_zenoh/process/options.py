@@ -11,7 +11,7 @@ parses again.
 from __future__ import annotations
 
 import argparse
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -26,7 +26,6 @@ __all__ = [
     "declared_flags",
     "option",
     "options_from_args",
-    "options_from_argv",
     "options_argument",
     "options_json",
 ]
@@ -181,38 +180,3 @@ def options_from_args(args: argparse.Namespace, kind: type[S], base: S | None = 
         return msgspec.convert(msgspec.to_builtins({**start, **given}), kind)
     except msgspec.DecodeError as e:  # ValidationError is one
         raise IwError(f"refused options: {e}") from None
-
-
-def options_from_argv(
-    argv: Sequence[str],
-    kind: type[S],
-    arguments: Callable[[argparse.ArgumentParser], None],
-    *,
-    base: S,
-    prog: str,
-) -> tuple[S, list[str]]:
-    """Reads a role's own flags out of ``argv`` into its options, over ``base`` (no exit on error).
-
-    For a launcher that holds a role's options and a few of its flags written as text (a
-    scenario's ``world.args``): the flags are read here, once, and the child gets typed options.
-
-    Args:
-        argv: The flags.
-        kind: The options Struct.
-        arguments: Adds the role's flags (as its ``main`` does).
-        base: The options the flags override.
-        prog: The role's program name, for messages.
-
-    Returns:
-        The options, and what in ``argv`` is not one of the role's option flags (for its command line).
-
-    Raises:
-        IwError: A flag's value is refused, or the options are.
-    """
-    parser = argparse.ArgumentParser(prog=prog, add_help=False, exit_on_error=False)
-    arguments(parser)
-    try:
-        args, rest = parser.parse_known_args(list(argv))
-    except argparse.ArgumentError as e:
-        raise IwError(f"{prog}: {e}") from None
-    return options_from_args(args, kind, base), rest
