@@ -84,14 +84,15 @@ def test_the_quick_loop_caps_a_property_tests_own_examples_and_keeps_its_other_s
 def test_outside_the_quick_loop_a_property_test_runs_all_its_examples() -> None:
     prop, seen = _property_test(150)
     prop()
-    assert len(seen) == 150
+    assert len(seen) >= 150
 
 
 def test_a_property_test_asking_for_fewer_examples_than_the_cap_keeps_its_count() -> None:
     prop, seen = _property_test(3)
     quick_loop.fewer_examples(SimpleNamespace(obj=prop))  # type: ignore[arg-type]
+    assert prop._hypothesis_internal_use_settings.max_examples == 3  # type: ignore[attr-defined]
     prop()
-    assert len(seen) == 3
+    assert 0 < len(seen) <= 3
 
 
 def test_this_run_uses_the_profile_its_marker_expression_asks_for(request: pytest.FixtureRequest) -> None:
