@@ -1,6 +1,7 @@
 """Shared fixtures (a seeded generator, a small map and its scene), the ``slow`` marker on every test
-that starts processes, and the kernels warmed for those; the builders tests share are in
-``tests/support/builders.py``, their fakes in ``tests/support/fakes.py``."""
+that starts processes, the kernels warmed for those, and the quick hypothesis profile of the quick
+loop; the builders tests share are in ``tests/support/builders.py``, their fakes in
+``tests/support/fakes.py``."""
 
 from __future__ import annotations
 
@@ -16,10 +17,12 @@ import pytest
 from hypothesis import HealthCheck, settings
 
 from iw_zenoh.core.lab import Lab, Scene
+from tests.support import quick as quick_loop
 from tests.support.builders import box_wall
 
 settings.register_profile("ci", deadline=None, suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile("ci")
+quick_loop.register("ci")  # the quick loop's profile: "ci" with fewer examples
 
 
 TESTS = Path(__file__).resolve().parent
@@ -82,11 +85,34 @@ def _starts_processes(item: pytest.Item) -> bool:
     return any(_reaches_a_starter(d[-1].func, seen) for d in defs if d and d[-1].argname not in CHECKS)
 
 
+def pytest_configure(config: pytest.Config) -> None:
+    """The quick loop loads the quick hypothesis profile (``tests/support/quick.py``)."""
+    if quick_loop.quick(config):
+        settings.load_profile("quick")
+
+
+def pytest_ignore_collect(collection_path: Path, config: pytest.Config) -> bool | None:
+    """A run whose marker expression leaves out every ``slow`` test does not import
+    ``tests/integration/``: every test there is ``slow`` (``_starts_processes``)."""
+    return True if quick_loop.uncollected(collection_path, config) else None
+
+
+def pytest_report_header(config: pytest.Config) -> str | None:
+    """Says when the property tests run the quick loop's few examples."""
+    if quick_loop.quick(config):
+        return f"quick loop: at most {quick_loop.QUICK_EXAMPLES} hypothesis examples per test (IWZ_QUICK=0: all)"
+    return None
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Every test that starts processes is ``slow``: ``pytest -m "not slow"`` is the quick loop."""
+    """Every test that starts processes is ``slow``: ``pytest -m "not slow"`` is the quick loop,
+    where property tests try fewer examples."""
+    fast = quick_loop.quick(config)
     for item in items:
         if _starts_processes(item):
             item.add_marker(pytest.mark.slow)
+        if fast:
+            quick_loop.fewer_examples(item)
 
 
 @pytest.fixture(autouse=True)

@@ -198,6 +198,7 @@ def _reply(rid: int) -> RegisterReply:
     return RegisterReply(tick=1, ok=True, robot_id=rid, spec=RobotSpecMsg(name="fwd", id=rid, x_m=1.0, y_m=1.0))
 
 
+@pytest.mark.slow  # 5,000 registrations through an agent host (past the 4,096 keys kept): about 6 s of CPU
 def test_the_agent_host_stops_listening_for_robots_the_world_removed() -> None:
     bus = _SubscribingBus()
     host = _host(bus)

@@ -34,6 +34,7 @@ from tests.support.fakes import FakeTransport
 COMERS = 5000  # robots, requests or keys that come and go in a long run
 
 
+@pytest.mark.slow  # 9,000 registrations in process (past the 4,096 answers kept): about 7 s of CPU
 def test_registration_answers_kept_for_retries_are_bounded_and_a_retry_still_gets_its_answer() -> None:
     core = WorldCore(WorldConfig(sim="t"), Lab("t", 20.0, 10.0, ()), Grid((GridPosition(2, 5, 0),)))
     for n in range(ANSWERS_KEPT + COMERS):
@@ -55,6 +56,7 @@ def _sensors_view(ids: list[int]) -> WorldView:
     return WorldView(info, Scene(lab), {r.id: spec_from_msg(r) for r in robots})
 
 
+@pytest.mark.slow  # 2,000 ticks of the sensors node in process: about 3.5 s of CPU
 def test_the_sensors_node_forgets_the_keys_of_robots_that_left() -> None:
     node = SensorsNode("t")
     for tick in range(1, 2000):

@@ -59,16 +59,24 @@ CASES: dict[str, tuple[Edit, int | None, str]] = {  # edit, the line named (None
 }
 
 
-@pytest.fixture
-def good_log(tmp_path: Path) -> list[str]:
-    spec = tmp_path / "chair.toml"
+@pytest.fixture(scope="module")
+def _good_lines(tmp_path_factory: pytest.TempPathFactory) -> tuple[str, ...]:
+    """The bridge's log of a seeded run, made once for the module (160 board steps each time, over a
+    second per case under load, gave the same lines)."""
+    folder = tmp_path_factory.mktemp("good")
+    spec = folder / "chair.toml"
     spec.write_text("[chair]\nacceleration_curve = 0.9\nmax_speed_mps = 0.49\n")
-    log = tmp_path / "good.csv"
+    log = folder / "good.csv"
     _bridge_log(log, spec)
     lines = log.read_text().splitlines()
     assert lines[0] == CSV_HEADER.strip()
     assert calibrate([str(log)]) == 0  # the log the cases spoil is a good one
-    return lines
+    return tuple(lines)
+
+
+@pytest.fixture
+def good_log(_good_lines: tuple[str, ...]) -> list[str]:
+    return list(_good_lines)  # each case spoils its own copy
 
 
 @pytest.mark.parametrize("case", CASES, ids=list(CASES))
