@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 
-from iw_zenoh.core.geometry import to_world, wrap_rad
+from iw_zenoh.core.geometry import wrap_rad
 from iw_zenoh.core.lab import Scene
 
 __all__ = ["Collisions", "check_collisions", "check_collisions_ciberrato", "interpolate_pose"]
@@ -65,6 +65,10 @@ def interpolate_pose(a: FloatArray, b: FloatArray, t: float) -> FloatArray:
     out = a + t * (b - a)
     out[:, 2] = wrap_rad(a[:, 2] + t * wrap_rad(b[:, 2] - a[:, 2]))
     return out
+
+
+def _f64(a: FloatArray) -> FloatArray:
+    return np.ascontiguousarray(a, dtype=np.float64)
 
 
 def _pairs(tree_query: IntArray) -> IntArray:
@@ -117,12 +121,12 @@ def check_collisions(
         o, now, nxt = outline, pose_now, pose_next
     else:
         o, now, nxt = outline[idx], pose_now[idx], pose_next[idx]
-    mid = interpolate_pose(now, nxt, 0.5)
-    c_now = to_world(o, now[:, 0], now[:, 1], now[:, 2])
-    c_mid = to_world(o, mid[:, 0], mid[:, 1], mid[:, 2])
-    c_next = to_world(o, nxt[:, 0], nxt[:, 1], nxt[:, 2])
-    from iw_zenoh.core.contact import touching  # here: the world holds Collisions, never loads the kernel (numba)
+    # here, not at the top: the world holds Collisions and never loads the kernels (numba)
+    from iw_zenoh.core.contact import touching
+    from iw_zenoh.core.placing import swept_outlines
 
+    # now, half-way (interpolate_pose(now, nxt, 0.5)) and next, each to_world's bit for bit
+    c_now, c_mid, c_next = swept_outlines(_f64(o), _f64(now), _f64(nxt))
     walls, robots = touching(scene, c_now, c_mid, c_next, wall_free)
     wall_pairs = np.stack([idx[walls[:, 0]], walls[:, 1]], axis=1) if len(walls) else empty
     robot_pairs = idx[robots] if len(robots) else empty

@@ -21,11 +21,13 @@ import shapely
 from shapely import STRtree
 
 from iw_zenoh.core.bodies import Bodies, polygons_at
+from iw_zenoh.core.cellgrid import SceneIndex, scene_index
 from iw_zenoh.core.cones import cone_distances
 from iw_zenoh.core.geometry import to_world, wrap_deg
 from iw_zenoh.core.lab import Scene
 from iw_zenoh.core.laser import laser_distances, noisy_ranges
 from iw_zenoh.core.legacy_ir import ciberrato_ir_distances
+from iw_zenoh.core.placing import outline_at, wedges
 from iw_zenoh.core.sensor_noise import noise_bank, noise_layout, tick_normals
 
 __all__ = [
@@ -112,44 +114,9 @@ def legacy_ir_value(distance: FloatArray, z: FloatArray, std: FloatArray) -> Flo
     return np.asarray(np.floor(10.0 * (ideal + std * z) + 0.5) / 10.0, dtype=np.float64)
 
 
-def _wedge_normals(phi: FloatArray, half: FloatArray) -> FloatArray:
-    """(M, 4) inward normals ``(lx, ly, rx, ry)`` of each wedge's left and right edges."""
-    out = np.empty((len(phi), 4))  # filled column by column: np.stack costs more than the sums on a few sensors
-    left, right = phi + half, phi - half
-    out[:, 0] = np.sin(left)  # into whole arrays first: a strided output may take another (SIMD-less) loop
-    out[:, 1] = -np.cos(left)
-    out[:, 2] = -np.sin(right)
-    out[:, 3] = np.cos(right)
-    return out
-
-
-def _wedge_bounds(
-    ox: FloatArray, oy: FloatArray, phi: FloatArray, half: FloatArray, r: FloatArray, normals: FloatArray
-) -> tuple[FloatArray, FloatArray]:
-    """Exact bounding boxes of circular sectors: apex, both edge ends, and the arc's extreme
-    points along +-x and +-y where the arc passes them."""
-    # edge directions from the inward normals: left edge (cos(phi+h), sin(phi+h)) = (-ly, lx)
-    lxd, lyd = -normals[:, 1], normals[:, 0]
-    rxd, ryd = normals[:, 3], -normals[:, 2]
-    lo, hi = np.empty((len(ox), 2)), np.empty((len(ox), 2))
-    xl, xr, yl, yr = ox + r * lxd, ox + r * rxd, oy + r * lyd, oy + r * ryd
-    np.minimum(ox, np.minimum(xl, xr), out=lo[:, 0])
-    np.maximum(ox, np.maximum(xl, xr), out=hi[:, 0])
-    np.minimum(oy, np.minimum(yl, yr), out=lo[:, 1])
-    np.maximum(oy, np.maximum(yl, yr), out=hi[:, 1])
-    # the arc's extremes along +x, -x, +y, -y: the four axes at once, (4, M)
-    within = np.abs((_AXES - phi + np.pi) % (2.0 * np.pi) - np.pi) <= half
-    np.copyto(hi[:, 0], ox + r, where=within[0])
-    np.copyto(lo[:, 0], ox - r, where=within[1])
-    np.copyto(hi[:, 1], oy + r, where=within[2])
-    np.copyto(lo[:, 1], oy - r, where=within[3])
-    return lo, hi
-
-
-_AXES = np.array([[0.0], [np.pi], [0.5 * np.pi], [-0.5 * np.pi]])  # angles of +x, -x, +y, -y
-
-
-def proximity_distances(scene: Scene, bodies: Bodies, pose: FloatArray, *, only: BoolArray | None = None) -> FloatArray:
+def proximity_distances(
+    scene: Scene, bodies: Bodies, pose: FloatArray, *, only: BoolArray | None = None, index: SceneIndex | None = None
+) -> FloatArray:
     """The true distance seen by every proximity cone of every robot.
 
     Args:
@@ -158,6 +125,8 @@ def proximity_distances(scene: Scene, bodies: Bodies, pose: FloatArray, *, only:
         pose: (N, 3) poses.
         only: (N,) compute the sensors of these robots only (a sensor shard); every robot is
             still an obstacle to them. The others read ``inf``.
+        index: :func:`~iw_zenoh.core.cellgrid.scene_index` of ``scene`` and the bodies at ``pose``,
+            when the caller has it already.
 
     Returns:
         (M,) distance from each sensor's mounting point to the nearest point of a wall, the border
@@ -170,23 +139,22 @@ def proximity_distances(scene: Scene, bodies: Bodies, pose: FloatArray, *, only:
         sel = np.asarray(only, dtype=bool)[bodies.ir_owner]
         out = np.full(m, np.inf)
         if sel.any():
-            out[sel] = _proximity(scene, bodies, pose, np.flatnonzero(sel))
+            out[sel] = _proximity(scene, bodies, pose, np.flatnonzero(sel), index)
         return out
-    return _proximity(scene, bodies, pose, np.arange(m))
+    return _proximity(scene, bodies, pose, np.arange(m), index)
 
 
-def _proximity(scene: Scene, bodies: Bodies, pose: FloatArray, sensors: IntArray) -> FloatArray:
+def _proximity(
+    scene: Scene, bodies: Bodies, pose: FloatArray, sensors: IntArray, index: SceneIndex | None
+) -> FloatArray:
+    pose = np.ascontiguousarray(pose, dtype=np.float64)
     own = bodies.ir_owner[sensors]
-    c, s = np.cos(pose[own, 2]), np.sin(pose[own, 2])
-    lx, ly = bodies.ir_xy[sensors, 0], bodies.ir_xy[sensors, 1]
-    ox = pose[own, 0] + c * lx - s * ly
-    oy = pose[own, 1] + s * lx + c * ly
-    phi = pose[own, 2] + bodies.ir_angle_rad[sensors]
-    half = bodies.ir_half_cone_rad[sensors]
-    rng = bodies.ir_range_m[sensors]
-    normals = _wedge_normals(phi, half)
-    lo, hi = _wedge_bounds(ox, oy, phi, half, rng, normals)
-    return cone_distances(scene, ox, oy, normals, rng, lo, hi, own, bodies.world_outline(pose))
+    # the compiled _wedge_normals and _wedge_bounds (core.placing, the same numbers)
+    ox, oy, normals, lo, hi = wedges(
+        pose, own, sensors, bodies.ir_xy, bodies.ir_angle_rad, bodies.ir_half_cone_rad, bodies.ir_range_m
+    )
+    ix = scene_index(scene, outline_at(bodies.outline, pose)) if index is None else index
+    return cone_distances(scene, ox, oy, normals, bodies.ir_range_m[sensors], lo, hi, own, ix.body_xy, index=ix)
 
 
 def step_encoders(acc: FloatArray, rolled_m: FloatArray, ticks_per_m: FloatArray, slip: FloatArray) -> FloatArray:
@@ -273,7 +241,7 @@ def _bumpers(scene: Scene, bodies: Bodies, pose: FloatArray) -> BoolArray:
 
 
 def _seen_distances(
-    scene: Scene, bodies: Bodies, pose: FloatArray, *, only: BoolArray | None, legacy_ir: bool
+    scene: Scene, bodies: Bodies, pose: FloatArray, *, only: BoolArray | None, legacy_ir: bool, index: SceneIndex
 ) -> tuple[FloatArray, FloatArray]:
     """The true distance of every proximity sensor and the one its legacy reading comes from.
 
@@ -283,7 +251,7 @@ def _seen_distances(
     """
     own = bodies.ir_owner
     if not (legacy_ir and len(own)):
-        true_d = proximity_distances(scene, bodies, pose, only=only)
+        true_d = proximity_distances(scene, bodies, pose, only=only, index=index)
         return true_d, true_d
     slots = bodies.ir_slots
     angles = np.where(slots >= 0, bodies.ir_angle_rad[np.maximum(slots, 0)], 0.0)
@@ -293,7 +261,7 @@ def _seen_distances(
     # Ciber-Rato's disc robots see by its own model only (their rim sensors have no range, so
     # the cone model would test every body against every sensor for the same answer)
     cones = ~bodies.is_circle if only is None else np.asarray(only, dtype=bool) & ~bodies.is_circle
-    true_d = proximity_distances(scene, bodies, pose, only=cones)
+    true_d = proximity_distances(scene, bodies, pose, only=cones, index=index)
     discs = bodies.is_circle[own]
     true_d[discs] = legacy_d[discs]
     if only is not None:
@@ -367,7 +335,9 @@ def read_sensors(
     p = params or SensorParams()
     nm, ns = bodies.noise_mean, bodies.noise_std
     z_of = tick_normals(bodies, z, len(scene.lab.beacons) + len(moving_beacons))
-    true_d, legacy_d = _seen_distances(scene, bodies, pose, only=only, legacy_ir=legacy_ir)
+    # the bodies at their poses, binned once for the cones and the scanners
+    ix = scene_index(scene, outline_at(bodies.outline, np.ascontiguousarray(pose, dtype=np.float64)))
+    true_d, legacy_d = _seen_distances(scene, bodies, pose, only=only, legacy_ir=legacy_ir, index=ix)
     prox, legacy = _proximity_readings(bodies, true_d, legacy_d, z_of.proximity)
     heading_deg = np.degrees(pose[:, 2])
     compass = wrap_deg(heading_deg + nm["compass_deg"] + ns["compass_deg"] * z_of.compass)
@@ -385,5 +355,5 @@ def read_sensors(
         collision=np.asarray(collided, dtype=bool).copy(),
         encoder_acc=step_encoders(encoder_acc, rolled_m, bodies.ticks_per_m, slip),
         bumpers=_bumpers(scene, bodies, pose),
-        laser_m=noisy_ranges(bodies, laser_distances(scene, bodies, pose, only=only), z_of.laser),
+        laser_m=noisy_ranges(bodies, laser_distances(scene, bodies, pose, only=only, index=ix), z_of.laser),
     )
