@@ -20,15 +20,16 @@ import numpy.typing as npt
 import shapely
 from shapely import STRtree
 
+from iw_zenoh.core import readout
 from iw_zenoh.core.bodies import Bodies, polygons_at
 from iw_zenoh.core.cellgrid import SceneIndex, scene_index
 from iw_zenoh.core.cones import cone_distances
 from iw_zenoh.core.geometry import to_world, wrap_deg
 from iw_zenoh.core.lab import Scene
-from iw_zenoh.core.laser import laser_distances, noisy_ranges
+from iw_zenoh.core.laser import laser_distances
 from iw_zenoh.core.legacy_ir import ciberrato_ir_distances
 from iw_zenoh.core.placing import outline_at, wedges
-from iw_zenoh.core.sensor_noise import noise_bank, noise_layout, tick_normals
+from iw_zenoh.core.sensor_noise import TickNormals, noise_bank, noise_layout, tick_normals
 
 __all__ = [
     "LEGACY_NOTHING",
@@ -269,34 +270,6 @@ def _seen_distances(
     return true_d, legacy_d
 
 
-def _proximity_readings(
-    bodies: Bodies, true_d: FloatArray, legacy_d: FloatArray, z: FloatArray
-) -> tuple[FloatArray, FloatArray]:
-    """Noisy proximity readings: metres (never negative, ``inf`` for nothing) and the legacy value.
-
-    Both draw on the same normal ``z`` (M,) of each sensor.
-    """
-    own = bodies.ir_owner
-    nm, ns = bodies.noise_mean, bodies.noise_std
-    prox = true_d + nm["proximity_m"][own] + ns["proximity_m"][own] * z
-    prox = np.where(np.isfinite(true_d), np.maximum(prox, 0.0), np.inf)
-    return prox, legacy_ir_value(legacy_d, z, ns["proximity_legacy"][own])
-
-
-def _gps(
-    bodies: Bodies, pose: FloatArray, heading_deg: FloatArray, z: FloatArray, offset_m: tuple[float, float]
-) -> FloatArray:
-    """(N, 3) noisy GPS: x and y (m, shifted by ``offset_m``) and heading (deg)."""
-    if not bodies.n:
-        return np.zeros((0, 3))
-    nm, ns = bodies.noise_mean, bodies.noise_std
-    out = np.empty((bodies.n, 3))
-    out[:, 0] = pose[:, 0] + offset_m[0] + nm["gps_m"] + ns["gps_m"] * z[:, 0]
-    out[:, 1] = pose[:, 1] + offset_m[1] + nm["gps_m"] + ns["gps_m"] * z[:, 1]
-    out[:, 2] = wrap_deg(heading_deg + nm["gps_heading_deg"] + ns["gps_heading_deg"] * z[:, 2])
-    return out
-
-
 def read_sensors(
     scene: Scene,
     bodies: Bodies,
@@ -338,22 +311,61 @@ def read_sensors(
     # the bodies at their poses, binned once for the cones and the scanners
     ix = scene_index(scene, outline_at(bodies.outline, np.ascontiguousarray(pose, dtype=np.float64)))
     true_d, legacy_d = _seen_distances(scene, bodies, pose, only=only, legacy_ir=legacy_ir, index=ix)
-    prox, legacy = _proximity_readings(bodies, true_d, legacy_d, z_of.proximity)
-    heading_deg = np.degrees(pose[:, 2])
-    compass = wrap_deg(heading_deg + nm["compass_deg"] + ns["compass_deg"] * z_of.compass)
+    prox, legacy, compass, gps, encoders = _noisy(bodies, pose, z_of, true_d, legacy_d, encoder_acc, rolled_m, p)
     beacon = _beacons(
         scene, pose, z_of.beacon, nm["beacon_deg"], ns["beacon_deg"], p.beacon_aperture_rad, moving_beacons
     )
-    slip = nm["encoder_slip"][:, None] + ns["encoder_slip"][:, None] * z_of.encoder
+    ranges = laser_distances(scene, bodies, pose, only=only, index=ix)
     return Readings(
         proximity_m=prox,
         proximity_legacy=legacy,
         compass_deg=compass,
         beacon_deg=beacon,
-        gps=_gps(bodies, pose, heading_deg, z_of.gps, p.gps_offset_m),
+        gps=gps,
         ground=_ground(scene, bodies, pose),
         collision=np.asarray(collided, dtype=bool).copy(),
-        encoder_acc=step_encoders(encoder_acc, rolled_m, bodies.ticks_per_m, slip),
+        encoder_acc=encoders,
         bumpers=_bumpers(scene, bodies, pose),
-        laser_m=noisy_ranges(bodies, laser_distances(scene, bodies, pose, only=only, index=ix), z_of.laser),
+        laser_m=readout.noisy_ranges(ranges, z_of.laser, bodies.lasers.beam_owner, nm["laser_m"], ns["laser_m"]),
     )
+
+
+def _noisy(
+    bodies: Bodies,
+    pose: FloatArray,
+    z_of: TickNormals,
+    true_d: FloatArray,
+    legacy_d: FloatArray,
+    encoder_acc: FloatArray,
+    rolled_m: FloatArray,
+    p: SensorParams,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """The noisy proximity (metres and legacy), compass, GPS and encoder readings, compiled
+    (core.readout: the numpy expressions' numbers, bit for bit)."""
+    nm, ns = bodies.noise_mean, bodies.noise_std
+    prox, legacy = readout.noisy_proximity(
+        _f64(true_d),
+        _f64(legacy_d),
+        z_of.proximity,
+        bodies.ir_owner,
+        nm["proximity_m"],
+        ns["proximity_m"],
+        ns["proximity_legacy"],
+    )
+    compass, gps = readout.pose_readings(
+        _f64(pose),
+        z_of.compass,
+        z_of.gps,
+        (float(p.gps_offset_m[0]), float(p.gps_offset_m[1])),
+        (nm["compass_deg"], ns["compass_deg"]),
+        (nm["gps_m"], ns["gps_m"]),
+        (nm["gps_heading_deg"], ns["gps_heading_deg"]),
+    )
+    encoders = readout.encoders(
+        _f64(encoder_acc), _f64(rolled_m), bodies.ticks_per_m, z_of.encoder, nm["encoder_slip"], ns["encoder_slip"]
+    )
+    return prox, legacy, compass, gps, encoders
+
+
+def _f64(a: npt.ArrayLike) -> FloatArray:
+    return np.ascontiguousarray(a, dtype=np.float64)

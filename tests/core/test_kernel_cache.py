@@ -15,13 +15,14 @@ from pathlib import Path
 WARM_UP = """
 import json
 from numba.core.registry import CPUDispatcher
-from iw_zenoh.core import cellgrid, cones, laser, placing
+from iw_zenoh.core import cellgrid, cones, laser, placing, readout
 
 cones.warm_up()
 laser.warm_up()
 placing.warm_up()
+readout.warm_up()
 stats = {}
-for module in (cones, laser, cellgrid, placing):
+for module in (cones, laser, cellgrid, placing, readout):
     for name, obj in vars(module).items():
         if isinstance(obj, CPUDispatcher) and obj.signatures:
             s = obj.stats
