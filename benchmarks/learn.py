@@ -9,6 +9,27 @@ observation; and the vector environment of 256 chairs in one world, in chair-ste
 Targets (issue 36): a single environment >= 5,000 steps/s on one core; a batched vector env of 256
 chairs >= 100,000 chair-steps/s; ChairNav >= 10 times ir-sim's own ``env.step`` with one robot and
 a 64-beam lidar in a room of the same size, measured in the same run (ir-sim is in the dev extra).
+
+Measured (k36, 2026-11-28), one core (``taskset -c 1``) of a 2-core machine shared with four other
+engineers' test runs (load average 3 to 16), the tree before (main at 953bc60) and after run back
+to back three times, each figure the best of 5 to 7 blocks of CPU time (``time.process_time``,
+less sensitive to the load than wall time). Still short of every target:
+
+    ChairNav-v0, steps/s            before 1,244 / 862 / 1,206     after 2,179 / 2,647 / 2,197
+    vector env, 256 chairs,         before 26,701 / 24,759 / 24,215  after 40,956 / 31,689 / 27,477
+      chair-steps/s
+    ir-sim env.step, same rounds    1,902 / 1,754 / 1,832
+    ChairNav / ir-sim               before 0.5 to 0.7                after 1.1 to 1.5
+
+(targets: 5,000 steps/s, 100,000 chair-steps/s, 10 times ir-sim)
+
+What changed: the collision check's and the sensors' numpy glue compiled (``core/placing.py``:
+outlines at poses, mounting points, the cones' wedges; ``core/readout.py``: the readings' noise),
+the bodies placed and binned once a tick for cones and laser, the vector env's rooms laid further
+apart than the sensors reach (a laser's search took in about seven rooms' walls), the noise drawn
+for all robots in one call. A step is still some 150 small numpy and Python calls (propose,
+commit, the collision wrapper, the observation) around the kernels: reaching 5,000 steps/s needs
+the whole tick as one compiled call per step.
 """
 
 from __future__ import annotations
