@@ -208,6 +208,8 @@ def _beacons(
 ) -> FloatArray:
     """Bearings to the lab's beacons, then to the beacons robots carry (``moving``: robot index
     and height; the carrier does not see its own)."""
+    if not scene.lab.beacons and not moving:  # none (a learner's room): no lists to build
+        return np.full((len(pose), 0), np.nan)
     fixed = [(bc.x, bc.y, bc.height_m, -1) for bc in scene.lab.beacons]
     carried = [(float(pose[i, 0]), float(pose[i, 1]), h, i) for i, h in moving]
     n = len(pose)
@@ -306,6 +308,8 @@ def read_sensors(
         The readings.
     """
     p = params or SensorParams()
+    if only is not None and np.all(only):
+        only = None  # every robot (the usual shard of one): what None means, without the selections
     nm, ns = bodies.noise_mean, bodies.noise_std
     z_of = tick_normals(bodies, z, len(scene.lab.beacons) + len(moving_beacons))
     # the bodies at their poses, binned once for the cones and the scanners

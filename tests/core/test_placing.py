@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
+from iw_zenoh.core.cellgrid import _boxes
 from iw_zenoh.core.collision import interpolate_pose
 from iw_zenoh.core.geometry import to_world
 from iw_zenoh.core.placing import mounts, outline_at, swept_outlines, wedges
@@ -122,3 +123,12 @@ def test_wedges_are_the_numpy_wedges_bit_for_bit(layout: tuple[np.ndarray, ...])
     mx, my = mounts(pose, own, xy, rows)
     _same(mx, ox)
     _same(my, oy)
+
+
+@given(cases())
+@settings(max_examples=200, deadline=None)
+def test_outline_boxes_are_numpys_min_and_max(case: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
+    local, now, _ = case
+    xy = outline_at(local, now)
+    want = np.concatenate([xy.min(axis=1), xy.max(axis=1)], axis=1) if len(xy) else np.zeros((0, 4))
+    _same(_boxes(xy), want)
