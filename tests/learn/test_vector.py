@@ -64,7 +64,9 @@ def test_no_sensor_search_reaches_another_rooms_walls() -> None:
     env.reset(seed=2)
     assert env.world is not None
     spec = env.chair
-    reach = max(math.hypot(a.x_m, a.y_m) + a.range_m for a in [*spec.lasers, *env.world.spec(env.rid[0]).ir_sensors])
+    mounted = [(a.x_m, a.y_m, a.range_m) for a in spec.lasers]
+    mounted += [(s.x_m, s.y_m, s.range_m) for s in env.world.spec(env.rid[0]).ir_sensors]
+    reach = max(math.hypot(x, y) + r for x, y, r in mounted)
     walls = env.world.view().scene.lab.walls
     boxes = [
         (
