@@ -45,7 +45,7 @@ def _same(a: np.ndarray, b: np.ndarray) -> None:
 
 
 @given(cases())
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=100, deadline=None)
 def test_outlines_are_to_worlds_bit_for_bit(case: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
     local, now, nxt = case
     _same(outline_at(local, now), to_world(local, now[:, 0], now[:, 1], now[:, 2]))
@@ -105,7 +105,7 @@ def layouts(draw: st.DrawFn) -> tuple[np.ndarray, ...]:
 
 
 @given(layouts())
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=100, deadline=None)
 def test_wedges_are_the_numpy_wedges_bit_for_bit(layout: tuple[np.ndarray, ...]) -> None:
     pose, owner, xy, angle, half, rng, rows = layout
     own = owner[rows]
@@ -126,7 +126,7 @@ def test_wedges_are_the_numpy_wedges_bit_for_bit(layout: tuple[np.ndarray, ...])
 
 
 @given(cases())
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=100, deadline=None)
 def test_outline_boxes_are_numpys_min_and_max(case: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
     local, now, _ = case
     xy = outline_at(local, now)

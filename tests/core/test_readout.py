@@ -40,7 +40,7 @@ def sensors(draw: st.DrawFn) -> tuple[np.ndarray, ...]:
 
 
 @given(sensors())
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=100, deadline=None)
 def test_proximity_and_laser_noise_are_the_numpy_ones(case: tuple[np.ndarray, ...]) -> None:
     true_d, legacy_d, z, own, mean, std, std_l = case
     # core.sensors' _proximity_readings, as it was
@@ -75,7 +75,7 @@ def robots(draw: st.DrawFn) -> tuple[np.ndarray, ...]:
 
 
 @given(robots(), st.tuples(FINITE, FINITE))
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=100, deadline=None)
 def test_compass_gps_and_encoders_are_the_numpy_ones(case: tuple[np.ndarray, ...], offset: tuple[float, float]) -> None:
     pose, z_c, z_g, z_e, cm, cs, gm, gs, hm, hs, sm, ss, acc, rolled, tpm = case
     # core.sensors' read_sensors and _gps, as they were
