@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import numpy.typing as npt
@@ -102,9 +103,9 @@ class Lasers:
             first=np.concatenate([[0], np.cumsum(beams)]).astype(np.int64),
         )
 
-    @property
+    @cached_property
     def beam_owner(self) -> IntArray:
-        """(L,) index of the robot of each beam."""
+        """(L,) index of the robot of each beam (worked out once: the readings' noise asks each tick)."""
         return np.repeat(self.owner, self.beams)
 
 

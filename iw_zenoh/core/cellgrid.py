@@ -181,9 +181,26 @@ def scene_index(scene: Scene, body_xy: FloatArray) -> SceneIndex:
     w = scene_walls(scene)
     g = w.grid
     body_xy = np.ascontiguousarray(body_xy, dtype=np.float64)
-    bbox = np.concatenate([body_xy.min(axis=1), body_xy.max(axis=1)], axis=1) if len(body_xy) else np.zeros((0, 4))
+    bbox = _boxes(body_xy)
     b_start, b_items = bin_boxes(bbox, g.x0, g.y0, g.cell, g.nx, g.ny)
     return SceneIndex(w, body_xy, bbox, b_start, b_items)
+
+
+@njit(cache=True, nogil=True)
+def _boxes(body_xy: FloatArray) -> FloatArray:  # pragma: no cover
+    """(N, 4) each outline's box ``x0, y0, x1, y1`` (the least and greatest of its corners: numpy's
+    ``min`` and ``max`` over them, in one call)."""
+    n, k = body_xy.shape[0], body_xy.shape[1]
+    out = np.empty((n, 4))
+    for i in range(n):
+        x0, y0 = body_xy[i, 0, 0], body_xy[i, 0, 1]
+        x1, y1 = x0, y0
+        for e in range(1, k):
+            x, y = body_xy[i, e, 0], body_xy[i, e, 1]
+            x0, x1 = min(x0, x), max(x1, x)
+            y0, y1 = min(y0, y), max(y1, y)
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3] = x0, y0, x1, y1
+    return out
 
 
 @njit(cache=True, nogil=True)

@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 
-from iw_zenoh.core.geometry import to_world, wrap_rad
+from iw_zenoh.core.geometry import wrap_rad
 from iw_zenoh.core.lab import Scene
 
 __all__ = ["Collisions", "check_collisions", "check_collisions_ciberrato", "interpolate_pose"]
@@ -67,6 +67,10 @@ def interpolate_pose(a: FloatArray, b: FloatArray, t: float) -> FloatArray:
     return out
 
 
+def _f64(a: FloatArray) -> FloatArray:
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
 def _pairs(tree_query: IntArray) -> IntArray:
     return np.ascontiguousarray(tree_query.T, dtype=np.int64).reshape(-1, 2)
 
@@ -110,22 +114,27 @@ def check_collisions(
     empty = np.zeros((0, 2), dtype=np.int64)
     if n == 0:
         return Collisions.none(0)
-    act = np.ones(n, dtype=bool) if active is None else np.asarray(active, dtype=bool)
-    idx = np.flatnonzero(act)
-    wall_free = np.zeros(len(idx), dtype=bool) if ignore_walls is None else np.asarray(ignore_walls, dtype=bool)[idx]
-    if len(idx) == n:  # every robot takes part (the usual tick): no copies of the arrays
-        o, now, nxt = outline, pose_now, pose_next
+    idx: IntArray | None = None  # the robots taking part, None: all of them
+    if active is not None and not np.all(active):
+        idx = np.flatnonzero(np.asarray(active, dtype=bool))
+    free = np.zeros(n, dtype=bool) if ignore_walls is None else np.asarray(ignore_walls, dtype=bool)
+    if idx is None:  # every robot takes part (the usual tick): no copies of the arrays
+        o, now, nxt, wall_free = outline, pose_now, pose_next, free
     else:
-        o, now, nxt = outline[idx], pose_now[idx], pose_next[idx]
-    mid = interpolate_pose(now, nxt, 0.5)
-    c_now = to_world(o, now[:, 0], now[:, 1], now[:, 2])
-    c_mid = to_world(o, mid[:, 0], mid[:, 1], mid[:, 2])
-    c_next = to_world(o, nxt[:, 0], nxt[:, 1], nxt[:, 2])
-    from iw_zenoh.core.contact import touching  # here: the world holds Collisions, never loads the kernel (numba)
+        o, now, nxt, wall_free = outline[idx], pose_now[idx], pose_next[idx], free[idx]
+    # here, not at the top: the world holds Collisions and never loads the kernels (numba)
+    from iw_zenoh.core.contact import touching
+    from iw_zenoh.core.placing import swept_outlines
 
+    # now, half-way (interpolate_pose(now, nxt, 0.5)) and next, each to_world's bit for bit
+    c_now, c_mid, c_next = swept_outlines(_f64(o), _f64(now), _f64(nxt))
     walls, robots = touching(scene, c_now, c_mid, c_next, wall_free)
-    wall_pairs = np.stack([idx[walls[:, 0]], walls[:, 1]], axis=1) if len(walls) else empty
-    robot_pairs = idx[robots] if len(robots) else empty
+    if idx is None:
+        wall_pairs = walls if len(walls) else empty
+        robot_pairs = robots if len(robots) else empty
+    else:
+        wall_pairs = np.stack([idx[walls[:, 0]], walls[:, 1]], axis=1) if len(walls) else empty
+        robot_pairs = idx[robots] if len(robots) else empty
     hit_wall = np.zeros(n, dtype=bool)
     hit_wall[wall_pairs[:, 0]] = True
     hit_robot = np.zeros(n, dtype=bool)

@@ -42,6 +42,8 @@ def cone_distances(
     box_hi: FloatArray,
     owner: IntArray,
     body_xy: FloatArray,
+    *,
+    index: SceneIndex | None = None,
 ) -> FloatArray:
     """Distance each cone sees (``inf`` beyond its range).
 
@@ -55,6 +57,8 @@ def cone_distances(
         box_hi: (M, 2) upper corner.
         owner: (M,) the body each cone is mounted on (it does not see itself).
         body_xy: (N, K, 2) every body's outline in the world, counter-clockwise.
+        index: :func:`~iw_zenoh.core.cellgrid.scene_index` of ``scene`` and ``body_xy``, when the
+            caller has it already (the sensors build it once a tick for the cones and the laser).
     """
     box = np.ascontiguousarray(np.concatenate([box_lo, box_hi], axis=1), dtype=np.float64)
     return np.asarray(
@@ -65,7 +69,7 @@ def cone_distances(
             np.ascontiguousarray(range_m, dtype=np.float64),
             box,
             np.ascontiguousarray(owner, dtype=np.int64),
-            scene_index(scene, body_xy),
+            scene_index(scene, body_xy) if index is None else index,
         ),
         dtype=np.float64,
     )

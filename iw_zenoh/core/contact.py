@@ -20,6 +20,7 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
+from iw_zenoh.core import placing
 from iw_zenoh.core.cellgrid import CellGrid, bin_boxes, gather, in_convex, in_wall, scene_walls
 from iw_zenoh.core.lab import Lab, Scene, Wall
 
@@ -283,3 +284,4 @@ def warm_up() -> None:
         [[[0.1, 0.1], [0.3, 0.1], [0.3, 0.3], [0.1, 0.3]], [[0.2, 0.2], [0.4, 0.2], [0.4, 0.4], [0.2, 0.4]]]
     )
     touching(scene, sq, sq + 0.5, sq + 1.0, np.zeros(2, dtype=np.bool_))
+    placing.warm_up()  # the outlines the check places

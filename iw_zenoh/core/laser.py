@@ -24,6 +24,7 @@ from numba import njit
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.cellgrid import SceneIndex, gather, in_convex, in_walls, scene_index
 from iw_zenoh.core.lab import Lab, Scene, Wall
+from iw_zenoh.core.placing import mounts, outline_at
 
 __all__ = ["laser_distances", "laser_ranges", "noisy_ranges", "warm_up"]
 
@@ -35,7 +36,12 @@ TWO_PI = 2.0 * math.pi
 
 
 def laser_distances(
-    scene: Scene, bodies: Bodies, pose: FloatArray, *, only: npt.NDArray[np.bool_] | None = None
+    scene: Scene,
+    bodies: Bodies,
+    pose: FloatArray,
+    *,
+    only: npt.NDArray[np.bool_] | None = None,
+    index: SceneIndex | None = None,
 ) -> FloatArray:
     """The true range every beam of every robot's laser scanners reads.
 
@@ -45,13 +51,25 @@ def laser_distances(
         pose: (N, 3) poses.
         only: (N,) compute the scanners of these robots only (a sensor shard); every robot is still
             an obstacle to them. The others read ``inf``.
+        index: :func:`~iw_zenoh.core.cellgrid.scene_index` of ``scene`` and the bodies at ``pose``,
+            when the caller has it already.
 
     Returns:
         (L,) ranges in :attr:`~iw_zenoh.core.bodies.Lasers.first` order, ``inf`` beyond range.
     """
     lz = bodies.lasers
+    if only is None or np.all(only):  # every scanner (the usual tick): no selection arrays
+        if not len(lz.owner):
+            return np.full(int(lz.first[-1]), np.inf)
+        pose = np.ascontiguousarray(pose, dtype=np.float64)
+        ox, oy = mounts(pose, lz.owner, lz.xy, np.arange(len(lz.owner)))
+        ix = scene_index(scene, outline_at(bodies.outline, pose)) if index is None else index
+        return np.asarray(
+            _scan(ox, oy, pose[lz.owner, 2] + lz.start_rad, lz.step_rad, lz.first, lz.range_m, lz.owner, ix),
+            dtype=np.float64,
+        )
     out = np.full(int(lz.first[-1]), np.inf)
-    sel = np.ones(len(lz.owner), dtype=bool) if only is None else np.asarray(only, dtype=bool)[lz.owner]
+    sel = np.asarray(only, dtype=bool)[lz.owner]
     if not sel.any():
         return out
     own = lz.owner[sel]
@@ -67,6 +85,7 @@ def laser_distances(
         lz.range_m[sel],
         own,
         bodies.world_outline(pose),
+        index=index,
     )
     out[np.repeat(sel, lz.beams)] = got
     return out
@@ -99,6 +118,8 @@ def laser_ranges(
     range_m: FloatArray,
     owner: IntArray,
     body_xy: FloatArray,
+    *,
+    index: SceneIndex | None = None,
 ) -> FloatArray:
     """The range every beam of every scanner reads.
 
@@ -112,6 +133,7 @@ def laser_ranges(
         range_m: (S,) ranges.
         owner: (S,) the body each scanner is mounted on (it does not see itself).
         body_xy: (N, K, 2) every body's outline in the world, counter-clockwise.
+        index: :func:`~iw_zenoh.core.cellgrid.scene_index` of ``scene`` and ``body_xy``, if built.
 
     Returns:
         (sum(beams),) the ranges, scanner after scanner, first beam first; ``inf`` where a beam
@@ -128,7 +150,7 @@ def laser_ranges(
             first,
             np.ascontiguousarray(range_m, dtype=np.float64),
             np.ascontiguousarray(owner, dtype=np.int64),
-            scene_index(scene, body_xy),
+            scene_index(scene, body_xy) if index is None else index,
         ),
         dtype=np.float64,
     )

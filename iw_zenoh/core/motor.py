@@ -66,7 +66,9 @@ def clamp_power(power: npt.ArrayLike) -> FloatArray:
     p = np.asarray(power, dtype=np.float64)
     # np.where rather than np.nan_to_num (same result once clipped: an infinity becomes the
     # limit either way), which costs several times more on a tick's few robots
-    return np.clip(np.where(np.isnan(p), 0.0, p), -MAX_POWER, MAX_POWER)
+    # and minimum(maximum()) rather than np.clip: the same values (clip's ties are at +-0.15 only,
+    # where both give 0.15's sign), without np.clip's wrappers, which cost more than the sum
+    return np.minimum(np.maximum(np.where(np.isnan(p), 0.0, p), -MAX_POWER), MAX_POWER)
 
 
 def step_motors(out_prev: FloatArray, cmd: FloatArray, curve: FloatArray) -> FloatArray:

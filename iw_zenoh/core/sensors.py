@@ -20,13 +20,16 @@ import numpy.typing as npt
 import shapely
 from shapely import STRtree
 
+from iw_zenoh.core import readout
 from iw_zenoh.core.bodies import Bodies, polygons_at
+from iw_zenoh.core.cellgrid import SceneIndex, scene_index
 from iw_zenoh.core.cones import cone_distances
 from iw_zenoh.core.geometry import to_world, wrap_deg
 from iw_zenoh.core.lab import Scene
-from iw_zenoh.core.laser import laser_distances, noisy_ranges
+from iw_zenoh.core.laser import laser_distances
 from iw_zenoh.core.legacy_ir import ciberrato_ir_distances
-from iw_zenoh.core.sensor_noise import noise_bank, noise_layout, tick_normals
+from iw_zenoh.core.placing import outline_at, wedges
+from iw_zenoh.core.sensor_noise import TickNormals, noise_bank, noise_layout, tick_normals
 
 __all__ = [
     "LEGACY_NOTHING",
@@ -112,44 +115,9 @@ def legacy_ir_value(distance: FloatArray, z: FloatArray, std: FloatArray) -> Flo
     return np.asarray(np.floor(10.0 * (ideal + std * z) + 0.5) / 10.0, dtype=np.float64)
 
 
-def _wedge_normals(phi: FloatArray, half: FloatArray) -> FloatArray:
-    """(M, 4) inward normals ``(lx, ly, rx, ry)`` of each wedge's left and right edges."""
-    out = np.empty((len(phi), 4))  # filled column by column: np.stack costs more than the sums on a few sensors
-    left, right = phi + half, phi - half
-    out[:, 0] = np.sin(left)  # into whole arrays first: a strided output may take another (SIMD-less) loop
-    out[:, 1] = -np.cos(left)
-    out[:, 2] = -np.sin(right)
-    out[:, 3] = np.cos(right)
-    return out
-
-
-def _wedge_bounds(
-    ox: FloatArray, oy: FloatArray, phi: FloatArray, half: FloatArray, r: FloatArray, normals: FloatArray
-) -> tuple[FloatArray, FloatArray]:
-    """Exact bounding boxes of circular sectors: apex, both edge ends, and the arc's extreme
-    points along +-x and +-y where the arc passes them."""
-    # edge directions from the inward normals: left edge (cos(phi+h), sin(phi+h)) = (-ly, lx)
-    lxd, lyd = -normals[:, 1], normals[:, 0]
-    rxd, ryd = normals[:, 3], -normals[:, 2]
-    lo, hi = np.empty((len(ox), 2)), np.empty((len(ox), 2))
-    xl, xr, yl, yr = ox + r * lxd, ox + r * rxd, oy + r * lyd, oy + r * ryd
-    np.minimum(ox, np.minimum(xl, xr), out=lo[:, 0])
-    np.maximum(ox, np.maximum(xl, xr), out=hi[:, 0])
-    np.minimum(oy, np.minimum(yl, yr), out=lo[:, 1])
-    np.maximum(oy, np.maximum(yl, yr), out=hi[:, 1])
-    # the arc's extremes along +x, -x, +y, -y: the four axes at once, (4, M)
-    within = np.abs((_AXES - phi + np.pi) % (2.0 * np.pi) - np.pi) <= half
-    np.copyto(hi[:, 0], ox + r, where=within[0])
-    np.copyto(lo[:, 0], ox - r, where=within[1])
-    np.copyto(hi[:, 1], oy + r, where=within[2])
-    np.copyto(lo[:, 1], oy - r, where=within[3])
-    return lo, hi
-
-
-_AXES = np.array([[0.0], [np.pi], [0.5 * np.pi], [-0.5 * np.pi]])  # angles of +x, -x, +y, -y
-
-
-def proximity_distances(scene: Scene, bodies: Bodies, pose: FloatArray, *, only: BoolArray | None = None) -> FloatArray:
+def proximity_distances(
+    scene: Scene, bodies: Bodies, pose: FloatArray, *, only: BoolArray | None = None, index: SceneIndex | None = None
+) -> FloatArray:
     """The true distance seen by every proximity cone of every robot.
 
     Args:
@@ -158,6 +126,8 @@ def proximity_distances(scene: Scene, bodies: Bodies, pose: FloatArray, *, only:
         pose: (N, 3) poses.
         only: (N,) compute the sensors of these robots only (a sensor shard); every robot is
             still an obstacle to them. The others read ``inf``.
+        index: :func:`~iw_zenoh.core.cellgrid.scene_index` of ``scene`` and the bodies at ``pose``,
+            when the caller has it already.
 
     Returns:
         (M,) distance from each sensor's mounting point to the nearest point of a wall, the border
@@ -170,23 +140,22 @@ def proximity_distances(scene: Scene, bodies: Bodies, pose: FloatArray, *, only:
         sel = np.asarray(only, dtype=bool)[bodies.ir_owner]
         out = np.full(m, np.inf)
         if sel.any():
-            out[sel] = _proximity(scene, bodies, pose, np.flatnonzero(sel))
+            out[sel] = _proximity(scene, bodies, pose, np.flatnonzero(sel), index)
         return out
-    return _proximity(scene, bodies, pose, np.arange(m))
+    return _proximity(scene, bodies, pose, np.arange(m), index)
 
 
-def _proximity(scene: Scene, bodies: Bodies, pose: FloatArray, sensors: IntArray) -> FloatArray:
+def _proximity(
+    scene: Scene, bodies: Bodies, pose: FloatArray, sensors: IntArray, index: SceneIndex | None
+) -> FloatArray:
+    pose = np.ascontiguousarray(pose, dtype=np.float64)
     own = bodies.ir_owner[sensors]
-    c, s = np.cos(pose[own, 2]), np.sin(pose[own, 2])
-    lx, ly = bodies.ir_xy[sensors, 0], bodies.ir_xy[sensors, 1]
-    ox = pose[own, 0] + c * lx - s * ly
-    oy = pose[own, 1] + s * lx + c * ly
-    phi = pose[own, 2] + bodies.ir_angle_rad[sensors]
-    half = bodies.ir_half_cone_rad[sensors]
-    rng = bodies.ir_range_m[sensors]
-    normals = _wedge_normals(phi, half)
-    lo, hi = _wedge_bounds(ox, oy, phi, half, rng, normals)
-    return cone_distances(scene, ox, oy, normals, rng, lo, hi, own, bodies.world_outline(pose))
+    # the compiled _wedge_normals and _wedge_bounds (core.placing, the same numbers)
+    ox, oy, normals, lo, hi = wedges(
+        pose, own, sensors, bodies.ir_xy, bodies.ir_angle_rad, bodies.ir_half_cone_rad, bodies.ir_range_m
+    )
+    ix = scene_index(scene, outline_at(bodies.outline, pose)) if index is None else index
+    return cone_distances(scene, ox, oy, normals, bodies.ir_range_m[sensors], lo, hi, own, ix.body_xy, index=ix)
 
 
 def step_encoders(acc: FloatArray, rolled_m: FloatArray, ticks_per_m: FloatArray, slip: FloatArray) -> FloatArray:
@@ -239,6 +208,8 @@ def _beacons(
 ) -> FloatArray:
     """Bearings to the lab's beacons, then to the beacons robots carry (``moving``: robot index
     and height; the carrier does not see its own)."""
+    if not scene.lab.beacons and not moving:  # none (a learner's room): no lists to build
+        return np.full((len(pose), 0), np.nan)
     fixed = [(bc.x, bc.y, bc.height_m, -1) for bc in scene.lab.beacons]
     carried = [(float(pose[i, 0]), float(pose[i, 1]), h, i) for i, h in moving]
     n = len(pose)
@@ -273,7 +244,7 @@ def _bumpers(scene: Scene, bodies: Bodies, pose: FloatArray) -> BoolArray:
 
 
 def _seen_distances(
-    scene: Scene, bodies: Bodies, pose: FloatArray, *, only: BoolArray | None, legacy_ir: bool
+    scene: Scene, bodies: Bodies, pose: FloatArray, *, only: BoolArray | None, legacy_ir: bool, index: SceneIndex
 ) -> tuple[FloatArray, FloatArray]:
     """The true distance of every proximity sensor and the one its legacy reading comes from.
 
@@ -283,7 +254,7 @@ def _seen_distances(
     """
     own = bodies.ir_owner
     if not (legacy_ir and len(own)):
-        true_d = proximity_distances(scene, bodies, pose, only=only)
+        true_d = proximity_distances(scene, bodies, pose, only=only, index=index)
         return true_d, true_d
     slots = bodies.ir_slots
     angles = np.where(slots >= 0, bodies.ir_angle_rad[np.maximum(slots, 0)], 0.0)
@@ -293,40 +264,12 @@ def _seen_distances(
     # Ciber-Rato's disc robots see by its own model only (their rim sensors have no range, so
     # the cone model would test every body against every sensor for the same answer)
     cones = ~bodies.is_circle if only is None else np.asarray(only, dtype=bool) & ~bodies.is_circle
-    true_d = proximity_distances(scene, bodies, pose, only=cones)
+    true_d = proximity_distances(scene, bodies, pose, only=cones, index=index)
     discs = bodies.is_circle[own]
     true_d[discs] = legacy_d[discs]
     if only is not None:
         true_d[~np.asarray(only, dtype=bool)[own]] = np.inf
     return true_d, legacy_d
-
-
-def _proximity_readings(
-    bodies: Bodies, true_d: FloatArray, legacy_d: FloatArray, z: FloatArray
-) -> tuple[FloatArray, FloatArray]:
-    """Noisy proximity readings: metres (never negative, ``inf`` for nothing) and the legacy value.
-
-    Both draw on the same normal ``z`` (M,) of each sensor.
-    """
-    own = bodies.ir_owner
-    nm, ns = bodies.noise_mean, bodies.noise_std
-    prox = true_d + nm["proximity_m"][own] + ns["proximity_m"][own] * z
-    prox = np.where(np.isfinite(true_d), np.maximum(prox, 0.0), np.inf)
-    return prox, legacy_ir_value(legacy_d, z, ns["proximity_legacy"][own])
-
-
-def _gps(
-    bodies: Bodies, pose: FloatArray, heading_deg: FloatArray, z: FloatArray, offset_m: tuple[float, float]
-) -> FloatArray:
-    """(N, 3) noisy GPS: x and y (m, shifted by ``offset_m``) and heading (deg)."""
-    if not bodies.n:
-        return np.zeros((0, 3))
-    nm, ns = bodies.noise_mean, bodies.noise_std
-    out = np.empty((bodies.n, 3))
-    out[:, 0] = pose[:, 0] + offset_m[0] + nm["gps_m"] + ns["gps_m"] * z[:, 0]
-    out[:, 1] = pose[:, 1] + offset_m[1] + nm["gps_m"] + ns["gps_m"] * z[:, 1]
-    out[:, 2] = wrap_deg(heading_deg + nm["gps_heading_deg"] + ns["gps_heading_deg"] * z[:, 2])
-    return out
 
 
 def read_sensors(
@@ -365,25 +308,68 @@ def read_sensors(
         The readings.
     """
     p = params or SensorParams()
+    if only is not None and np.all(only):
+        only = None  # every robot (the usual shard of one): what None means, without the selections
     nm, ns = bodies.noise_mean, bodies.noise_std
     z_of = tick_normals(bodies, z, len(scene.lab.beacons) + len(moving_beacons))
-    true_d, legacy_d = _seen_distances(scene, bodies, pose, only=only, legacy_ir=legacy_ir)
-    prox, legacy = _proximity_readings(bodies, true_d, legacy_d, z_of.proximity)
-    heading_deg = np.degrees(pose[:, 2])
-    compass = wrap_deg(heading_deg + nm["compass_deg"] + ns["compass_deg"] * z_of.compass)
+    # the bodies at their poses, binned once for the cones and the scanners
+    ix = scene_index(scene, outline_at(bodies.outline, np.ascontiguousarray(pose, dtype=np.float64)))
+    true_d, legacy_d = _seen_distances(scene, bodies, pose, only=only, legacy_ir=legacy_ir, index=ix)
+    prox, legacy, compass, gps, encoders = _noisy(bodies, pose, z_of, true_d, legacy_d, encoder_acc, rolled_m, p)
     beacon = _beacons(
         scene, pose, z_of.beacon, nm["beacon_deg"], ns["beacon_deg"], p.beacon_aperture_rad, moving_beacons
     )
-    slip = nm["encoder_slip"][:, None] + ns["encoder_slip"][:, None] * z_of.encoder
+    ranges = laser_distances(scene, bodies, pose, only=only, index=ix)
     return Readings(
         proximity_m=prox,
         proximity_legacy=legacy,
         compass_deg=compass,
         beacon_deg=beacon,
-        gps=_gps(bodies, pose, heading_deg, z_of.gps, p.gps_offset_m),
+        gps=gps,
         ground=_ground(scene, bodies, pose),
         collision=np.asarray(collided, dtype=bool).copy(),
-        encoder_acc=step_encoders(encoder_acc, rolled_m, bodies.ticks_per_m, slip),
+        encoder_acc=encoders,
         bumpers=_bumpers(scene, bodies, pose),
-        laser_m=noisy_ranges(bodies, laser_distances(scene, bodies, pose, only=only), z_of.laser),
+        laser_m=readout.noisy_ranges(ranges, z_of.laser, bodies.lasers.beam_owner, nm["laser_m"], ns["laser_m"]),
     )
+
+
+def _noisy(
+    bodies: Bodies,
+    pose: FloatArray,
+    z_of: TickNormals,
+    true_d: FloatArray,
+    legacy_d: FloatArray,
+    encoder_acc: FloatArray,
+    rolled_m: FloatArray,
+    p: SensorParams,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """The noisy proximity (metres and legacy), compass, GPS and encoder readings, compiled
+    (core.readout: the numpy expressions' numbers, bit for bit)."""
+    nm, ns = bodies.noise_mean, bodies.noise_std
+    prox, legacy = readout.noisy_proximity(
+        _f64(true_d),
+        _f64(legacy_d),
+        z_of.proximity,
+        bodies.ir_owner,
+        nm["proximity_m"],
+        ns["proximity_m"],
+        ns["proximity_legacy"],
+    )
+    compass, gps = readout.pose_readings(
+        _f64(pose),
+        z_of.compass,
+        z_of.gps,
+        (float(p.gps_offset_m[0]), float(p.gps_offset_m[1])),
+        (nm["compass_deg"], ns["compass_deg"]),
+        (nm["gps_m"], ns["gps_m"]),
+        (nm["gps_heading_deg"], ns["gps_heading_deg"]),
+    )
+    encoders = readout.encoders(
+        _f64(encoder_acc), _f64(rolled_m), bodies.ticks_per_m, z_of.encoder, nm["encoder_slip"], ns["encoder_slip"]
+    )
+    return prox, legacy, compass, gps, encoders
+
+
+def _f64(a: npt.ArrayLike) -> FloatArray:
+    return np.ascontiguousarray(a, dtype=np.float64)

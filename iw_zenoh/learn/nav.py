@@ -80,6 +80,7 @@ class Senses:
             [np.full(las.beams, las.range_m) for las in spec.lasers] or [np.zeros(0)]
         ).astype(np.float64)
         self.period_s = period_s
+        self.ranges = np.concatenate([self.ir_range, self.laser_range])  # the proximity and laser part's bounds
         k, b = len(self.ir_range), len(self.laser_range)
         self.size = k + b + 2 + 3 + 2
         self.wheel_max = WHEEL_BOUND * spec.max_speed_mps
@@ -117,8 +118,9 @@ class Senses:
         goal: Goal,
     ) -> np.ndarray:
         """The vector from one chair's readings (nothing in range: NaN or inf) and its state."""
-        prox = np.clip(np.where(np.isfinite(prox), prox, self.ir_range), 0.0, self.ir_range)
-        laser = np.clip(np.where(np.isfinite(laser), laser, self.laser_range), 0.0, self.laser_range)
+        # proximity and laser at once (element by element, the same values as each part alone)
+        seen = np.concatenate([prox, laser])
+        seen = np.clip(np.where(np.isfinite(seen), seen, self.ranges), 0.0, self.ranges)
         c = math.radians(compass_deg)
         x, y, h = pose
         dist = math.hypot(goal.x - x, goal.y - y)
@@ -132,7 +134,7 @@ class Senses:
             rolled[0] / self.period_s,
             rolled[1] / self.period_s,
         ]
-        return np.clip(np.concatenate([prox, laser, tail]).astype(np.float32), self.lo, self.hi)
+        return np.clip(np.concatenate([seen, tail]).astype(np.float32), self.lo, self.hi)
 
 
 @lru_cache(maxsize=8)
@@ -155,7 +157,8 @@ def to_powers(action: np.ndarray, spec: RobotSpec, mode: str) -> tuple[float, fl
     Raises:
         ValueError: An unknown ``mode``.
     """
-    a = np.clip(np.asarray(action, dtype=np.float64).reshape(2), -1.0, 1.0)
+    # clamped as Python floats: np.clip's value (NaN kept, -0.0 kept) without its wrappers' cost
+    a = [min(max(x, -1.0), 1.0) for x in np.asarray(action, dtype=np.float64).reshape(2).tolist()]
     if mode == "wheels":
         return float(a[0] * MAX_POWER), float(a[1] * MAX_POWER)
     if mode != "vw":

@@ -21,7 +21,7 @@ from collections.abc import Sequence
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus, Delivery, Inbox
-from iw_zenoh.core import cones, laser
+from iw_zenoh.core import cones, laser, placing, readout
 from iw_zenoh.core.modes import Profile
 from iw_zenoh.errors import ProtocolError
 from iw_zenoh.messages import Proposed, WorldState, encode_sensor_batch
@@ -265,3 +265,5 @@ def _warm_up() -> None:
     """Compiles (or loads from the cache) the cones' and the laser scanners' kernels."""
     cones.warm_up()
     laser.warm_up()
+    placing.warm_up()  # the wedges, mounting points and outlines they are given
+    readout.warm_up()  # the noise on what they read

@@ -54,6 +54,7 @@ from iw_zenoh.messages import (
 from iw_zenoh.sim.collision import CollisionNode
 from iw_zenoh.sim.config import WorldConfig
 from iw_zenoh.sim.radio import RadioConfig, RadioNode
+from iw_zenoh.sim.registry import Entry
 from iw_zenoh.sim.sensors import SensorsNode
 from iw_zenoh.sim.view import WorldView
 from iw_zenoh.sim.world import WorldCore
@@ -164,6 +165,7 @@ class LocalWorld:
         self._scene_src: Scene | None = None  # the world's scene the view's was built from
         self._specs: dict[int, RobotSpec] = {}  # each robot's spec as the view has it (kept while it is here)
         self.last: Step | None = None
+        self._entries: tuple[int, list[Entry]] = (-1, [])  # step_arrays' robots, by revision
 
     # --- the roster ------------------------------------------------------------------------
 
@@ -296,9 +298,12 @@ class LocalWorld:
         cmd = np.array(powers, dtype=np.float64)
         if cmd.shape != (len(ids), 2):
             raise IwError(f"step_arrays takes ({len(ids)}, 2) wheel powers, one row a robot, got {cmd.shape}")
-        entries = [w.registry.entries[rid] for rid in ids]
-        if any(e.spec.type == RobotType.REAL for e in entries):
-            raise IwError("step_arrays cannot step a Real robot (its agent reports its pose): use step()")
+        if self._entries[0] != w.revision:  # the roster's entries, checked once a revision
+            entries = [w.registry.entries[rid] for rid in ids]
+            if any(e.spec.type == RobotType.REAL for e in entries):
+                raise IwError("step_arrays cannot step a Real robot (its agent reports its pose): use step()")
+            self._entries = (w.revision, entries)
+        entries = self._entries[1]
         for e, (left, right) in zip(entries, cmd.tolist(), strict=True):
             e.cmd = (left, right)  # as on_actions keeps them: a later step() without a command keeps them
         view = self.view()

@@ -202,10 +202,7 @@ class SensorsNode:
         if self._z is not None and self._z[0] == tick and self._z[1] == ids:
             return self._z[2]
         z = np.zeros(int(sum(counts)))
-        take = self._noise.take
-        for i, rid, s0, c in zip(range(len(ids)), ids, starts, counts, strict=True):
-            if only[i]:
-                z[s0 : s0 + c] = take(rid, c)
+        self._noise.fill(ids, counts, starts, only.tolist(), z)
         self._z = (tick, ids, z)
         return z
 

@@ -24,6 +24,7 @@ from iw_zenoh.core.lab import Grid, Lab, Scene
 from iw_zenoh.core.modes import Mode, Profile, Silence
 from iw_zenoh.core.spec import RobotType
 from iw_zenoh.core.world import Proposal, commit, initial_state, propose
+from iw_zenoh.core.world import WorldState as CoreState
 from iw_zenoh.messages import (
     Actions,
     Control,
@@ -314,7 +315,8 @@ class WorldCore:
         reported, NaN rows for none), pending until :meth:`commit_next`: what :meth:`begin_tick` does
         once it has the commands, without a message (:class:`~iw_zenoh.sim.local.LocalWorld`'s
         array path calls it directly)."""
-        self.state = replace(self.state, cmd=cmd)
+        st = self.state  # the constructor: dataclasses.replace costs more than a tick of a few robots
+        self.state = CoreState(st.tick, st.pose, st.motor_out, cmd, st.collided, st.rolled_m)
         profile = self._profile
         prop = propose(
             self.state,

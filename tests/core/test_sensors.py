@@ -317,6 +317,25 @@ def test_noise_streams_give_each_generator_sequence_however_the_takes_are_split(
         assert values == rng_for(9, rid, Stream.SENSORS).standard_normal(len(values)).tolist()
 
 
+@given(st.lists(st.lists(st.tuples(st.integers(0, 300), st.booleans()), min_size=3, max_size=3), max_size=30))
+def test_noise_streams_fill_gives_what_take_gives(ticks: list[list[tuple[int, bool]]]) -> None:
+    """fill (every robot of a tick in one call) writes the values take would have given, robot by
+    robot, and leaves the skipped robots' slots and streams untouched."""
+    filled, taken = NoiseStreams(9, Stream.SENSORS, block=64), NoiseStreams(9, Stream.SENSORS, block=64)
+    ids = [4, 1, 7]
+    for tick in ticks:
+        counts = [c for c, _ in tick]
+        only = [m for _, m in tick]
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(int).tolist()
+        got = np.full(sum(counts), -99.0)
+        filled.fill(ids, counts, starts, only, got)
+        want = np.full(sum(counts), -99.0)
+        for rid, c, s0, mine in zip(ids, counts, starts, only, strict=True):
+            if mine:
+                want[s0 : s0 + c] = taken.take(rid, c)
+        assert got.tolist() == want.tolist()
+
+
 def test_a_sensor_inside_a_wall_or_another_body_reads_zero() -> None:
     scene = Scene(Lab("in", 20.0, 20.0, (box_wall(9.0, 9.0, 11.0, 11.0),)))
     s = (IrSensorSpec(0, 0.0, 0.0, 0.0, 60.0, 4.0),)

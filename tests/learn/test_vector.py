@@ -3,6 +3,8 @@ with Gymnasium's vector API (batched spaces, next-step autoreset) and reproducib
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from iw_zenoh.learn.vector import ChairVectorEnv, vector_env
@@ -52,3 +54,38 @@ def test_an_environment_that_ended_starts_again_at_its_next_step() -> None:
     assert not (terminated | truncated).any()
     assert env.observation_space.contains(obs)
     assert all(new != old for new, old in zip(env.rid, before, strict=True))  # a new chair in each room
+
+
+def test_no_sensor_search_reaches_another_rooms_walls() -> None:
+    """The rooms lie further apart than a chair's sensors reach (laser and cones: mounting point
+    plus range), so a sensor's search box, wherever the chair is in its room, holds its own room's
+    walls only: the kernels' work does not grow with the rooms packed around it."""
+    env = vector_env(9)
+    env.reset(seed=2)
+    assert env.world is not None
+    spec = env.chair
+    mounted = [(a.x_m, a.y_m, a.range_m) for a in spec.lasers]
+    mounted += [(s.x_m, s.y_m, s.range_m) for s in env.world.spec(env.rid[0]).ir_sensors]
+    reach = max(math.hypot(x, y) + r for x, y, r in mounted)
+    walls = env.world.view().scene.lab.walls
+    boxes = [
+        (
+            min(x for x, _ in w.corners),
+            min(y for _, y in w.corners),
+            max(x for x, _ in w.corners),
+            max(y for _, y in w.corners),
+        )
+        for w in walls
+    ]
+    for room, ox, oy in env.rooms:
+        x0, y0, x1, y1 = ox - reach, oy - reach, ox + room.width_m + reach, oy + room.height_m + reach
+        mine = [
+            b
+            for b in boxes
+            if b[0] >= ox - 0.5
+            and b[2] <= ox + room.width_m + 0.5
+            and b[1] >= oy - 0.5
+            and b[3] <= oy + room.height_m + 0.5
+        ]
+        near = [b for b in boxes if not (b[0] > x1 or b[2] < x0 or b[1] > y1 or b[3] < y0)]
+        assert sorted(near) == sorted(mine)
