@@ -5,6 +5,8 @@ boxes (the numpy versions are kept here, as they were in ``core.sensors``, as th
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -38,10 +40,24 @@ def cases(draw: st.DrawFn) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return local, draw(poses(n)), draw(poses(n))
 
 
+# numba's cos and sin are the C library's; numpy's float64 ones are too on this kind of machine
+# (x86-64-v3, checked on 2 million values), but numpy may take its own SIMD path on another
+# (AVX-512) and differ in the last bit: there the reference is held to a few units of the last
+# place, here to the bit. Lock-step and in-process runs agree either way: both call `placing`.
+_PROBE = np.linspace(-60.0, 60.0, 200_001)
+LIBM_TRIG = np.array_equal(np.sin(_PROBE), [math.sin(x) for x in _PROBE]) and np.array_equal(
+    np.cos(_PROBE), [math.cos(x) for x in _PROBE]
+)
+
+
 def _same(a: np.ndarray, b: np.ndarray) -> None:
-    """Equal bit for bit (signed zeros aside: -0.0 and 0.0 are one coordinate)."""
+    """Equal bit for bit (signed zeros aside: -0.0 and 0.0 are one coordinate) where numpy's
+    trigonometry is the C library's; else within a few units of the last place."""
     assert a.shape == b.shape
-    assert np.array_equal(a, b), np.argwhere(a != b)[:5]
+    if LIBM_TRIG:
+        assert np.array_equal(a, b), np.argwhere(a != b)[:5]
+    else:
+        np.testing.assert_allclose(a, b, rtol=1e-14, atol=1e-12)
 
 
 @given(cases())
