@@ -17,7 +17,7 @@ from playwright.sync_api import Browser, Page
 from iw_zenoh import keys
 from iw_zenoh.bus import Inbox, ZenohBus
 from iw_zenoh.messages import Actions, DriveInput, DriveState, WorldInfo, WorldState, decode
-from tests.integration.browser import viewer_url
+from tests.integration.browser import hooked, viewer_url
 from tests.integration.harness import Net, start_world, subscribe, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
@@ -303,3 +303,80 @@ def test_a_page_flooding_drive_commands_is_relayed_at_most_its_rate_and_told_why
     assert relayed <= 50 + 50 * elapsed, (relayed, elapsed)
     assert "commands a second from this page" in told
     wait_msg(subscribe(run.bus, keys.driving(run.net.sim, rid)), DriveState, lambda d: d.driver == "")
+
+
+# each drawing of the 3D view: the world's frame count it drew from and the eye's (x, y)
+EYES = """() => {
+  const v = window.iwz.view3d();
+  const draw = v.draw.bind(v);
+  window.__eyes = [];
+  v.draw = () => { const n = v.drawn; draw(); if (v.drawn > n) window.__eyes.push([window.iwz.world.frames, v.eye[0], v.eye[1]]); };
+}"""
+
+
+def test_first_person_moves_on_between_the_worlds_states_while_the_chair_drives(run: Run, browser: Browser) -> None:
+    """The world tells poses 20 times a second; the driver's view moves at the screen's rate: the
+    eye is drawn at more than one place between two states (motion.js carries each pose on)."""
+    page = browser.new_page(viewport={"width": 1200, "height": 800})
+    page.goto(hooked(f"{run.url}?drive={run.ids['ann']}"))
+    page.wait_for_function(
+        "document.getElementById('drive-status').textContent.startsWith('you drive') && window.iwz.view3d()",
+        timeout=WAIT_MS,
+    )
+    actions = run.actions("ann")
+    page.keyboard.down("ArrowUp")
+    wait_msg(actions, Actions, lambda a: _moving(a, run.ids["ann"], forward=True))
+    page.evaluate(EYES)
+    page.wait_for_function("window.__eyes.length >= 40", timeout=WAIT_MS)
+    page.keyboard.up("ArrowUp")
+    eyes: list[list[float]] = page.evaluate("window.__eyes")
+    page.close()
+    between: dict[int, set[tuple[float, float]]] = {}
+    for frames, x, y in eyes:
+        between.setdefault(int(frames), set()).add((round(x, 6), round(y, 6)))
+    assert max(len(at) for at in between.values()) >= 2, eyes  # moved on within one state
+    assert len(eyes) > len(between)  # more drawings than states
+
+
+MOTION = """async () => {
+  const { Motion } = await import(new URL("static/motion.js", location.href).href);
+  const m = new Motion();
+  const w = { ids: [1, 2], x: [0, 5], y: [0, 5], heading: [0, 0], frames: 1, frameAt: 0 };
+  const at = (now) => { m.update(w, now); return [m.x[0], m.x[1], m.moving]; };
+  const out = { first: at(10) };
+  Object.assign(w, { x: [0.05, 8], frames: 2, frameAt: 50 });   // chair 1 drove 5 cm; chair 2 jumped 3 m
+  out.half = at(75); out.capped = at(100); out.stopped = at(160);
+  return out;
+}"""
+RESOLUTION = """async () => {
+  const { Resolution } = await import(new URL("static/motion.js", location.href).href);
+  const r = new Resolution({ getExtension: () => null });  // a renderer that says nothing: full resolution
+  const out = { start: r.scale };
+  let now = 1000;
+  const frames = (ms, until) => { while (now < until) { r.frame(now); r.drew(); now += ms; } return r.scale; };
+  out.slow = frames(40, now + 16 * 40 + 1);         // 25 frames a second: lowered, twice
+  out.soon = frames(16, now + 10000);               // quick again: the scale found slow is not tried again soon
+  out.later = frames(16, now + 40000);              // but later it is, and full resolution is back
+  return out;
+}"""
+
+
+def test_the_3d_views_motion_and_resolution_rules(run: Run, browser: Browser) -> None:
+    """motion.js: a pose carried on along its last motion for at most one interval, the true pose
+    again two intervals after the states stop, a jump not carried; the resolution lowered while
+    frames are slow, raised back slowly."""
+    page = browser.new_page()
+    page.goto(hooked(run.url))
+    m = page.evaluate(MOTION)
+    assert m["first"] == [0, 5, False]  # one state: nothing to carry on
+    assert m["half"][0] == pytest.approx(0.075)  # half an interval after the state: half its motion on
+    assert m["half"][1] == 8  # a 3 m jump is not motion
+    assert m["half"][2] is True
+    assert m["capped"][0] == pytest.approx(0.1)  # at most one interval on
+    assert m["stopped"] == [0.05, 8, False]  # no state for two intervals: the true pose
+    r = page.evaluate(RESOLUTION)
+    page.close()
+    assert r["start"] == 1
+    assert r["slow"] == pytest.approx(0.85**2)
+    assert r["soon"] == pytest.approx(0.85**2)
+    assert r["later"] == 1
