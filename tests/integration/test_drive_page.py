@@ -305,6 +305,31 @@ def test_a_page_flooding_drive_commands_is_relayed_at_most_its_rate_and_told_why
     wait_msg(subscribe(run.bus, keys.driving(run.net.sim, rid)), DriveState, lambda d: d.driver == "")
 
 
+NO_STEADY_INPUT = """
+const setInterval0 = window.setInterval;
+window.setInterval = (fn, ms, ...rest) => (ms === 50 ? 0 : setInterval0(fn, ms, ...rest));  // the page's 20 Hz input stopped
+"""
+
+
+def test_a_gamepad_stick_that_moves_is_sent_at_once_not_at_the_next_20_hz_tick(run: Run, browser: Browser) -> None:
+    """The page looks at the stick every animation frame and sends it when it moved: with the
+    page's steady 20 Hz input stopped, a push of the gamepad's stick still reaches the chair."""
+    rid = run.ids["bob"]
+    inputs = subscribe(run.bus, keys.drive(run.net.sim, rid))
+    page = browser.new_page(viewport={"width": 1200, "height": 800})
+    page.add_init_script(GAMEPAD + NO_STEADY_INPUT)
+    page.goto(f"{run.url}?drive={rid}")
+    page.wait_for_function(
+        "document.getElementById('drive-status').textContent.startsWith('you drive')", timeout=WAIT_MS
+    )
+    page.evaluate("window.__pad.buttons[0].pressed = true; window.__pad.axes[1] = -0.8")
+    pushed = wait_msg(inputs, DriveInput, lambda d: d.buttons == 1 and d.y > 0.5, timeout_s=10)
+    assert pushed.y == pytest.approx(0.8)
+    page.evaluate("window.__pad.axes[1] = 0; window.__pad.buttons[0].pressed = false")
+    wait_msg(inputs, DriveInput, lambda d: d.buttons == 0 and d.y == 0, timeout_s=10)
+    page.close()
+
+
 # each drawing of the 3D view: the world's frame count it drew from and the eye's (x, y)
 EYES = """() => {
   const v = window.iwz.view3d();
