@@ -371,6 +371,10 @@ MOTION = """async () => {
   const out = { first: at(10) };
   Object.assign(w, { x: [0.05, 8], frames: 2, frameAt: 50 });   // chair 1 drove 5 cm; chair 2 jumped 3 m
   out.half = at(75); out.capped = at(100); out.stopped = at(160);
+  Object.assign(w, { x: [0.1, 8], frames: 3, frameAt: 165 });    // states again (after a 115 ms gap)
+  at(165);
+  Object.assign(w, { x: [0.15, 8], frames: 4, frameAt: 170 });   // the next one bunched 5 ms after it
+  out.bunched = at(194.5);
   return out;
 }"""
 RESOLUTION = """async () => {
@@ -399,6 +403,9 @@ def test_the_3d_views_motion_and_resolution_rules(run: Run, browser: Browser) ->
     assert m["half"][2] is True
     assert m["capped"][0] == pytest.approx(0.1)  # at most one interval on
     assert m["stopped"] == [0.05, 8, False]  # no state for two intervals: the true pose
+    # the interval is averaged (a gap counted as at most two): a state bunched 5 ms after the one
+    # before is carried on at a tick's pace, half its motion 24.5 ms later (not the whole of it)
+    assert m["bunched"][0] == pytest.approx(0.175)
     r = page.evaluate(RESOLUTION)
     page.close()
     assert r["start"] == 1

@@ -11,6 +11,8 @@
 
 const LEAD_INTERVALS = 1;      // carried on for at most this many intervals between states
 const STOP_INTERVALS = 2;      // no state for this many intervals: the true pose again
+const SMOOTH = 0.2;            // the interval between states is a moving average, this much the newest
+const PAUSE_CAP = 2;           // a gap longer than this many intervals counts as this many
 const JUMP_M = 2.0;            // a move longer than this between two states is a jump, not motion
 const BUDGET_MS = 28;          // a frame costing more than this (under 35 frames/s) lowers the resolution
 const QUICK_MS = 20;           // frames this quick (about the screen's 60 a second) may raise it
@@ -30,7 +32,7 @@ export class Motion {
     this.last = new Map();
     this.frames = -1;      // the world's frame count taken last
     this.at = 0;           // when the last state came (performance.now ms)
-    this.interval = 0;     // wall ms between the last two states (0: not known)
+    this.interval = 0;     // wall ms between two states, averaged (0: not known)
     this.moving = false;   // some robot is carried on now: draw every frame
     /** @type {number[]} */ this.x = [];
     /** @type {number[]} */ this.y = [];
@@ -43,7 +45,11 @@ export class Motion {
    */
   update(w, now) {
     if (w.frames !== this.frames) {
-      this.interval = this.frames >= 0 && w.frameAt > this.at ? w.frameAt - this.at : 0;
+      const dt = this.frames >= 0 && w.frameAt > this.at ? w.frameAt - this.at : 0;
+      // smoothed: states that arrive bunched (a loaded machine) do not make a tick's motion look quicker
+      // (a pause's long gap counts as at most PAUSE_CAP intervals)
+      const d = this.interval > 0 ? Math.min(dt, PAUSE_CAP * this.interval) : dt;
+      this.interval = d <= 0 ? this.interval : this.interval > 0 ? (1 - SMOOTH) * this.interval + SMOOTH * d : d;
       this.frames = w.frames;
       this.at = w.frameAt;
       this.before = this.last;
