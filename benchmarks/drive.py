@@ -38,7 +38,11 @@ code back to back:
 | agent (input on the bus -> its actions) | 1.2 / 15.4 ms | 24.3 / 96.2 ms | 1.2 / 12.0 ms |
 | first person: animation frames / drawings a second | 58.3 / 39.9 | 15.0 / 14.9 | 49.7 / 35.6 |
 
-Both goals are met there (the 40 drawings a second are the view's cap while robots move).
+Both goals are met there (the 40 drawings a second are the view's cap while robots move). Again
+at 02:57 with the final code, old then new: old (load 4.0) p50 74.9 ms, p99 153.0 ms, 13.2
+frames/s, close to the lead's quiet figures for it (74.6 ms, 146.1 ms, 22.2); new (load 6.7)
+p50 11.5 ms, p99 57.5 ms (page 2.9 / 34.8, viewer 4.7 / 38.0, agent 1.5 / 21.1 ms p50 / p99),
+40.7 animation frames and 32.7 drawings a second.
 
 Measured with ``--quick`` (20 key events, a 3 s window) on the shared two-core machine, the code
 before (commit 953bc60) and after the latency work run back to back, alternating, three pairs,
