@@ -417,3 +417,30 @@ def test_the_3d_views_motion_and_resolution_rules(run: Run, browser: Browser) ->
     assert r["slow"] == pytest.approx(0.85**2)
     assert r["soon"] == pytest.approx(0.85**2)
     assert r["later"] == 1
+
+
+HUD_SEES_NOTHING = """async () => {
+  const { DriveHud } = await import(new URL("static/drivehud.js", location.href).href);
+  const w = { ids: [1], robots: new Map([[1, { name: "a", spec: { max_speed_mps: 1 } }]]), states: ["driving"],
+    version: 1, x: [0], y: [0], t_ns: 0, prox: new Map(), scans: new Map() };
+  const el = document.createElement("div");
+  const hud = new DriveHud(el, w);
+  hud.setShown(true);
+  hud.follow(0);
+  hud.show({ robot: 1, driver: "p", you: true, level: 1, assist: "off", v_mps: 0.1, w_radps: 0,
+    intervened: false, nearest_m: null, stale: false });
+  hud.draw();
+  const near = el.querySelector(".hud-near");
+  return [near.textContent, near.className];
+}"""
+
+
+def test_the_hud_of_a_driven_chair_that_sees_nothing_gives_no_warning(run: Run, browser: Browser) -> None:
+    """A drive state's nearest_m is null when nothing is in range: the HUD says so, not in red
+    (null compared as a number was 0 m, a danger)."""
+    page = browser.new_page()
+    page.goto(hooked(run.url))
+    text, cls = page.evaluate(HUD_SEES_NOTHING)
+    page.close()
+    assert text == "nothing in sensor range"
+    assert cls.strip() == "hud-near"  # neither warn nor danger
