@@ -11,6 +11,14 @@ through doorways (``iw_zenoh/core/assist.py``). Go there (``goto`` in the input)
 planner (the wheelchair's autopilot, on ``--map``) takes it there while the driver's input keeps
 coming. One driver at a time; no input for 300 ms and the chair stops (``agents/seat.py``).
 
+A live driver's input that changes the stick is answered at once, between ticks
+(:meth:`ManualChair.drive_now`: the host sends the tick's command again, made from the same
+readings with the new input), not at the next tick: a key's latency is then the network's, not
+up to a tick's. The answer again goes through the same ramp, shared control and dead-man, and is
+kept within one tick's comfort acceleration of every command sent this tick and the tick before
+(the world applies whichever came last before its step). Replayed traces and lock-step runs
+answer only on ticks, so they replay exactly.
+
 Examples::
 
     iwz agent manual --id 1 --start 3,5,0 --assist safe --map maps/open-room.xml
@@ -22,6 +30,7 @@ from __future__ import annotations
 import argparse
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import msgspec
@@ -44,6 +53,17 @@ __all__ = ["ManualChair", "add_arguments", "load_trace", "make"]
 
 TRACE_MAX = 1_000_000  # inputs in a trace file (a 20 Hz hour is 72,000)
 DT_S = 0.1  # the tick assumed before two readings tell it
+
+
+@dataclass(frozen=True)
+class _Tick:
+    """What a tick's answer was made from, so that a new input answers the tick again: its
+    readings, its dt, the command and motor model before it, and the stick it used."""
+
+    reading: SensorReading
+    dt_s: float
+    cmd: tuple[float, float]
+    motor: tuple[float, float]
 
 
 def load_trace(path: str | Path) -> list[DriveInput]:
@@ -110,6 +130,10 @@ class ManualChair:
         self.state: DriveState | None = None
         self._replayed: list[DriveInput] = []
         self.robot_id = spec.id
+        self._tick: _Tick | None = None
+        self._used: tuple[float, float, int] | None = None  # the stick (x, y, level) the last answer used
+        self._sent: list[tuple[float, float]] = []  # the commands sent this tick (its answer, then again)
+        self._sent_before: list[tuple[float, float]] = []  # and the tick before
 
     def spec(self) -> RobotSpec:
         """The chair to register."""
@@ -153,7 +177,29 @@ class ManualChair:
             now = t_ns / 1e9
         else:
             now = self.clock()
+        self._tick = _Tick(reading, dt, self.cmd, self.shared.motor)
+        self._sent_before, self._sent = self._sent, []
+        return self._answer(self._tick, now)
+
+    def drive_now(self) -> Command | None:
+        """The tick's command again, at once, when a live driver's newest input changed the stick
+        its answer used (None: unchanged, a trace, a go-there goal, or no tick yet). Made from the
+        tick's own readings and the command before it, so the tick is answered as if the input
+        had come before it; the host sends it on the tick's actions key (real time only)."""
+        t = self._tick
+        if t is None or self.trace or self.seat.goal is not None:
+            return None
+        stick = self.seat.stick(self.clock())
+        if (stick.x, stick.y, self.seat.level) == self._used or stick.stale:
+            return None
+        self.cmd, self.shared.motor = t.cmd, t.motor
+        return self._answer(t, self.clock())
+
+    def _answer(self, t: _Tick, now: float) -> Command:
+        """The tick's command for the stick (or goal) at ``now``, and its drive state."""
+        reading = t.reading
         stick = self.seat.stick(now)
+        self._used = (stick.x, stick.y, self.seat.level)
         seen = [d for d in reading.proximity_m if d is not None]
         nearest = min(seen) if seen else None
         points = seen_points(self._spec, list(reading.proximity_ids), list(reading.proximity_m))
@@ -164,30 +210,45 @@ class ManualChair:
         elif goal is not None:
             want = goal
         else:
-            want = ramp(self.cmd, stick_twist(stick.x, stick.y, self.seat.level, self.lim), dt, self.lim)
-        out = self.shared.step(self.seat.assist, want, points, dt, nearest)
+            want = ramp(self.cmd, stick_twist(stick.x, stick.y, self.seat.level, self.lim), t.dt_s, self.lim)
+            for sent in (*self._sent_before, *self._sent):  # whichever of them the world applied last
+                want = ramp(sent, want, t.dt_s, self.lim)
+        out = self.shared.step(self.seat.assist, want, points, t.dt_s, nearest)
         self.cmd = (out.v_mps, out.w_radps)
+        self._sent.append(self.cmd)
         left, right = powers_for_twist(out.v_mps, out.w_radps, self._spec.max_speed_mps, self._spec.height_m)
+        self.state = self._drive_state(reading, out.v_mps, out.w_radps, want, out.intervened, nearest, stick.stale)
+        return Command(left, right)
+
+    def _drive_state(
+        self,
+        reading: SensorReading,
+        v: float,
+        w: float,
+        want: tuple[float, float],
+        intervened: bool,
+        nearest: float | None,
+        stale: bool,
+    ) -> DriveState:
         last = self.seat.last
-        self.state = DriveState(
+        return DriveState(
             tick=reading.tick,
-            sim_time_ns=t_ns,
+            sim_time_ns=reading.sim_time_ns,
             robot_id=self.robot_id,
             driver=self.seat.driver,
             seq=last.seq if last is not None else 0,
             level=self.seat.level,
             assist=self.seat.assist,  # type: ignore[arg-type]
-            v_mps=out.v_mps,
-            w_radps=out.w_radps,
+            v_mps=v,
+            w_radps=w,
             input_v_mps=want[0],
             input_w_radps=want[1],
-            intervened=out.intervened,
+            intervened=intervened,
             nearest_m=nearest,
             goal=self.seat.goal,
-            stale=stick.stale,
+            stale=stale,
             refused=self.seat.refused,
         )
-        return Command(left, right)
 
     def _goal_drive(self, reading: SensorReading) -> tuple[float, float] | None:
         """The planner's (v, w) towards the seat's goal, or None (no goal, arrived, no map)."""

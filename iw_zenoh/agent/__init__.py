@@ -14,7 +14,8 @@ reading types are all here. An agent is any object with ``spec()`` and ``on_sens
 It may also have the optional hooks of :mod:`iw_zenoh.agent.hooks` (:class:`OnRegistered`,
 :class:`OnChair`, :class:`AttachTo`, :class:`OnState`: the world's committed state of the tick,
 handed to it just before that tick's ``on_sensors``, as a learned policy needs, ``iwz agent
-policy``; :class:`OnDrive`: a chair a person drives, ``docs/driving.md``). ``iwz agent
+policy``; :class:`OnDrive`: a chair a person drives, ``docs/driving.md``, and :class:`DrivesNow`:
+its driver's input answered at once, between ticks). ``iwz agent
 ./my_agent.py:Name`` runs one from the user's own file (``docs/first-agent.md``; its ``args.seed``
 is the seed the run hands it), and ``--spec chair.toml`` lays a spec file's fields over its robot
 (``docs/spec.md``).
@@ -40,7 +41,7 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 from iw_zenoh import keys
-from iw_zenoh.agent.hooks import AttachTo, OnChair, OnDrive, OnRegistered, OnState, attached_to
+from iw_zenoh.agent.hooks import AttachTo, DrivesNow, OnChair, OnDrive, OnRegistered, OnState, attached_to
 from iw_zenoh.agent.hosting import Command, InlineAnswers, Outbox, WorldRegistration
 from iw_zenoh.agent.places import point_arg, points_arg, pose_arg
 from iw_zenoh.bus import Asked, Bus, Handle, Inbox
@@ -78,6 +79,7 @@ __all__ = [
     "BumperSpec",
     "ChairReading",
     "Command",
+    "DrivesNow",
     "Heard",
     "IrSensorSpec",
     "LaserSpec",
@@ -183,8 +185,9 @@ class AgentHost:
         self._chair_keys: set[int] = set()  # the robots whose chair readings are subscribed
         self.states: Inbox | None = None  # the world's states, once an agent with on_state is hosted
         self.state: WorldState | None = None  # the newest state taken
-        # drivers' inputs, for agents that accept a driver (``on_drive``; docs/driving.md)
-        self.drives = Inbox(maxlen=DRIVES_KEPT, wake=self.io.wake, newest_only=True)
+        # drivers' inputs, for agents that accept a driver (``on_drive``; docs/driving.md): answered
+        # on the delivering thread too, at once (``drive_now``), not at the next tick
+        self.drives = Inbox(maxlen=DRIVES_KEPT, wake=self.inline, newest_only=True)
         self._drive_subs: dict[int, Handle] = {}
         bus.watch_alive(keys.all_alive(sim), self._on_alive)
         self.io.alive()
@@ -264,6 +267,25 @@ class AgentHost:
         for m in h.agent.drive_messages() if isinstance(h.agent, OnDrive) else []:
             key = keys.driving if isinstance(m, DriveState) else keys.drive
             self.io.bus.publish(key(self.sim, h.robot_id), encode(m))
+
+    def _drive_now(self) -> None:
+        """Real time: each driven chair whose driver's newest input changed its command answers its
+        last tick again at once (``drive_now``); the world applies it at its next step."""
+        if self.lockstep:
+            return  # lock-step answers on ticks only: a run replays exactly
+        sent = False
+        for rid in self._drive_subs:
+            h = self.hosted.get(rid)
+            r = h.reading if h is not None else None
+            if h is None or r is None or r.tick != h.answered or not isinstance(h.agent, DrivesNow):
+                continue
+            cmd = h.agent.drive_now()
+            if cmd is not None:
+                self.outbox.command(rid, cmd.resolved(h.spec), tick=r.tick, sim_time_ns=r.sim_time_ns)
+                self._publish_drive(h)
+                sent = True
+        if sent:
+            self.outbox.flush()
 
     def _subscribe_sensors(self, robot_id: int) -> Handle:
         """Subscribes a robot's own sensors key into :attr:`readings`."""
@@ -481,6 +503,7 @@ class AgentHost:
         self._collect()
         n = self._ready()
         if n is None:
+            self._drive_now()
             return False
         heard_now = self._heard.get(n, {})
         for h in self.hosted.values():

@@ -15,10 +15,11 @@ from __future__ import annotations
 
 from typing import Protocol, runtime_checkable
 
+from iw_zenoh.agent.hosting import Command
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.messages import ChairReading, DriveInput, DriveState, WorldState
 
-__all__ = ["AttachTo", "OnChair", "OnDrive", "OnRegistered", "OnState", "attached_to"]
+__all__ = ["AttachTo", "DrivesNow", "OnChair", "OnDrive", "OnRegistered", "OnState", "attached_to"]
 
 
 @runtime_checkable
@@ -73,6 +74,18 @@ class OnDrive(Protocol):
     def drive_messages(self) -> list[DriveInput | DriveState]:
         """The drive messages of the tick just answered: its drive state, and the inputs a replayed
         trace gave (recorded as a live driver's would be)."""
+
+
+@runtime_checkable
+class DrivesNow(Protocol):
+    """An agent that answers a driver's input at once, between ticks (docs/driving.md)."""
+
+    def drive_now(self) -> Command | None:
+        """Called (real time only) after the drivers' inputs that just came were handed to
+        ``on_drive``: the command of the tick last answered, made again with the newest input, or
+        None when the input changes nothing. The host sends it (and then ``drive_messages()``)
+        on the tick's actions key at once; the world applies the newest actions at its next step.
+        """
 
 
 @runtime_checkable

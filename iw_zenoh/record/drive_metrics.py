@@ -7,7 +7,8 @@ with it (``robot/{id}/driving``). Pure: messages in, figures out.
   stick (dead-man held, beyond the dead zone) enters one of eight direction sectors from another
   sector or from the centre, each go-there goal and each speed-level or assist change.
 * assistance intervened: simulation time during which shared control changed the driver's
-  command (each drive state counts the time to the next of that chair, at most a tick's).
+  command (each drive state counts the time to the next of that chair, at most a tick's; a tick
+  answered again between ticks counts as its last answer says).
 """
 
 from __future__ import annotations
@@ -86,6 +87,9 @@ class DriveMeter:
             c.last_ns = msg.sim_time_ns
             c.last_intervened = msg.intervened
             c.intervened_ticks += msg.intervened
+        elif msg.sim_time_ns == c.last_ns:  # the tick answered again (an input between ticks): it stands
+            c.intervened_ticks += msg.intervened - c.last_intervened
+            c.last_intervened = msg.intervened
 
     def figures(self, robot_id: int) -> DriveFigures | None:
         """A chair's figures, or None when it was not driven by hand."""

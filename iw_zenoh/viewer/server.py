@@ -15,8 +15,10 @@ Every request to the page or its WebSocket passes :class:`~iw_zenoh.viewer.guard
 a command that fails on the pump is answered with an error to its page, and the pump goes on.
 
 A page's ``drive`` commands (its own :class:`~iw_zenoh.viewer.guard.Rate`: a driving page sends
-20 a second) are relayed to the chair under the page's driver name (``VIEWER#N``); when the socket
-of a page that drives is lost, the viewer releases its chair (:mod:`iw_zenoh.viewer.drive`).
+20 a second) are relayed to the chair under the page's driver name (``VIEWER#N``) at once, on the
+loop that received them (not queued for the pump: a key's latency does not wait for the pump's
+pass); when the socket of a page that drives is lost, the viewer releases its chair
+(:mod:`iw_zenoh.viewer.drive`).
 """
 
 from __future__ import annotations
@@ -165,13 +167,18 @@ class Pump(threading.Thread):
             scans = self.feed.scans_now()
             return [scans] if scans is not None else []
         if cmd.cmd == "drive":
-            assert cmd.drive is not None  # checked at the edge
-            why = self.source.drive(cmd.robot_id, client.driver, cmd.drive)
-            if why:
-                return [PageError(error=f"cannot drive chair {cmd.robot_id}: {why}", drive_robot=cmd.robot_id)]
-            return []
+            return _drive(self.source, client, cmd)
         why = self.source.command(cmd)
         return [PageError(error=why)] if why else []
+
+
+def _drive(source: Source, client: Client, cmd: PageCommand) -> list[PageMessage]:
+    """Relays a page's drive command; the error to tell it when refused."""
+    assert cmd.drive is not None  # checked at the edge
+    why = source.drive(cmd.robot_id, client.driver, cmd.drive)
+    if why:
+        return [PageError(error=f"cannot drive chair {cmd.robot_id}: {why}", drive_robot=cmd.robot_id)]
+    return []
 
 
 MODEL_SUFFIXES = (".stl", ".gltf", ".glb")  # a robot type's model file (the page reads these; .bin: a glTF's buffers)
@@ -246,6 +253,18 @@ class _Pages:
     def _ask(self, client: Client, cmd: PageCommand | None) -> None:
         assert self.pump is not None
         self.pump.ask(client, cmd)
+
+    def _drive(self, client: Client, cmd: PageCommand) -> None:
+        """Relays a page's drive command at once, on this loop (queued for the pump it waited for
+        the pump's pass, tens of ms on a loaded machine); a refusal is told to the page."""
+        try:
+            answer = _drive(self.source, client, cmd)
+        except Exception as e:  # one page's command must not end its socket
+            logger.exception("a page's drive %r failed", cmd)
+            answer = [PageError(error=f"command failed: {type(e).__name__}: {str(e)[:200]}")]
+        if answer and not client.closed and len(client.waiting) <= 4 * MAX_BACKLOG:
+            client.waiting.extend(_ENCODER.encode(m).decode() for m in answer)
+            client.ready.set()
 
     def on_loop(self, target: Client | None, data: list[Outgoing], snapshot: bool) -> None:
         """Queues what the pump encoded for one page, or for every page that has its snapshot
@@ -350,13 +369,15 @@ class _Pages:
                     continue
                 if cmd.cmd == "drive":
                     client.driving = None if cmd.drive is not None and cmd.drive.release else cmd.robot_id
+                    self._drive(client, cmd)
+                    continue
                 if cmd.cmd == "scans":  # from now on: what follows is filtered before it is queued
                     client.scans = ScansWanted.of(cmd)
                 self._ask(client, cmd)
         finally:
             if client.driving is not None:  # the page is gone: its chair is released at once
                 release = PageDriveInput(release=True)
-                self._ask(client, PageCommand(cmd="drive", robot_id=client.driving, drive=release))
+                self._drive(client, PageCommand(cmd="drive", robot_id=client.driving, drive=release))
             client.closed = True
             self.clients.discard(client)
             client.ready.set()

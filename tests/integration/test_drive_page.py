@@ -17,7 +17,7 @@ from playwright.sync_api import Browser, Page
 from iw_zenoh import keys
 from iw_zenoh.bus import Inbox, ZenohBus
 from iw_zenoh.messages import Actions, DriveInput, DriveState, WorldInfo, WorldState, decode
-from tests.integration.browser import viewer_url
+from tests.integration.browser import hooked, viewer_url
 from tests.integration.harness import Net, start_world, subscribe, wait_msg
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
@@ -303,3 +303,144 @@ def test_a_page_flooding_drive_commands_is_relayed_at_most_its_rate_and_told_why
     assert relayed <= 50 + 50 * elapsed, (relayed, elapsed)
     assert "commands a second from this page" in told
     wait_msg(subscribe(run.bus, keys.driving(run.net.sim, rid)), DriveState, lambda d: d.driver == "")
+
+
+NO_STEADY_INPUT = """
+const setInterval0 = window.setInterval;
+window.setInterval = (fn, ms, ...rest) => (ms === 50 ? 0 : setInterval0(fn, ms, ...rest));  // the page's 20 Hz input stopped
+"""
+
+
+def test_a_gamepad_stick_that_moves_is_sent_at_once_not_at_the_next_20_hz_tick(run: Run, browser: Browser) -> None:
+    """The page looks at the stick every animation frame and sends it when it moved: with the
+    page's steady 20 Hz input stopped, a push of the gamepad's stick still reaches the chair."""
+    rid = run.ids["bob"]
+    inputs = subscribe(run.bus, keys.drive(run.net.sim, rid))
+    page = browser.new_page(viewport={"width": 1200, "height": 800})
+    page.add_init_script(GAMEPAD + NO_STEADY_INPUT)
+    page.goto(f"{run.url}?drive={rid}")
+    page.wait_for_function(
+        "document.getElementById('drive-status').textContent.startsWith('you drive')", timeout=WAIT_MS
+    )
+    page.evaluate("window.__pad.buttons[0].pressed = true; window.__pad.axes[1] = -0.8")
+    pushed = wait_msg(inputs, DriveInput, lambda d: d.buttons == 1 and d.y > 0.5, timeout_s=10)
+    assert pushed.y == pytest.approx(0.8)
+    page.evaluate("window.__pad.axes[1] = 0; window.__pad.buttons[0].pressed = false")
+    wait_msg(inputs, DriveInput, lambda d: d.buttons == 0 and d.y == 0, timeout_s=10)
+    page.close()
+
+
+# two drawings of the 3D view a few ms apart with no state between them: whether the eye moved
+# (drawn directly, so the check does not depend on how many animation frames a loaded machine gives)
+EYE_MOVES = """async () => {
+  const v = window.iwz.view3d();
+  const w = window.iwz.world;
+  const pause = (ms) => new Promise((r) => setTimeout(r, ms));
+  for (let k = 0; k < 50; k++) {
+    await pause(1);
+    v.nextAt = 0; v.seen = ""; v.draw();
+    const [x1, y1] = v.eye; const f1 = w.frames;
+    await pause(8);
+    v.nextAt = 0; v.draw();
+    const [x2, y2] = v.eye;
+    if (w.frames === f1 && Math.hypot(x2 - x1, y2 - y1) > 1e-6) return true;
+  }
+  return false;
+}"""
+
+
+def test_first_person_moves_on_between_the_worlds_states_while_the_chair_drives(run: Run, browser: Browser) -> None:
+    """The world tells poses 20 times a second; the driver's view moves at the screen's rate: the
+    eye is drawn at more than one place between two states (motion.js carries each pose on)."""
+    page = browser.new_page(viewport={"width": 1200, "height": 800})
+    page.goto(hooked(f"{run.url}?drive={run.ids['ann']}"))
+    page.wait_for_function(
+        "document.getElementById('drive-status').textContent.startsWith('you drive') && window.iwz.view3d()",
+        timeout=WAIT_MS,
+    )
+    actions = run.actions("ann")
+    page.keyboard.down("ArrowUp")
+    wait_msg(actions, Actions, lambda a: _moving(a, run.ids["ann"], forward=True))
+    _forward_by(run, "ann", _pose(run, run.states(), "ann"), 0.05)  # moving in the page's states too
+    moved = page.evaluate(EYE_MOVES)
+    page.keyboard.up("ArrowUp")
+    page.close()
+    assert moved, "the eye stood still between two states while the chair drove"
+
+
+MOTION = """async () => {
+  const { Motion } = await import(new URL("static/motion.js", location.href).href);
+  const m = new Motion();
+  const w = { ids: [1, 2], x: [0, 5], y: [0, 5], heading: [0, 0], frames: 1, frameAt: 0 };
+  const at = (now) => { m.update(w, now); return [m.x[0], m.x[1], m.moving]; };
+  const out = { first: at(10) };
+  Object.assign(w, { x: [0.05, 8], frames: 2, frameAt: 50 });   // chair 1 drove 5 cm; chair 2 jumped 3 m
+  out.half = at(75); out.capped = at(100); out.stopped = at(160);
+  Object.assign(w, { x: [0.1, 8], frames: 3, frameAt: 165 });    // states again (after a 115 ms gap)
+  at(165);
+  Object.assign(w, { x: [0.15, 8], frames: 4, frameAt: 170 });   // the next one bunched 5 ms after it
+  out.bunched = at(194.5);
+  return out;
+}"""
+RESOLUTION = """async () => {
+  const { Resolution } = await import(new URL("static/motion.js", location.href).href);
+  const r = new Resolution({ getExtension: () => null });  // a renderer that says nothing: full resolution
+  const out = { start: r.scale };
+  let now = 1000;
+  const frames = (ms, until) => { while (now < until) { r.frame(now); r.drew(); now += ms; } return r.scale; };
+  out.slow = frames(40, now + 16 * 40 + 1);         // 25 frames a second: lowered, twice
+  out.soon = frames(16, now + 10000);               // quick again: the scale found slow is not tried again soon
+  out.later = frames(16, now + 40000);              // but later it is, and full resolution is back
+  return out;
+}"""
+
+
+def test_the_3d_views_motion_and_resolution_rules(run: Run, browser: Browser) -> None:
+    """motion.js: a pose carried on along its last motion for at most one interval, the true pose
+    again two intervals after the states stop, a jump not carried; the resolution lowered while
+    frames are slow, raised back slowly."""
+    page = browser.new_page()
+    page.goto(hooked(run.url))
+    m = page.evaluate(MOTION)
+    assert m["first"] == [0, 5, False]  # one state: nothing to carry on
+    assert m["half"][0] == pytest.approx(0.075)  # half an interval after the state: half its motion on
+    assert m["half"][1] == 8  # a 3 m jump is not motion
+    assert m["half"][2] is True
+    assert m["capped"][0] == pytest.approx(0.1)  # at most one interval on
+    assert m["stopped"] == [0.05, 8, False]  # no state for two intervals: the true pose
+    # the interval is averaged (a gap counted as at most two): a state bunched 5 ms after the one
+    # before is carried on at a tick's pace, half its motion 24.5 ms later (not the whole of it)
+    assert m["bunched"][0] == pytest.approx(0.175)
+    r = page.evaluate(RESOLUTION)
+    page.close()
+    assert r["start"] == 1
+    assert r["slow"] == pytest.approx(0.85**2)
+    assert r["soon"] == pytest.approx(0.85**2)
+    assert r["later"] == 1
+
+
+HUD_SEES_NOTHING = """async () => {
+  const { DriveHud } = await import(new URL("static/drivehud.js", location.href).href);
+  const w = { ids: [1], robots: new Map([[1, { name: "a", spec: { max_speed_mps: 1 } }]]), states: ["driving"],
+    version: 1, x: [0], y: [0], t_ns: 0, prox: new Map(), scans: new Map() };
+  const el = document.createElement("div");
+  const hud = new DriveHud(el, w);
+  hud.setShown(true);
+  hud.follow(0);
+  hud.show({ robot: 1, driver: "p", you: true, level: 1, assist: "off", v_mps: 0.1, w_radps: 0,
+    intervened: false, nearest_m: null, stale: false });
+  hud.draw();
+  const near = el.querySelector(".hud-near");
+  return [near.textContent, near.className];
+}"""
+
+
+def test_the_hud_of_a_driven_chair_that_sees_nothing_gives_no_warning(run: Run, browser: Browser) -> None:
+    """A drive state's nearest_m is null when nothing is in range: the HUD says so, not in red
+    (null compared as a number was 0 m, a danger)."""
+    page = browser.new_page()
+    page.goto(hooked(run.url))
+    text, cls = page.evaluate(HUD_SEES_NOTHING)
+    page.close()
+    assert text == "nothing in sensor range"
+    assert cls.strip() == "hud-near"  # neither warn nor danger

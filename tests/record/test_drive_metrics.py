@@ -44,3 +44,16 @@ def test_the_time_assistance_intervened_counts_each_state_to_the_next() -> None:
 
 def test_sectors_are_counter_clockwise_from_forward() -> None:
     assert [sector(_in(x, y)) for x, y in [(0, 1), (-1, 0), (0, -1), (1, 0), (0.05, 0.05)]] == [0, 2, 4, 6, -1]
+
+
+def test_a_tick_answered_again_between_ticks_counts_as_its_last_answer() -> None:
+    # agents/manual.py answers an input between ticks with the tick's own time: the world applies
+    # the last answer, so the last one says whether shared control stepped in over that tick
+    m = DriveMeter()
+    for tick, said in [(0, [False]), (1, [False, True]), (2, [False])]:
+        for changed in said:
+            m.on_state(DriveState(robot_id=1, tick=tick, sim_time_ns=tick * 100_000_000, intervened=changed))
+    f = m.figures(1)
+    assert f is not None
+    assert f.intervened_ticks == 1  # tick 1 only
+    assert f.intervened_s == pytest.approx(0.1)

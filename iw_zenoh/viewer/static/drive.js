@@ -1,8 +1,9 @@
 // @ts-check
 // iwz view: driving a chair from the page (docs/driving.md, "From the page"). The inputs (keyboard,
 // gamepad, on-screen joystick), the drive panel, and the chair's drive state as its agent tells it.
-// The page sends a `drive` command at a steady 20 Hz while it drives (and at once when a key
-// changes); zero when the tab is hidden or the gamepad is unplugged; a release when the page closes.
+// The page sends a `drive` command at a steady 20 Hz while it drives, and at once when a key
+// changes or the stick (on-screen or gamepad) moves (looked at every animation frame, sent at most
+// every CHANGE_MS); zero when the tab is hidden or the gamepad is unplugged; a release when the page closes.
 // The chair's agent decides who drives (one driver, explicit takeover) and stops the chair by itself
 // when no input came for 300 ms: the page's zero and release only make that sooner.
 // It reads the world (world.js) and never writes it; app.js wires it in one place (initDrive).
@@ -28,6 +29,8 @@ import { world, on } from "./world.js";
  */
 
 export const SEND_MS = 50;          // the steady rate of input while driving: 20 Hz
+const CHANGE_MS = 30;               // a stick that moved is sent at once, at most this often (with the
+                                    // steady 20 Hz, at most 40 a second: the viewer takes 50 a second)
 export const LEVELS = 5;            // speed levels 1..5
 const DEADMAN_BUTTONS = [0, 4];     // gamepad: A / cross, or the left shoulder, must be held to drive
 const LEVEL_UP_BUTTON = 12;         // gamepad: d-pad up / down change the speed level
@@ -67,6 +70,8 @@ const stick = { x: 0, y: 0, active: false };
 let padIndex = /** @type {number | null} */ (null);
 let padButtons = /** @type {boolean[]} */ ([]);
 let lastSent = "";
+let lastSentAt = -Infinity;    // when (performance.now ms)
+let polling = false;           // the stick is looked at every animation frame while driving
 let refusedWhy = "";            // why the viewer refused this page's last drive (shown until it drives again)
 
 const $ = (/** @type {string} */ id) => document.getElementById(id);
@@ -97,6 +102,7 @@ export function startDriving(id) {
   driveState.level = s ? s.level : driveState.level;
   taking = !s || s.driver === "";  // a free chair is taken at once; another's only by "take over"
   if (timer === null) timer = window.setInterval(tick, SEND_MS);
+  if (!polling) { polling = true; requestAnimationFrame(poll); }
   if (hooks) hooks.setView("first");  // the driver's seat: first person, following this chair
   changed();
   tick();
@@ -127,6 +133,7 @@ function send(over) {
   };
   pendingGoto = null; pendingAssist = null;
   lastSent = `${drive.x},${drive.y},${drive.buttons},${drive.level}`;
+  lastSentAt = performance.now();
   hooks.send({ cmd: "drive", robot_id: driveState.robot, drive });
 }
 
@@ -169,6 +176,16 @@ function unplugged() {
   padIndex = null; padButtons = [];
   if (mine()) send({ x: 0, y: 0, buttons: 0 });  // at once, not at the next tick
   if (hooks && driveState.robot !== null) hooks.toast("the gamepad was unplugged: the chair stops");
+}
+
+/** Every animation frame while driving: a stick (on-screen or gamepad) that moved is sent at once,
+ * not at the next 20 Hz tick (at most every CHANGE_MS). */
+function poll() {
+  if (timer === null) { polling = false; return; }  // not driving: the loop ends
+  requestAnimationFrame(poll);
+  if (!mine() || hidden || performance.now() - lastSentAt < CHANGE_MS) return;
+  const input = current();
+  if (`${input.x},${input.y},${input.buttons},${driveState.level}` !== lastSent) send({});
 }
 
 /** Every SEND_MS while driving: the input, if this page drives (or asks to). */

@@ -16,7 +16,7 @@ import { STATE_MEANS } from "./palette.js";
  * @property {number} v_mps  the command after assistance
  * @property {number} w_radps
  * @property {boolean} intervened  the assistance changed the driver's command
- * @property {number} nearest_m  nearest obstacle the chair's sensors see
+ * @property {number | null} nearest_m  nearest obstacle the chair's sensors see (null: nothing in range)
  * @property {boolean} stale  no input for 300 ms: the dead-man stopped the chair
  */
 
@@ -82,7 +82,8 @@ export class DriveHud {
     const top = r && typeof r.spec.max_speed_mps === "number" ? r.spec.max_speed_mps : 1;
     let h = `<div class="hud-chair">chair ${id}${r ? ` \u00b7 ${esc(r.name)}` : ""}<span class="hud-state ${st}">${STATE_MEANS[st].split(" (")[0]}</span></div>`;
     h += `<div class="hud-speed"><b>${Math.abs(v).toFixed(2)}</b> m/s<span class="hud-bar"><i style="width:${Math.min(100, (100 * Math.abs(v)) / top).toFixed(0)}%"></i></span></div>`;
-    const near = driving ? driving.nearest_m : nearestSeen(w, id);
+    // nothing in range (null) is no warning: compared as a number, null was 0 m and shown red
+    const near = driving ? (driving.nearest_m === null ? Infinity : driving.nearest_m) : nearestSeen(w, id);
     const cls = near < DANGER_M ? "danger" : near < WARN_M ? "warn" : "";
     h += `<div class="hud-near ${cls}">${Number.isFinite(near) ? `nearest obstacle ${near.toFixed(2)} m` : "nothing in sensor range"}</div>`;
     if (driving) {

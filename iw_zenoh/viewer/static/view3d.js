@@ -6,9 +6,13 @@
 // models.js). First person from a chair (the one followed: driven, else selected, else the first),
 // third person behind it (pulled in front of any wall between, camera.js), or a free camera (drag
 // to turn, shift-drag or right-drag to pan, wheel to zoom, W A S D to move), never inside a wall.
+// Between two states the robots move on along their last motion, drawn every animation frame while
+// they do; the drawing's resolution drops while frames cost too much (motion.js). No multisampling:
+// in software WebGL it tripled a frame's cost (1280x728: 81 ms against 24 ms, loaded machine).
 import { STATE_COLOURS, COLOUR, rgb } from "./palette.js";
 import { perspective, lookAt, mul, solids, unblocked, clearOf } from "./camera.js";
 import { CHAIR_BOXES, CHAIR_WHEELS, fitted, loadModels } from "./models.js";
+import { Motion, Resolution } from "./motion.js";
 
 /** @typedef {import("./camera.js").V3} V3 */
 /** @typedef {{buf: WebGLBuffer | null, count: number}} Buf */
@@ -18,6 +22,8 @@ const BEHIND_M = 4.0;          // third person: this far behind
 const ABOVE_M = 3.0;           // and this high
 const DOOR_M = 2.0;            // a door's height
 const SIMPLE_PAST = 150;       // past this many robots, each is its outline extruded (not a chair model)
+const MOVING_MS = 1000 / 40;  // robots carried on between states are drawn at most 40 times a second
+const FRAME_SLACK_MS = 4;      // a frame this early is on time (animation frames come every 16.7 ms)
 const SKY = [0.55, 0.66, 0.78];
 const FLOOR = [0.42, 0.44, 0.47];
 const GRID = [0.3, 0.32, 0.35];
@@ -133,7 +139,11 @@ export class View3D {
   constructor(canvas, world) {
     this.canvas = canvas;
     this.world = world;
-    this.gl = /** @type {WebGLRenderingContext | null} */ (canvas.getContext("webgl", { preserveDrawingBuffer: true, antialias: true }));
+    this.gl = /** @type {WebGLRenderingContext | null} */ (canvas.getContext("webgl", { preserveDrawingBuffer: true, antialias: false }));
+    this.motion = new Motion();
+    this.nextAt = 0;  // the next drawing of robots carried on (performance.now ms)
+    /** @type {Resolution | null} */
+    this.resolution = this.gl ? new Resolution(this.gl) : null;
     this.drawn = 0;
     this.mode = "first";
     this.free = { tx: 10, ty: 5, yaw: -Math.PI / 2, pitch: 0.9, dist: 25 };
@@ -312,16 +322,17 @@ export class View3D {
   /** @param {number} skip  the robot not drawn (the first person's own chair), or -1 */
   buildRobots(skip) {
     const w = this.world;
+    const at = this.motion;  // the poses drawn now
     /** @type {number[]} */
     const out = [];
     const simple = w.ids.length > SIMPLE_PAST;
     for (let i = 0; i < w.ids.length; i++) {
       if (i === skip) continue;
       const r = w.robots.get(w.ids[i]);
-      const c = Math.cos(w.heading[i]);
-      const s = Math.sin(w.heading[i]);
-      const x = w.x[i];
-      const y = w.y[i];
+      const c = Math.cos(at.heading[i]);
+      const s = Math.sin(at.heading[i]);
+      const x = at.x[i];
+      const y = at.y[i];
       const st = w.states[i] || "driving";
       const door = r && r.type === "Door";
       if (door || simple || !r) {
@@ -357,14 +368,17 @@ export class View3D {
     /** @type {V3} */
     let target;
     if (this.mode !== "free" && i >= 0) {
-      const c = Math.cos(w.heading[i]);
-      const sn = Math.sin(w.heading[i]);
+      const at = this.motion;  // the followed chair where it is drawn now
+      const x = at.x[i];
+      const y = at.y[i];
+      const c = Math.cos(at.heading[i]);
+      const sn = Math.sin(at.heading[i]);
       if (this.mode === "first") {
-        eye = [w.x[i], w.y[i], EYE_M];
-        target = [w.x[i] + c, w.y[i] + sn, EYE_M - 0.15];
+        eye = [x, y, EYE_M];
+        target = [x + c, y + sn, EYE_M - 0.15];
       } else {
-        target = [w.x[i], w.y[i], 0.8];
-        const e = unblocked(this.solid, [w.x[i], w.y[i], 1.0], [w.x[i] - BEHIND_M * c, w.y[i] - BEHIND_M * sn, ABOVE_M]);
+        target = [x, y, 0.8];
+        const e = unblocked(this.solid, [x, y, 1.0], [x - BEHIND_M * c, y - BEHIND_M * sn, ABOVE_M]);
         eye = clearOf(this.solid, [e[0], e[1], ABOVE_M]);  // pulled in: still above the chair, looking down on it
       }
     } else {
@@ -392,13 +406,22 @@ export class View3D {
     const gl = this.gl;
     if (!gl) return;
     const c = this.canvas;
+    const now = performance.now();
+    const res = /** @type {Resolution} */ (this.resolution);
+    res.frame(now);
+    this.motion.update(this.world, now);
     const r = c.getBoundingClientRect();
-    const dpr = window.devicePixelRatio || 1;
+    const dpr = (window.devicePixelRatio || 1) * res.scale;
     const wpx = Math.max(1, Math.round(r.width * dpr));
     const hpx = Math.max(1, Math.round(r.height * dpr));
-    const key = `${this.world.version}:${this.camVersion}:${wpx}x${hpx}:${this.mode}`;
-    if (key === this.seen) return;
+    // on every change; while robots move on between states, at most MOVING_FPS (the browser's
+    // CPU is the chain's too: the viewer and the chairs' agents share the machine); once more when they stop
+    const base = `${this.world.version}:${this.camVersion}:${wpx}x${hpx}:${this.mode}`;
+    const key = `${base}:${this.motion.moving ? "moving" : "still"}`;
+    if (key === this.seen && (!this.motion.moving || now < this.nextAt - FRAME_SLACK_MS)) return;
+    this.nextAt = (now - this.nextAt < MOVING_MS ? this.nextAt : now) + MOVING_MS;
     this.seen = key;
+    res.drew();
     if (c.width !== wpx || c.height !== hpx) { c.width = wpx; c.height = hpx; }
     if (this.world.scene && this.staticVersion !== this.world.scene.revision) this.buildStatic();
     const cam = this.camera(wpx / hpx);
