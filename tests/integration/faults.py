@@ -92,8 +92,22 @@ class FaultRun:
             self.out.append(line)
             self.lines.put(line)
 
-    def pid(self, role: str, name: str = "") -> int:
-        """The pid of the launcher's child of ``role`` (and ``--name NAME``)."""
+    def pid(self, role: str, name: str = "", timeout_s: float = 30.0) -> int:
+        """The pid of the launcher's child of ``role`` (and ``--name NAME``), waiting up to
+        ``timeout_s`` for it to be there (a restart may be under way: CI once looked in the moment
+        between a restarted role's end and its next start)."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            found = self._child(role, name)
+            if found is not None:
+                return found
+            if time.monotonic() > deadline:
+                raise AssertionError(
+                    f"no {role} child of the launcher in {timeout_s:.0f} s:\n{''.join(self.out)[-3000:]}"
+                )
+            time.sleep(0.1)  # polling /proc: no event says a process has started
+
+    def _child(self, role: str, name: str) -> int | None:
         for proc in Path("/proc").iterdir():
             if not proc.name.isdigit():
                 continue
@@ -105,7 +119,7 @@ class FaultRun:
             args = [a.decode(errors="replace") for a in argv]
             if ppid == self.p.pid and args[3:4] == [role] and (not name or name in args):
                 return int(proc.name)
-        raise AssertionError(f"no {role} child of the launcher")
+        return None
 
     def wait_token(self, role: str, since: float, timeout_s: float = 30.0) -> float:
         """When a token of ``role`` appeared after ``since`` (monotonic s)."""

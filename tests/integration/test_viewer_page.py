@@ -191,9 +191,10 @@ def test_first_person_is_lit_shows_the_chair_ahead_and_a_hud_to_drive_by(
     got = page.evaluate("window.iwz.coverage()")
     assert got["covered"] > 0.3, got
     assert got["colours"] >= 12, got  # shaded faces, a grid, coloured solids: many tones, not three flat greys
-    # the chair ahead (3 m, its frame in its state's green) is in view: nothing else is green
-    green = page.evaluate("window.iwz.count3d((r, g, b) => g > r + 30 && g > b + 15)")
-    assert green > 0.002, green
+    # the chair ahead (3 m, its frame in its state's green) comes into view: nothing else is green
+    # (waited for, not sampled at the second frame: in CI, on a loaded machine, that frame had no
+    # green at all; a chair is drawn in its state's colour, green only while it is driving)
+    page.wait_for_function("window.iwz.count3d((r, g, b) => g > r + 30 && g > b + 15) > 0.002", timeout=WAIT_MS)
     hud = page.inner_text("#drivehud")
     for said in ("front", "m/s", "nearest obstacle"):
         assert said in hud, hud

@@ -62,7 +62,13 @@ def test_a_replay_plays_to_its_end_holds_there_and_seeks_back_to_show_that_momen
         assert timeline.marks
         assert timeline.start_ns == states[0].sim_time_ns
         assert states[-10].sim_time_ns < timeline.end_ns <= states[-1].sim_time_ns
-        _until(source, feed, lambda _: source.player.at_end)
+        # at its end, and its last state shown (the player reaches the end before the pump's
+        # next poll has taken the last states from the inbox: wait for both, as a page would)
+        _until(
+            source,
+            feed,
+            lambda _: source.player.at_end and feed.state is not None and feed.state.tick >= states[-1].tick,
+        )
         assert feed.state is not None
         assert feed.state.tick == states[-1].tick
         want = states[len(states) // 2]
