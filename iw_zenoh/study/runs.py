@@ -101,6 +101,12 @@ def _wait(p: subprocess.Popen[bytes], timeout_s: float) -> int | None:
         return None
 
 
+PORT_TRIES = 3  # a run whose router could not take its port is started again on another, this often
+ROLE_FAILED = 3  # iwz run's exit code when a role could not start
+# what iwz run says when its router could not take the port: it did not start, or nothing answered there
+ROUTER_FAILED = ("the router did not start on", "cannot join the bus")
+
+
 def run_one(job: RunJob, stop: threading.Event | None = None) -> dict[str, Any]:
     """Makes one run and measures it: its row of the study (see :func:`iw_zenoh.study.stats.summarize`)."""
     job.folder.mkdir(parents=True, exist_ok=True)
@@ -114,7 +120,7 @@ def run_one(job: RunJob, stop: threading.Event | None = None) -> dict[str, Any]:
         "criteria_met": False,
         "wall_s": 0.0,
         "recording": str(job.stem.with_suffix(".mcap")),
-        "command": " ".join(["iwz", *argv[4:]]),
+        "command": " ".join(["iwz", *argv[3:]]),
         "report": None,
     }
     if stop is not None and stop.is_set():
@@ -122,9 +128,19 @@ def run_one(job: RunJob, stop: threading.Event | None = None) -> dict[str, Any]:
         return row
     t0 = time.monotonic()
     log = job.stem.with_suffix(".log")
-    with log.open("wb") as out:
-        p = subprocess.Popen(argv, stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
-    code = _wait(p, job.timeout_s)
+    for attempt in range(1, PORT_TRIES + 1):
+        with log.open("wb") as out:
+            p = subprocess.Popen(argv, stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+        code = _wait(p, job.timeout_s)
+        said = log.read_text(errors="replace") if log.exists() else ""
+        router_failed = any(words in said for words in ROUTER_FAILED)
+        if code != ROLE_FAILED or not router_failed or attempt == PORT_TRIES or (stop and stop.is_set()):
+            break
+        # the free port was taken between our look and its router's bind (another run's, or any
+        # connection's own port): the run never ran; again on another port
+        logger.info("run %s seed %d: its router's port was taken; again on another", job.condition.name, job.seed)
+        argv = job.argv(free_port())
+        row["command"] = " ".join(["iwz", *argv[3:]])
     row["wall_s"] = round(time.monotonic() - t0, 3)
     row["exit_code"] = code
     if code is None:

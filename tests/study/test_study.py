@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import re
+import socket
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
@@ -135,7 +136,7 @@ def test_a_failed_run_is_a_row_with_its_reason_and_the_study_finishes(scenario: 
     assert r.returncode == 1, r.stderr  # some run failed; the study is written all the same
     got = json.loads((out / "study.json").read_text())
     rows = {row["condition"]: row for row in got["runs"]}
-    assert rows["fine"]["status"] == "ok"
+    assert rows["fine"]["status"] == "ok", rows["fine"]["reason"]
     assert rows["broken"]["status"] == "failed"
     assert "nosuch" in rows["broken"]["reason"]
     assert got["summary"]["broken"] == {**got["summary"]["broken"], "runs": 0, "failed": 1}
@@ -162,3 +163,22 @@ def test_a_field_the_scenario_refuses_ends_the_study_before_any_run(scenario: Pa
     assert "world.nosuch" in r.stderr
     assert "unknown field" in r.stderr
     assert not (tmp_path / "st").exists()
+
+
+def test_a_run_whose_routers_port_was_taken_meanwhile_starts_again_on_another(
+    scenario: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The port a run is given can be taken before its router binds it (by any connection's own
+    port: the kernel hands those out of the same range); that run never ran: it is started again."""
+    from iw_zenoh.bus.net import free_port
+    from iw_zenoh.study import runs
+
+    with socket.socket() as held:  # bound, not listening: as an outgoing connection holds its port
+        held.bind(("127.0.0.1", 0))
+        taken = held.getsockname()[1]
+        given = iter([taken])
+        monkeypatch.setattr(runs, "free_port", lambda: next(given, None) or free_port())
+        row = run_one(RunJob(scenario, Condition("base"), 1, tmp_path / "base", timeout_s=150))
+    assert row["status"] == "ok", row["reason"]
+    assert f"--port {taken} " not in row["command"]
+    assert row["command"].startswith("iwz run ")
