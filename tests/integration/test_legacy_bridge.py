@@ -449,7 +449,13 @@ def test_a_robot_beacon_moves_with_its_robot_and_only_one_beacon_is_allowed(
     for _ in range(40):
         carrier.send(b'<Actions LeftMotor="0.1" RightMotor="0.1"/>')
         carrier.recv()
+    # the late robot's socket still holds the messages of the cycles it did not read (from
+    # before the carrier moved): read on until the bearing shows the move, a bounded number of times
     moved = beacon(late)
+    for _ in range(10):
+        if moved is not None and float(moved) > float(value) + 3.0:
+            break
+        moved = beacon(late)
     assert moved is not None
     assert float(moved) > float(value) + 3.0
     # a robot registered before the beacon has no sensor for it
