@@ -88,9 +88,12 @@ class FaultRun:
 
     def _read(self) -> None:
         assert self.p.stdout is not None
-        for line in self.p.stdout:
-            self.out.append(line)
-            self.lines.put(line)
+        try:
+            for line in self.p.stdout:
+                self.out.append(line)
+                self.lines.put(line)
+        except (ValueError, OSError):  # closed by close() while this thread read: the run is over
+            return
 
     def pid(self, role: str, name: str = "", timeout_s: float = 30.0) -> int:
         """The pid of the launcher's child of ``role`` (and ``--name NAME``), waiting up to
