@@ -166,19 +166,8 @@ class Pump(threading.Thread):
         if cmd.cmd == "scans":  # the page draws other robots' scans now: their last ones (filtered on the loop)
             scans = self.feed.scans_now()
             return [scans] if scans is not None else []
-        if cmd.cmd == "drive":
-            return _drive(self.source, client, cmd)
-        why = self.source.command(cmd)
+        why = self.source.command(cmd)  # drives never come here: the loop relays them (_Pages._drive)
         return [PageError(error=why)] if why else []
-
-
-def _drive(source: Source, client: Client, cmd: PageCommand) -> list[PageMessage]:
-    """Relays a page's drive command; the error to tell it when refused."""
-    assert cmd.drive is not None  # checked at the edge
-    why = source.drive(cmd.robot_id, client.driver, cmd.drive)
-    if why:
-        return [PageError(error=f"cannot drive chair {cmd.robot_id}: {why}", drive_robot=cmd.robot_id)]
-    return []
 
 
 MODEL_SUFFIXES = (".stl", ".gltf", ".glb")  # a robot type's model file (the page reads these; .bin: a glTF's buffers)
@@ -257,8 +246,11 @@ class _Pages:
     def _drive(self, client: Client, cmd: PageCommand) -> None:
         """Relays a page's drive command at once, on this loop (queued for the pump it waited for
         the pump's pass, tens of ms on a loaded machine); a refusal is told to the page."""
+        assert cmd.drive is not None  # checked at the edge
         try:
-            answer = _drive(self.source, client, cmd)
+            why = self.source.drive(cmd.robot_id, client.driver, cmd.drive)
+            refused = PageError(error=f"cannot drive chair {cmd.robot_id}: {why}", drive_robot=cmd.robot_id)
+            answer = [refused] if why else []
         except Exception as e:  # one page's command must not end its socket
             logger.exception("a page's drive %r failed", cmd)
             answer = [PageError(error=f"command failed: {type(e).__name__}: {str(e)[:200]}")]
