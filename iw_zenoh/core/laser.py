@@ -26,7 +26,7 @@ from iw_zenoh.core.cellgrid import SceneIndex, gather, in_convex, in_walls, scen
 from iw_zenoh.core.lab import Lab, Scene, Wall
 from iw_zenoh.core.placing import mounts, outline_at
 
-__all__ = ["laser_distances", "laser_ranges", "noisy_ranges", "warm_up"]
+__all__ = ["laser_distances", "laser_ranges", "warm_up"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -89,23 +89,6 @@ def laser_distances(
     )
     out[np.repeat(sel, lz.beams)] = got
     return out
-
-
-def noisy_ranges(bodies: Bodies, true_m: FloatArray, z: FloatArray) -> FloatArray:
-    """Laser ranges with each robot's ``laser_m`` noise: ``true + mean + std * z``, never
-    negative, ``inf`` (nothing within range) kept as it is.
-
-    Args:
-        bodies: The robots.
-        true_m: (L,) true ranges.
-        z: (L,) standard normals, one per beam.
-
-    Returns:
-        (L,) the readings.
-    """
-    own = bodies.lasers.beam_owner
-    noisy = true_m + bodies.noise_mean["laser_m"][own] + bodies.noise_std["laser_m"][own] * z
-    return np.where(np.isfinite(true_m), np.maximum(noisy, 0.0), np.inf)
 
 
 def laser_ranges(

@@ -4,10 +4,10 @@ compass, GPS and wheel encoders, each from its true value and its standard norma
 Why compiled (numba): on a learning environment's one chair, these few values cost about forty
 small numpy calls a tick, more than computing the distances. Each function performs the numpy
 expression's operations (:func:`iw_zenoh.core.sensors.legacy_ir_value`,
-:func:`iw_zenoh.core.sensors.step_encoders`, :func:`iw_zenoh.core.laser.noisy_ranges`, and those
-of :func:`iw_zenoh.core.sensors.read_sensors`) in the same order on the same float64 values, so
-the readings are the same bit for bit (``tests/core/test_readout.py`` checks them against the
-numpy expressions on random input). :func:`~iw_zenoh.core.sensors.read_sensors` calls them:
+the encoders' ``acc + rolled * (1 + slip) * ticks_per_m``, the laser's ``true + mean + std * z``
+kept from below 0, and the rest of :func:`iw_zenoh.core.sensors.read_sensors`) in the same order
+on the same float64 values, so the readings are the same bit for bit (``tests/core/test_readout.py``
+checks them against the numpy expressions on random input). :func:`~iw_zenoh.core.sensors.read_sensors` calls them:
 the sensors role and the in-process world alike. Cached on disk as the other kernels.
 """
 
@@ -24,8 +24,8 @@ __all__ = ["encoders", "noisy_proximity", "noisy_ranges", "pose_readings", "warm
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
-LEGACY_NOTHING = 100.0  # core.sensors' (Ciber-Rato's IR reading when nothing is seen)
-LEGACY_MIN_DIST = 0.01
+LEGACY_NOTHING = 100.0  # Ciber-Rato's IR reading when nothing is seen (or closer than 0.01)
+LEGACY_MIN_DIST = 0.01  # below this Ciber-Rato reads 100, as if nothing were there
 DEG_PER_RAD = 180.0 / math.pi  # what np.degrees multiplies by
 
 
@@ -72,7 +72,7 @@ def noisy_ranges(
     true_m: FloatArray, z: FloatArray, owner: IntArray, mean: FloatArray, std: FloatArray
 ) -> FloatArray:  # pragma: no cover
     """(L,) laser ranges ``true + mean + std * z`` (the beam's robot's noise), never negative,
-    ``inf`` kept (:func:`iw_zenoh.core.laser.noisy_ranges`)."""
+    ``inf`` kept."""
     out = np.empty(true_m.shape[0])
     for k in range(true_m.shape[0]):
         t = true_m[k]
@@ -109,7 +109,7 @@ def encoders(
     acc: FloatArray, rolled_m: FloatArray, ticks_per_m: FloatArray, z: FloatArray, mean: FloatArray, std: FloatArray
 ) -> FloatArray:  # pragma: no cover
     """(N, 2) encoder ticks after this tick: ``acc + rolled * (1 + slip) * ticks_per_m`` with
-    ``slip = mean + std * z`` (:func:`iw_zenoh.core.sensors.step_encoders`)."""
+    ``slip = mean + std * z`` (the encoders' count)."""
     out = np.empty(acc.shape)
     for i in range(acc.shape[0]):
         for w in range(2):

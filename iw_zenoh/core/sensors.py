@@ -40,15 +40,13 @@ __all__ = [
     "noise_layout",
     "proximity_distances",
     "read_sensors",
-    "step_encoders",
 ]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 BoolArray = npt.NDArray[np.bool_]
 
-LEGACY_NOTHING = 100.0  # Ciber-Rato's IR reading when nothing is seen (or closer than 0.01)
-LEGACY_MIN_DIST = 0.01  # below this Ciber-Rato reads 100, as if nothing were there
+LEGACY_NOTHING, LEGACY_MIN_DIST = readout.LEGACY_NOTHING, readout.LEGACY_MIN_DIST  # declared with their kernel
 
 
 @dataclass(frozen=True)
@@ -156,23 +154,6 @@ def _proximity(
     )
     ix = scene_index(scene, outline_at(bodies.outline, pose)) if index is None else index
     return cone_distances(scene, ox, oy, normals, bodies.ir_range_m[sensors], lo, hi, own, ix.body_xy, index=ix)
-
-
-def step_encoders(acc: FloatArray, rolled_m: FloatArray, ticks_per_m: FloatArray, slip: FloatArray) -> FloatArray:
-    """Advances wheel encoders by the distance each wheel rolled this tick.
-
-    Args:
-        acc: (N, 2) accumulated ticks so far.
-        rolled_m: (N, 2) signed distance each wheel rolled (its commanded motion, even if the body
-            was held by a collision: the wheels spin).
-        ticks_per_m: (N,) resolution.
-        slip: (N, 2) relative slip this tick (``mean + std * z``): the counted distance is
-            ``rolled * (1 + slip)``.
-
-    Returns:
-        (N, 2) the new accumulated ticks.
-    """
-    return np.asarray(acc + rolled_m * (1.0 + slip) * ticks_per_m[:, None], dtype=np.float64)
 
 
 def _ground(scene: Scene, bodies: Bodies, pose: FloatArray) -> IntArray:
