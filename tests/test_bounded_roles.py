@@ -41,7 +41,7 @@ from iw_zenoh.messages import (
 from iw_zenoh.nodes import foxglove_live
 from iw_zenoh.process.runtime import NodeIO
 from iw_zenoh.record.foxglove import SceneBuilder
-from iw_zenoh.scenario.file import Criteria, Reach
+from iw_zenoh.scenario.tables import Criteria, Reach
 from iw_zenoh.secure.denials import KEPT, REPEAT_NS, DenialLog
 from iw_zenoh.sim.config import WorldConfig
 from iw_zenoh.sim.obstacles import MAX_OBSTACLES, Obstacles

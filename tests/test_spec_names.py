@@ -131,7 +131,7 @@ def _chair_scenario(tmp_path: Path, start: str) -> str:
 
 def test_a_chairs_start_is_a_typed_table_and_the_old_string_is_refused_with_the_table_to_write(tmp_path: Path) -> None:
     from iw_zenoh.launch.launcher import Launcher
-    from iw_zenoh.scenario.file import Start
+    from iw_zenoh.scenario.tables import Start
 
     sc = parse_scenario(_chair_scenario(tmp_path, "{ x_m = 1.5, y_m = 3, dir_deg = -90 }"), tmp_path)
     assert sc.chair is not None

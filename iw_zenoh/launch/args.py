@@ -12,7 +12,7 @@ import msgspec
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.errors import ConfigError
 from iw_zenoh.scenario.fields import parse_set
-from iw_zenoh.scenario.file import Scenario, SecuritySection
+from iw_zenoh.scenario.tables import Scenario, SecuritySection
 
 __all__ = ["build_parser", "default_recording", "scenario_from_args", "scenario_sets"]
 

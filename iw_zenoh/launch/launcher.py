@@ -39,8 +39,9 @@ from iw_zenoh.nodes.world_options import world_options
 from iw_zenoh.nodes.world_seal import SEAL_ENV, new_key, sealed
 from iw_zenoh.process.options import options_argument
 from iw_zenoh.process.runtime import SUPERVISOR_ENV, setup_logging
-from iw_zenoh.scenario.file import Scenario, load_scenario
+from iw_zenoh.scenario.file import load_scenario
 from iw_zenoh.scenario.shipped import resolve_scenario
+from iw_zenoh.scenario.tables import Scenario
 
 __all__ = ["Child", "Launcher", "main", "world_options"]
 

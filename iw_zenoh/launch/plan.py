@@ -29,7 +29,7 @@ from iw_zenoh.nodes.role_options import BridgeOptions, RadioOptions, RecorderOpt
 from iw_zenoh.nodes.world_options import WorldOptions
 from iw_zenoh.process.options import options_argument
 from iw_zenoh.record.metrics import Goal, goals_json
-from iw_zenoh.scenario.file import Scenario, Start
+from iw_zenoh.scenario.tables import Scenario, Start
 from iw_zenoh.secure.cli import POLICY_FILE
 
 __all__ = ["RunPlan"]

@@ -16,7 +16,7 @@ from iw_zenoh.agent.programs import program_label
 from iw_zenoh.errors import ConfigError
 from iw_zenoh.launch.child import Child
 from iw_zenoh.nodes.role_options import SensorsOptions
-from iw_zenoh.scenario.file import AgentEntry, Scenario
+from iw_zenoh.scenario.tables import AgentEntry, Scenario
 from iw_zenoh.secure.certs import CA_CERT, init_ca, issue
 from iw_zenoh.secure.cli import HEADER, POLICY_FILE, add_identity
 from iw_zenoh.secure.policy import load_policy

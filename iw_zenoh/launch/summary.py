@@ -7,7 +7,7 @@ from pathlib import Path
 
 from iw_zenoh.launch.tally import Tally
 from iw_zenoh.record.parts import recording_parts
-from iw_zenoh.scenario.file import Criteria
+from iw_zenoh.scenario.tables import Criteria
 
 __all__ = ["print_summary"]
 

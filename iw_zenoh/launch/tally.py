@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 from iw_zenoh.errors import DecodeError
 from iw_zenoh.messages import Event, EventKind, RegisteredData, WorldInfo, WorldState, event_payload
-from iw_zenoh.scenario.file import Criteria, DoorCriterion, Reach
+from iw_zenoh.scenario.tables import Criteria, DoorCriterion, Reach
 from iw_zenoh.sim.doorwatch import DoorWatch
 from iw_zenoh.sim.resume import WorldSnapshot, snapshot
 

@@ -41,7 +41,7 @@ from iw_zenoh.learn.render import frame
 from iw_zenoh.learn.scenario import ScenarioEnv, build
 from iw_zenoh.maps import load_lab
 from iw_zenoh.messages import Heard, SensorReading, WorldState
-from iw_zenoh.scenario.file import Scenario
+from iw_zenoh.scenario.tables import Scenario
 
 __all__ = ["DistributedEnv"]
 

@@ -28,7 +28,8 @@ from iw_zenoh.learn.episode import Episode
 from iw_zenoh.learn.nav import ACTIONS, Goal, Reward, Senses
 from iw_zenoh.learn.render import frame
 from iw_zenoh.maps import load_grid, load_lab
-from iw_zenoh.scenario.file import Scenario, load_scenario
+from iw_zenoh.scenario.file import load_scenario
+from iw_zenoh.scenario.tables import Scenario
 from iw_zenoh.sim.local import LocalWorld
 
 __all__ = ["SCENARIO_ID", "ScenarioEnv", "build", "make_env"]

@@ -15,7 +15,7 @@ from iw_zenoh.errors import IwError
 from iw_zenoh.launch.secure_run import SERIAL_BRIDGE, agent_name, asked_id
 from iw_zenoh.messages import Obstacle
 from iw_zenoh.process.options import add_option_flags, declared_flags, option
-from iw_zenoh.scenario.file import DURATION_S_MAX, Scenario
+from iw_zenoh.scenario.tables import DURATION_S_MAX, Scenario
 from iw_zenoh.secure.policy import load_policy, owners
 from iw_zenoh.sim.config import WorldConfig, WorldSettings
 from iw_zenoh.sim.resume import WorldSnapshot

@@ -3,8 +3,9 @@
 A scenario names the map, grid, mode, period, seed and duration; the robots' agent programs with
 their arguments; obstacles; and success criteria. Its tables are the msgspec Structs of
 :mod:`iw_zenoh.scenario.tables`: each field's name, type, range and default is declared once,
-there, and msgspec decodes the TOML into them; this module reads, checks and refuses. A bad scenario is refused with :class:`~iw_zenoh.errors.ConfigError` naming the file, the
-field (``agents[0].robots``) and the reason. Paths are relative to the scenario file. See
+there, and msgspec decodes the TOML into them; this module reads, checks and refuses. A bad
+scenario is refused with :class:`~iw_zenoh.errors.ConfigError` naming the file, the field
+(``agents[0].robots``) and the reason. Paths are relative to the scenario file. See
 ``docs/scenarios.md`` for every field.
 """
 
@@ -31,46 +32,17 @@ from iw_zenoh.scenario.refused import args_table, at_line, old_names, room_table
 from iw_zenoh.scenario.specfile import SPEC_TABLE, check_spec, line_of, load_spec_file, renamed_field
 from iw_zenoh.scenario.tables import (
     DEPTH_MAX,
-    DURATION_S_MAX,
     EXTENT_M,
     NAME,
     SEED_MAX,
     AgentEntry,
-    BridgeSection,
-    ChairSection,
-    Criteria,
-    DoorCriterion,
-    ObstacleEntry,
-    Reach,
-    RolesSection,
-    Ros2Section,
     Scenario,
     ScenarioFile,
-    SecuritySection,
-    Start,
     WorldSection,
 )
 from iw_zenoh.sim.obstacles import Obstacles
 
-__all__ = [  # the tables are declared in iw_zenoh.scenario.tables, and named here too
-    "DURATION_S_MAX",
-    "AgentEntry",
-    "BridgeSection",
-    "ChairSection",
-    "Criteria",
-    "DoorCriterion",
-    "ObstacleEntry",
-    "Reach",
-    "RolesSection",
-    "Ros2Section",
-    "Scenario",
-    "ScenarioFile",
-    "SecuritySection",
-    "Start",
-    "WorldSection",
-    "load_scenario",
-    "parse_scenario",
-]
+__all__ = ["load_scenario", "parse_scenario"]  # the tables themselves: iw_zenoh.scenario.tables
 
 
 def _dec_path(kind: type, value: Any) -> Any:

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from iw_zenoh.scenario.file import DoorCriterion
+from iw_zenoh.scenario.tables import DoorCriterion
 
 __all__ = ["OPEN_DEG", "OPEN_M", "SHUT_DEG", "SHUT_M", "STILL_DEG", "STILL_M", "DoorWatch"]
 

@@ -2,7 +2,7 @@ from __future__ import annotations
 
 from iw_zenoh.launch.tally import Tally
 from iw_zenoh.messages import Event, EventKind, WorldState
-from iw_zenoh.scenario.file import Criteria, Reach
+from iw_zenoh.scenario.tables import Criteria, Reach
 
 
 def _state(tick: int, x: float) -> WorldState:

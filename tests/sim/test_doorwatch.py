@@ -4,7 +4,7 @@ import math
 
 from iw_zenoh.launch.tally import Tally
 from iw_zenoh.messages import WorldState
-from iw_zenoh.scenario.file import Criteria, DoorCriterion
+from iw_zenoh.scenario.tables import Criteria, DoorCriterion
 from iw_zenoh.sim.doorwatch import DoorWatch
 
 HINGED = DoorCriterion(robot=1, x_m=10.0, y_m=5.0, one_chair_within_m=1.0)
