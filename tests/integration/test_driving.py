@@ -106,3 +106,22 @@ def test_the_committed_trace_drives_slalom_manual_to_pass_and_the_report_shows_t
     assert inputs - 10 <= int(rows["driver inputs"]) <= inputs
     assert int(rows["commands given"]) > 10
     assert rows["assistance intervened, s"] == "0.0"  # slalom-manual: no shared control
+    # the next step a user takes: the run as a rosbag2 bag; rosbags' own reader finds the driver's joystick
+    bag = tmp_path / "bag"
+    export = subprocess.run(
+        [sys.executable, "-m", "iw_zenoh.cli", "export", "--ros2", str(rec), "-o", str(bag), "--quiet"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert export.returncode == 0, export.stderr
+    from rosbags.rosbag2 import Reader
+
+    from iw_zenoh.ros2 import types as t
+
+    with Reader(bag) as r:
+        joy = [c for c in r.connections if c.msgtype == t.JOY]
+        assert [c.topic for c in joy] == ["/robot1/joy"]
+        pushes = [t.store().deserialize_cdr(d, t.JOY) for _, _, d in r.messages(connections=joy)]
+    assert len(pushes) == int(rows["driver inputs"])
+    assert any(j.axes[1] > 0.1 and j.buttons[0] == 1 for j in pushes)  # pushed forward, the dead-man held

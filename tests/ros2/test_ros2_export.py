@@ -8,6 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from mcap.reader import make_reader
 from rosbags.rosbag2 import Reader
 
 from iw_zenoh import keys
@@ -24,6 +25,7 @@ from iw_zenoh.messages import (
 )
 from iw_zenoh.messages.world import IrSensorMsg
 from iw_zenoh.record.parts import PART_META, next_part
+from iw_zenoh.record.reader import open_recording
 from iw_zenoh.record.recording import Recorder
 from iw_zenoh.record.ros2_export import export_ros2, main
 from iw_zenoh.ros2 import types as t
@@ -123,6 +125,17 @@ def test_refusals_name_the_problem(tmp_path: Path, capsys: pytest.CaptureFixture
     assert not (tmp_path / "bag2").exists()
 
 
+HOSTILE_DRIVES = [  # recorded on a drive key, none of them a driver's input: each skipped, the rest exported
+    b'{"robot_id":1,"driver":"page-1","x":5.0}',  # a stick beyond -1..1
+    b'{"robot_id":1,"driver":"","y":0.5}',  # no driver
+    b'{"robot_id":1,"driver":"p","x":"left"}',  # a word for a number
+    b'{"robot_id":1,"driver":"p","buttons":70000}',  # more than 16 buttons
+    b'{"robot_id":1,"driver":"p","y":NaN}',  # not JSON
+    '{"robot_id":1,"driver":"\u00e9\u00e9","x":1e999}'.encode(),  # non-ASCII, and infinity
+    b"\xff\xfe" * 5000,  # not text at all, 10 kB
+]
+
+
 def test_a_drivers_inputs_export_as_joy_at_the_simulation_time_they_were_given(tmp_path: Path) -> None:
     _part(tmp_path / "run.mcap", range(1, 11), None, drive=True)
     counts = export_ros2(tmp_path / "run.mcap", tmp_path / "bag")
@@ -137,3 +150,22 @@ def test_a_drivers_inputs_export_as_joy_at_the_simulation_time_they_were_given(t
         assert j.header.frame_id == "robot1/base_link"
         assert list(j.axes) == [-0.25, 0.5]  # ROS's axis 0 is positive to the left; ours, to the right
         assert list(j.buttons) == [(k + 1) % 2, 0, 1] + [0] * 13  # bit 0, the dead-man, first
+
+
+def test_hostile_drive_payloads_in_a_recording_are_skipped_and_the_inputs_around_them_exported(tmp_path: Path) -> None:
+    first = tmp_path / "run.mcap"
+    _part(first, range(1, 11), None, drive=True)
+    spoiled = tmp_path / "spoiled.mcap"
+    with first.open("rb") as f, spoiled.open("wb") as out:  # the same run with the hostile ones between its inputs
+        rec = Recorder(out, {"iw.user": {"scenario": "unit"}}, chunk_size=1500, scene=False)
+        for _, channel, message in make_reader(f).iter_messages():
+            rec.add(channel.topic, message.data, message.log_time)
+            if channel.topic == keys.drive("s", 1) and message.sequence in (0, 5):  # every one, twice
+                for k, junk in enumerate(HOSTILE_DRIVES):
+                    rec.add(channel.topic, junk, message.log_time + 1 + k)
+        rec.finish()
+    with open_recording(spoiled) as r:  # they are there, and refused as no driver's input
+        assert len(list(r.records(("drive",)))) == 10
+        assert r.bad == {keys.drive("s", 1): 2 * len(HOSTILE_DRIVES)}
+    counts = export_ros2(spoiled, tmp_path / "bag")
+    assert counts == export_ros2(first, tmp_path / "bag2")  # not one input lost, not one invented
