@@ -5,7 +5,7 @@ from pathlib import Path
 import msgspec
 import pytest
 
-from iw_zenoh.scenario import file as config
+from iw_zenoh.scenario.tables import ScenarioFile
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "scenarios.md"
 
@@ -31,7 +31,7 @@ def _tables(kind: type, seen: set[type]) -> None:
 
 def _fields() -> list[tuple[str, str]]:
     seen: set[type] = set()
-    _tables(config.ScenarioFile, seen)
+    _tables(ScenarioFile, seen)
     return sorted((cls.__name__, f) for cls in seen for f in cls.__struct_fields__)
 
 

@@ -95,7 +95,9 @@ def test_the_page_has_no_test_hooks_unless_its_address_asks(live: tuple[Net, str
     page.close()
     page = _open(browser, url)  # ?hooks=1
     assert page.evaluate("typeof window.iwz.toScreen") == "function"
-    assert page.evaluate("window.iwz.robots().map((r) => r.state)") == ["driving", "driving"]  # names, not letters
+    # names, not letters; waited for, as a busy machine may show them held while collision catches up
+    page.wait_for_function("window.iwz.robots().every((r) => r.state === 'driving')", timeout=WAIT_MS)
+    assert page.evaluate("window.iwz.robots().map((r) => r.state)") == ["driving", "driving"]
     page.close()
 
 

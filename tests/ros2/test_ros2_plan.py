@@ -14,7 +14,8 @@ from iw_zenoh.launch.launcher import Launcher
 from iw_zenoh.launch.launcher import main as run_main
 from iw_zenoh.launch.secure_run import agent_robots
 from iw_zenoh.nodes import ros2
-from iw_zenoh.scenario.file import Ros2Section, load_scenario
+from iw_zenoh.scenario.file import load_scenario
+from iw_zenoh.scenario.tables import Ros2Section
 
 MAPS = Path(__file__).resolve().parents[2] / "maps"
 
