@@ -110,6 +110,10 @@ def test_an_agent_stopped_past_its_grace_drives_again_once_resumed(tmp_path: Pat
     try:
         run.wait_moving(timeout_s=60)
         pid = run.pid("agent")
+        # the lines so far are not the status after the stop: one from before the agent was up may
+        # say agents 0/1, robots 0/0 (and those since, agents 1/1, robots 1/1)
+        while not run.lines.empty():
+            run.lines.get_nowait()
         subprocess.run(["kill", "-STOP", str(pid)], check=True, timeout=10)
         try:
             wait_event(run.events, "removed", timeout_s=20, pred=lambda e: e.robot_id == 1)
