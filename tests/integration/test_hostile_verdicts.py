@@ -136,9 +136,19 @@ def _check_readings(bus: ZenohBus, sim: str, boxes: tuple[Inbox, Inbox, Inbox]) 
         if len(by_tick) <= 10:
             bus.publish(keys.say(sim, s.ids[0]), encode(Say(robot_id=s.ids[0], text=f"at {s.tick}")))
     got: dict[tuple[int, int], SensorReading] = {}  # the last: one sent early is corrected if the world held
-    for d in readings.drain():
-        r = decode(d[1], SensorReading)
-        got[r.tick, r.robot_id] = r
+    batches: list[RadioBatch] = []
+    ids = sorted(s.ids)
+    deadline = time.monotonic() + 20  # the sensors and the radio may be a few ticks behind the world
+    while True:
+        for d in readings.drain():
+            r = decode(d[1], SensorReading)
+            got[r.tick, r.robot_id] = r
+        batches += [decode(d[1], RadioBatch) for d in heard.drain()]
+        seen = sum((r.tick in by_tick) for r in got.values())
+        heard_both = sum(sorted(h.robot_id for h in b.hear) == ids for b in batches)
+        if (seen >= 10 and heard_both >= 5) or time.monotonic() > deadline:
+            break
+        (readings if seen < 10 else heard).wait(0.5)
     checked = 0
     for r in got.values():
         of = by_tick.get(r.tick)
@@ -147,8 +157,6 @@ def _check_readings(bus: ZenohBus, sim: str, boxes: tuple[Inbox, Inbox, Inbox]) 
             assert r.gps[:2] == pytest.approx((of.x[i], of.y[i]), abs=1e-6), (r.tick, r.robot_id)
             checked += 1
     assert checked >= 10, f"{checked} readings of the ticks seen"
-    batches = [decode(d[1], RadioBatch) for d in heard.drain()]
-    ids = sorted(s.ids)
     assert all(set(h.robot_id for h in b.hear) <= set(ids) for b in batches), batches
     both = [b for b in batches if sorted(h.robot_id for h in b.hear) == ids]
     assert len(both) >= 5, batches
