@@ -96,7 +96,14 @@ def test_a_replays_timeline_ends_at_the_last_state_and_seeking_there_shows_it() 
         assert isinstance(timeline, PageTimeline)
         assert timeline.end_ns == states[-1].sim_time_ns
         source.command(PageCommand(cmd="seek", at_ns=timeline.end_ns))
-        _until(source, feed, lambda _: feed.state is not None and feed.state.tick == states[-1].tick)
+        # (the player moves its position just after publishing the state: wait for both)
+        _until(
+            source,
+            feed,
+            lambda _: feed.state is not None
+            and feed.state.tick == states[-1].tick
+            and source.timeline().position_ns == states[-1].sim_time_ns,
+        )
         assert feed.state is not None
         assert feed.state.x == pytest.approx(states[-1].x)
         assert source.timeline().position_ns == states[-1].sim_time_ns

@@ -17,6 +17,7 @@ from iw_zenoh.bridges.serial.protocol import FrameDecoder, Motors, Status, encod
 from iw_zenoh.core.lab import Lab
 
 SLACK_S = 0.3  # scheduling on a busy 2-core machine (the suite runs two workers): the 200 ms rule itself is test_serial_board's, on a fake clock
+WAIT_S = 10.0  # the longest a status the test waits for may take on a loaded machine
 
 
 @pytest.fixture
@@ -48,11 +49,13 @@ def test_a_silent_computer_stops_the_wheels_within_200_ms(emulator: tuple[Emulat
         line.write(encode_frame(Motors(900, 900), seq))
         last_ns = time.monotonic_ns()
         list(_statuses(line, dec, time.monotonic() + 0.05))
-    stopped = next(s for s in _statuses(line, dec, time.monotonic() + 2.0) if s.wheels == (0, 0))
+    # the stop after the last frame (a status of a stall in between may still be queued), waited
+    # for well past the watchdog: its 200 ms are measured on the wheels log below
+    stopped = next(s for s in _statuses(line, dec, time.monotonic() + WAIT_S) if s.wheels == (0, 0) and s.ack == 9)
     assert stopped.ack == 9
     changes = [tuple(int(v) for v in ln.split()) for ln in log.getvalue().splitlines()]
     assert changes[0][1:] == (900, 900)
-    zero_ns = next(t for t, lw, rw in changes if (lw, rw) == (0, 0))
+    zero_ns = [t for t, lw, rw in changes if (lw, rw) == (0, 0)][-1]  # the stop after the last frame
     assert (zero_ns - last_ns) / 1e9 <= WATCHDOG_S + SLACK_S
     line.close()
 
@@ -66,6 +69,9 @@ def test_corrupted_frames_are_dropped_and_never_move_the_chair(emulator: tuple[E
         frame[seq % (len(frame) - 1)] ^= 1 << (seq % 8)
         line.write(bytes(frame))
     seen = list(_statuses(line, dec, time.monotonic() + 0.5))
+    deadline = time.monotonic() + WAIT_S
+    while emu.decoder.stats.dropped_total < 1 and time.monotonic() < deadline:  # the board read them late
+        seen += _statuses(line, dec, time.monotonic() + 0.1)
     assert seen
     assert all(s.wheels == (0, 0) for s in seen)
     assert log.getvalue() == ""
