@@ -360,5 +360,8 @@ class ReplaySource:
         """Stops the player and closes the file."""
         self.player.stop.set()
         self.player.wake.set()
-        self._thread.join(5)
+        self._thread.join(30)
+        if self._thread.is_alive():  # stuck in a read: closing the file under it would fail it
+            logger.warning("the replay's player did not stop within 30 s; its file is left to the process's exit")
+            return
         self._files.close()
