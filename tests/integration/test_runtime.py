@@ -49,10 +49,18 @@ GRID = (
 )
 
 
+RUN_TICKS = 30  # the ticks of a --duration 3 run: 3 s of 100 ms ticks
+
+
 def _maps(tmp: Path) -> tuple[str, str]:
     (tmp / "lab.xml").write_text(LAB)
     (tmp / "grid.xml").write_text(GRID)
     return str(tmp / "lab.xml"), str(tmp / "grid.xml")
+
+
+def _left(deadline: float) -> float:
+    """The seconds left until ``deadline`` (monotonic), none once it has passed."""
+    return max(deadline - time.monotonic(), 0.0)
 
 
 def test_registration_is_accepted_or_refused_with_its_reason(net: Net) -> None:
@@ -104,12 +112,15 @@ def _lockstep_run(
     net.spawn("sensors", *sensors_args, name=f"sensors-{seed}")
     net.spawn("agent", "wanderer", "--count", "2", "--seed", str(seed), "--name", f"w{seed}", name=f"agent-{seed}")
     assert world.popen.wait(90) == 0, world.output()
+    # the last states and readings may still be on their way when the world has exited: waited
+    # for until a whole run's are here, then any more within 0.5 s
+    deadline = time.monotonic() + 30
     out = []
-    while (d := states.get(timeout_s=0.5)) is not None:
+    while (d := states.get(timeout_s=_left(deadline) if len(out) < RUN_TICKS else 0.5)) is not None:
         m = decode(d[1], WorldState)
         out.append((m.tick, tuple(m.x + m.y + m.heading)))
     readings = []
-    while (d := batches.get(timeout_s=0.5)) is not None:
+    while (d := batches.get(timeout_s=_left(deadline) if len(readings) < 2 * RUN_TICKS else 0.5)) is not None:
         # the wall clock of the tick's start differs from run to run, nothing else may
         readings += [msgspec.structs.replace(r, tick_wall_ns=0) for r in decode(d[1], SensorBatch).readings]
     return out, readings
@@ -251,8 +262,9 @@ def test_a_batched_agent_host_reads_sensor_batches_and_answers_in_one_message(ne
     net.spawn("sensors")
     net.spawn("agent", "wanderer", "--count", "2", "--seed", "3", "--batch", "on", "--name", "herd")
     assert world.popen.wait(90) == 0, world.output()
+    deadline = time.monotonic() + 30  # the last states may still be on their way when the world has exited
     ticks = []
-    while (d := states.get(timeout_s=0.5)) is not None:
+    while (d := states.get(timeout_s=_left(deadline) if len(ticks) < RUN_TICKS else 0.5)) is not None:
         ticks.append(decode(d[1], WorldState))
     assert [m.tick for m in ticks] == list(range(1, 31))  # every tick answered, none waited out
     assert ticks[-1].x != ticks[0].x or ticks[-1].heading != ticks[0].heading
