@@ -158,9 +158,7 @@ def test_a_killed_agent_stops_its_chair(net: Net) -> None:
     agent.kill(signal.SIGKILL)
     lost = wait_event(events, "agent-lost", timeout_s=10)  # the only agent: no earlier one
     assert lost.robot_id == 1
-    stopped = wait_msg(
-        states, WorldState, lambda m: m.tick > lost.tick and abs(m.speed[m.ids.index(1)]) < 1e-3, timeout_s=5
-    )
+    stopped = wait_msg(states, WorldState, lambda m: m.tick > lost.tick and abs(m.speed[m.ids.index(1)]) < 1e-3)
     x = state_of(stopped, 1)[0]
     later = wait_msg(states, WorldState, lambda m: m.tick >= stopped.tick + 5)
     assert state_of(later, 1)[0] == pytest.approx(x, abs=1e-3)  # the motors wind down on their curve
@@ -169,17 +167,21 @@ def test_a_killed_agent_stops_its_chair(net: Net) -> None:
 
 def test_silent_controller_trips_the_watchdog(net: Net) -> None:
     lab, grid = _maps(net.tmp)
-    bus, events, states = watch(net)
-    net.spawn("world", lab, "--grid", grid, "--action-timeout-ms", "300")
+    bus = net.client()
+    events = subscribe(bus, keys.all_events(net.sim))
+    states = subscribe(bus, keys.state(net.sim))  # every state: the chair moves for about a second only
+    net.spawn("world", lab, "--grid", grid, "--action-timeout-ms", "1000")
     net.spawn("collision")
-    # the one command must not go stale while the world holds the chair for want of verdicts
+    # the one command (stale after 1 s, ten ticks) must not go stale while the world holds the chair
+    # for want of verdicts: the collision process is there, and has given the new roster a verdict
     wait_alive(bus, keys.alive(net.sim, "collision", "collision"))
     rid = register(bus, net.sim, RobotSpecMsg(name="raw")).robot_id
+    wait_msg(states, WorldState, lambda m: rid in m.ids and not m.held)
     bus.publish(keys.actions(net.sim, rid), encode(Actions(robot_id=rid, left=0.1, right=0.1)))
     wait_msg(states, WorldState, lambda m: rid in m.ids and m.speed[m.ids.index(rid)] > 0.05)
-    ev = wait_event(events, "watchdog", timeout_s=5)
+    ev = wait_event(events, "watchdog")
     assert ev.robot_id == rid
-    wait_msg(states, WorldState, lambda m: m.tick > ev.tick and abs(m.speed[m.ids.index(rid)]) < 1e-3, timeout_s=5)
+    wait_msg(states, WorldState, lambda m: m.tick > ev.tick and abs(m.speed[m.ids.index(rid)]) < 1e-3)
 
 
 def test_without_collision_process_every_chair_is_held_until_it_returns(net: Net) -> None:
@@ -197,9 +199,9 @@ def test_without_collision_process_every_chair_is_held_until_it_returns(net: Net
     assert later.held
     assert state_of(later, 1)[:2] == state_of(held, 1)[:2]
     net.spawn("collision", name="collision-again")
-    back = wait_event(events, "resumed", timeout_s=20, pred=lambda e: e.tick > hold.tick)
-    moving = wait_msg(states, WorldState, lambda m: m.tick > back.tick + 3)
-    assert not moving.held
+    # a process started on a loaded machine: its first verdicts may still be late (a tick held)
+    back = wait_event(events, "resumed", timeout_s=60, pred=lambda e: e.tick > hold.tick)
+    moving = wait_msg(states, WorldState, lambda m: m.tick > back.tick + 3 and not m.held)
     assert state_of(moving, 1)[0] > state_of(held, 1)[0]
 
 
