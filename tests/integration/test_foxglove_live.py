@@ -106,11 +106,19 @@ def _scene(channel: dict[str, Any], payload: bytes) -> Any:  # noqa: ANN401 (a g
 def test_a_foxglove_client_is_offered_the_scene_and_state_and_sees_every_tick_drawn(net: Net) -> None:
     port = _live_run(net)
     with pytest.raises(InvalidStatus) as foreign:  # any site's page the user visits may not read it
-        connect(f"ws://127.0.0.1:{port}", subprotocols=[Subprotocol(SDK)], origin=Origin("https://evil.example"))
+        connect(
+            f"ws://127.0.0.1:{port}",
+            subprotocols=[Subprotocol(SDK)],
+            origin=Origin("https://evil.example"),
+            open_timeout=30,
+        )
     assert foreign.value.response.status_code == 403
     assert "--foxglove-allow-origin" in foreign.value.response.body.decode()
     with connect(
-        f"ws://127.0.0.1:{port}", subprotocols=[Subprotocol(SDK)], origin=Origin("https://lichtblick.example")
+        f"ws://127.0.0.1:{port}",
+        subprotocols=[Subprotocol(SDK)],
+        origin=Origin("https://lichtblick.example"),
+        open_timeout=30,
     ):
         pass  # the origin added with --foxglove-allow-origin may
     assert _listens_on_loopback_only(port)
@@ -229,11 +237,19 @@ def test_iwz_foxglove_serves_both_subprotocols_and_tells_a_refused_client_which(
     _one_client(port, net.sim, "foxglove.sdk.v1")
     # another site's page may not read the run; the origin added with --allow-origin may
     with pytest.raises(InvalidStatus) as foreign:
-        connect(f"ws://127.0.0.1:{port}", subprotocols=[Subprotocol(SDK)], origin=Origin("https://evil.example"))
+        connect(
+            f"ws://127.0.0.1:{port}",
+            subprotocols=[Subprotocol(SDK)],
+            origin=Origin("https://evil.example"),
+            open_timeout=30,
+        )
     assert foreign.value.response.status_code == 403
     assert "--allow-origin" in foreign.value.response.body.decode()
     with connect(
-        f"ws://127.0.0.1:{port}", subprotocols=[Subprotocol(SDK)], origin=Origin("https://lichtblick.example")
+        f"ws://127.0.0.1:{port}",
+        subprotocols=[Subprotocol(SDK)],
+        origin=Origin("https://lichtblick.example"),
+        open_timeout=30,
     ) as ws:
         assert json.loads(ws.recv(timeout=30))["op"] == "serverInfo"
 

@@ -20,6 +20,7 @@ pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(150)]
 
 PARAMS_GPS = ('GPS="Off"', 'GPS="On"')
 EAST = b'<Actions LeftMotor="0.1" RightMotor="0.1"/>'
+MEASURES_S = 30.0  # how long the test's robot waits for a Measures (croblink's 2 s: a loaded machine may lag more)
 
 
 def _gps_params(net: Net) -> Path:
@@ -42,6 +43,7 @@ def test_a_silent_legacy_robot_keeps_its_last_command_unless_the_world_stops_sil
     robot = LegacyClient(port)
     clients.append(robot)
     assert b'Status="Ok"' in robot.register(b'<Robot Id="1" Name="quiet"/>')
+    robot.sock.settimeout(MEASURES_S)
     t0, x0 = _gps_x(robot.recv())
     robot.send(EAST)  # one command, then silence
     seen = {t0: x0}
@@ -64,6 +66,7 @@ def test_an_action_sent_just_before_start_is_applied_at_tick_1(net: Net, clients
     robot, viewer = LegacyClient(port), LegacyClient(port)
     clients += [robot, viewer]
     assert b'Status="Ok"' in robot.register(b'<Robot Id="1" Name="first"/>')
+    robot.sock.settimeout(MEASURES_S)
     assert b'Status="Ok"' in viewer.register(b"<View/>\n\x00")
     assert measures_of(robot.recv()).get("Time") == "0"
     bridge = next(p for p in net.procs if p.name.startswith("bridge"))

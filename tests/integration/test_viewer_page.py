@@ -110,6 +110,7 @@ def test_the_map_has_a_legend_a_scale_bar_and_the_cursors_coordinates_and_3d_is_
     for means in ("driving", "held", "watchdog", "collided", "door", "wall", "obstacle", "laser hit", "target"):
         assert means in legend, legend
     assert page.is_visible("#legend")
+    page.wait_for_function("window.iwz.scaleBar() > 0", timeout=WAIT_MS)  # set when the map is first drawn
     metres, px = page.evaluate("[window.iwz.scaleBar(), window.iwz.scaleBar() * window.iwz.scale()]")
     mantissa = metres / 10 ** math.floor(math.log10(metres))
     assert round(mantissa, 6) in (1, 2, 5), metres  # a round length
@@ -197,6 +198,11 @@ def test_first_person_is_lit_shows_the_chair_ahead_and_a_hud_to_drive_by(
     # (waited for, not sampled at the second frame: in CI, on a loaded machine, that frame had no
     # green at all; a chair is drawn in its state's colour, green only while it is driving)
     page.wait_for_function("window.iwz.count3d((r, g, b) => g > r + 30 && g > b + 15) > 0.002", timeout=WAIT_MS)
+    # the nearest obstacle once the chair's readings have reached the page (drawn each animation frame)
+    page.wait_for_function(
+        "['front', 'm/s', 'nearest obstacle'].every((s) => document.getElementById('drivehud').innerText.includes(s))",
+        timeout=WAIT_MS,
+    )
     hud = page.inner_text("#drivehud")
     for said in ("front", "m/s", "nearest obstacle"):
         assert said in hud, hud
