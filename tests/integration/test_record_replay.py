@@ -148,13 +148,12 @@ def test_replay_pauses_steps_and_seeks_through_the_control_key(net: Net) -> None
     net.spawn("replay", str(path), "--as-sim", "play", "--paused")
     ctl = keys.control("play")
     step = encode(Control(command="step", steps=1))
-    first = None
-    deadline = time.monotonic() + 30
-    while first is None and time.monotonic() < deadline:  # the replay may still be starting
-        bus.publish(ctl, step)
-        d = got.get(timeout_s=1.0)
-        first = decode(d[1], WorldState) if d else None
-    assert first is not None
+    # the replay declares its token after its control subscription: once it is alive, it hears one
+    # step (a step sent again each second until a state came was two steps when the first state
+    # took over a second on a loaded machine: two states, not paused after one)
+    wait_alive(bus, keys.alive("play", "replay", "replay"))
+    bus.publish(ctl, step)
+    wait_msg(got, WorldState, timeout_s=30)
     assert got.get(timeout_s=0.5) is None  # paused after its one step
     bus.publish(ctl, encode(Control(command="seek", at_ns=6_000_000_000)))
     bus.publish(ctl, step)
