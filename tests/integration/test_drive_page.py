@@ -81,7 +81,12 @@ def _names(net: Net, bus: ZenohBus) -> dict[str, int]:
 
 
 def _drive_page(browser: Browser, run: Run, chair: str, *, gamepad: bool = False) -> Page:
-    """A page opened at ``?drive=ID``: in the driver's seat of ``chair`` once it says so."""
+    """A page opened at ``?drive=ID`` once ``chair`` is free: in the driver's seat once it says so.
+
+    A page takes a free chair at once and another's only by "take over", by the first drive state
+    it is told: the page of the test before, closed a moment ago, may not be released yet."""
+    free = subscribe(run.bus, keys.driving(run.net.sim, run.ids[chair]))
+    wait_msg(free, DriveState, lambda d: d.driver == "", timeout_s=WAIT_MS / 1000)
     page = browser.new_page(viewport={"width": 1200, "height": 800})
     if gamepad:
         page.add_init_script(GAMEPAD)
