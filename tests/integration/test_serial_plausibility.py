@@ -44,6 +44,13 @@ class Board:
         self.thread.start()
 
     def _run(self) -> None:
+        try:
+            self._serve()
+        except OSError:  # closed by close() under this thread: the test is over
+            if not self.stop.is_set():
+                raise
+
+    def _serve(self) -> None:
         counts, seq, decoder = [0, 0], 0, FrameDecoder()
         while not self.stop.is_set():
             if self.mode == "wrap":  # a jump of 2^31-1 a frame, wrapping the int32 counts
@@ -72,7 +79,7 @@ class Board:
 
     def close(self) -> None:
         self.stop.set()
-        self.thread.join(2)
+        self.thread.join(10)
         os.close(self.master)
         os.close(self.slave)
 
