@@ -34,7 +34,7 @@ from iw_zenoh.messages import (
     decode,
     encode,
 )
-from tests.integration.harness import Net, start_world, wait_msg, watch
+from tests.integration.harness import Net, start_world, wait_alive, wait_msg, watch
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(240)]
 
@@ -114,6 +114,11 @@ def test_forged_inconsistent_messages_on_every_key_stop_no_role_and_each_is_refu
     net.spawn("agent", "waypoint", "--waypoints", "35,7", "--start", "3,7,0", "--name", "batcher", "--batch", "on")
     before = wait_msg(states, WorldState, lambda m: len(m.ids) == 2 and min(m.speed) > 0.05 and not m.held, 60)
     solo = min(before.ids, key=lambda r: before.y[before.ids.index(r)])  # the chair at y = 3
+    # the radio (the say key's only subscriber) and the recorder (whose file must hold the forged
+    # state) were started beside the chairs, not waited for: each declares its token after its
+    # subscriptions, so once both are alive they hear every forgery
+    wait_alive(bus, keys.alive(net.sim, "radio", "radio"))
+    wait_alive(bus, keys.alive(net.sim, "recorder", "recorder"))
 
     forgeries = _forgeries(net.sim, before, solo)
     for key, data in forgeries:

@@ -98,6 +98,13 @@ def test_a_killed_recorder_continues_in_the_next_part_and_the_parts_read_as_one(
     replay = net.spawn("replay", str(out), "--as-sim", "play", "--rate", "0")
     assert replay.popen.wait(60) == 0, replay.output()
     got = []
-    while (d := played.get(timeout_s=2)) is not None:
+    deadline = time.monotonic() + 30
+    # until as many states as were recorded are in (a loaded machine may still be passing them
+    # on), then until two quiet seconds (anything played beyond them shows)
+    while True:
+        wait_s = 2.0 if len(got) >= len(ticks) else max(2.0, deadline - time.monotonic())
+        d = played.get(timeout_s=wait_s)
+        if d is None:
+            break
         got.append(decode(d[1], WorldState).tick)
     assert got == ticks

@@ -62,8 +62,10 @@ def test_an_agent_flooding_its_own_key_gets_bounded_refusals_and_holds_no_other_
             sent += 1
         time.sleep(0.01)  # the flooder's pace, not synchronisation
     during = wait_msg(states, WorldState, lambda m: len(m.ids) == 3)
-    # the world ticks on, and the refusals counted in the last second are reported once it is over
-    after = wait_msg(states, WorldState, lambda m: m.tick > during.tick + 30, 60)
+    # the world ticks on, and the refusals counted in the last second are reported once it is over;
+    # in a state not held (a verdict late on a loaded machine holds every chair for its one tick: a
+    # sample of any state could be such a tick), which never comes while the chairs are held for good
+    after = wait_msg(states, WorldState, lambda m: m.tick > during.tick + 30 and not m.held, 60)
     wait_msg(events, Event, lambda e: e.kind == EventKind.BAD_MESSAGE and e.key == key, 10)
 
     seen = _events(events)
@@ -75,7 +77,6 @@ def test_an_agent_flooding_its_own_key_gets_bounded_refusals_and_holds_no_other_
     assert any("more like it" in e.reason for e in refusals)
     held = [e.reason for e in seen if e.kind in (EventKind.WATCHDOG, EventKind.HOLDING) and e.robot_id in others]
     assert not held, held
-    assert not after.held, after.held_reason
     moved = [after.x[after.ids.index(r)] - before.x[before.ids.index(r)] for r in others]
     assert min(moved) > 0.5, f"the other chairs did not drive on: {moved}"
     died = [p.name for p in net.procs if p.popen.poll() is not None]

@@ -27,6 +27,7 @@ from tests.integration.serial_sim import start_sim
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(150)]
 
 POWER = 0.1  # the agent's command: 1000 power units on both wheels
+CREEP_MPS = 0.1  # the good board's counts: 10 a frame at 20 Hz, 2,000 a metre (maps/chair.toml)
 
 
 class Board:
@@ -44,6 +45,13 @@ class Board:
         self.thread.start()
 
     def _run(self) -> None:
+        try:
+            self._serve()
+        except OSError:  # closed by close() under this thread: the test is over
+            if not self.stop.is_set():
+                raise
+
+    def _serve(self) -> None:
         counts, seq, decoder = [0, 0], 0, FrameDecoder()
         while not self.stop.is_set():
             if self.mode == "wrap":  # a jump of 2^31-1 a frame, wrapping the int32 counts
@@ -72,7 +80,7 @@ class Board:
 
     def close(self) -> None:
         self.stop.set()
-        self.thread.join(2)
+        self.thread.join(10)
         os.close(self.master)
         os.close(self.slave)
 
@@ -115,6 +123,7 @@ def test_wrapping_encoders_and_a_dead_battery_are_refused_hold_the_chair_and_nev
         driver.start()
         _until(lambda: (1000, 1000) in board.driven_since(0), 60, "the bridge never drove the chair")
         start = wait_msg(chairs, ChairReading, lambda r: r.link == "up").pose
+        since = time.monotonic()
 
         for mode, says in (("wrap", "encoder step of"), ("dead", "battery 0 V")):
             board.mode = mode
@@ -132,7 +141,10 @@ def test_wrapping_encoders_and_a_dead_battery_are_refused_hold_the_chair_and_nev
             _until(lambda t=t1: (1000, 1000) in board.driven_since(t), 10, f"{mode}: not driven again once plausible")
 
         pose = wait_msg(chairs, ChairReading, lambda r: r.link == "up").pose
-        assert abs(pose[0] - start[0]) + abs(pose[1] - start[1]) < 1.0, (start, pose)  # no jump of kilometres
+        # no jump of kilometres: a metre, and the creep of the good board meanwhile (a loaded machine
+        # takes longer over the two faults; x and y apart, a straight creep is at most 1.5 times it)
+        crept = CREEP_MPS * (time.monotonic() - since)
+        assert abs(pose[0] - start[0]) + abs(pose[1] - start[1]) < 1.0 + 1.5 * crept, (start, pose, crept)
         refusals = _refusals(events)
         assert len(refusals) < 30, [e.reason for e in refusals]  # one per reason a second, not one a frame
         assert bridge.popen.poll() is None, bridge.output()
