@@ -237,7 +237,7 @@ def _status(page: Page) -> str:
     return str(page.inner_text("#drive-status"))
 
 
-def test_two_pages_one_drives_the_other_sees_who_and_takes_over_only_when_asked(run: Run, browser: Browser) -> None:
+def test_two_pages_one_drives_the_other_sees_who_and_takes_over_when_asked_or_freed(run: Run, browser: Browser) -> None:
     first = _drive_page(browser, run, "bob")
     me = first.evaluate("document.getElementById('drive-status').textContent")
     assert me.startswith("you drive")
@@ -262,8 +262,23 @@ def test_two_pages_one_drives_the_other_sees_who_and_takes_over_only_when_asked(
         f"document.getElementById('drive-status').textContent.startsWith('{taken} drives')", timeout=WAIT_MS
     )
     assert first.is_visible("#drive-take")
-    first.close()
+    # a page opened on the chair while another drives it takes it once it is free (its first state
+    # told may be one from before a release), a page whose chair was taken over does not
+    third = browser.new_page(viewport={"width": 1200, "height": 800})
+    third.goto(f"{run.url}?drive={run.ids['bob']}")
+    third.wait_for_function(
+        f"document.getElementById('drive-status').textContent.startsWith('{taken} drives')", timeout=WAIT_MS
+    )
     second.close()
+    third.wait_for_function(
+        "document.getElementById('drive-status').textContent.startsWith('you drive')", timeout=WAIT_MS
+    )
+    now = wait_msg(driving, DriveState, lambda d: d.driver not in ("", holder, taken)).driver
+    first.wait_for_function(
+        f"document.getElementById('drive-status').textContent.startsWith('{now} drives')", timeout=WAIT_MS
+    )
+    first.close()
+    third.close()
 
 
 def test_the_viewer_releases_the_chair_of_a_page_whose_socket_is_lost(run: Run) -> None:

@@ -100,9 +100,11 @@ def test_a_replays_timeline_ends_at_the_last_state_and_seeking_there_shows_it() 
         _until(
             source,
             feed,
-            lambda _: feed.state is not None
-            and feed.state.tick == states[-1].tick
-            and source.timeline().position_ns == states[-1].sim_time_ns,
+            lambda _: (
+                feed.state is not None
+                and feed.state.tick == states[-1].tick
+                and source.timeline().position_ns == states[-1].sim_time_ns
+            ),
         )
         assert feed.state is not None
         assert feed.state.x == pytest.approx(states[-1].x)

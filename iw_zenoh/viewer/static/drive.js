@@ -59,6 +59,7 @@ let me = "";                    // this page's driver name, as the server named 
 const states = new Map();       // chair id -> its agent's last drive state (chairs that accept a driver)
 let seq = 0;
 let taking = false;             // the next inputs ask to take the chair over
+let awaitingFree = false;       // opened on a chair another drove: taken once it is free
 let pendingGoto = /** @type {number[] | null} */ (null);
 let pendingAssist = /** @type {string | null} */ (null);
 let armedGoto = false;          // the next click on the map is where to go
@@ -84,7 +85,8 @@ function changed() {
     driveState.assist = s.assist; driveState.v_mps = s.v_mps; driveState.w_radps = s.w_radps;
     driveState.intervened = s.intervened; driveState.nearest_m = s.nearest_m; driveState.stale = s.stale;
     driveState.goal = s.goal;
-    if (driveState.you) taking = false;
+    if (driveState.you) { taking = false; awaitingFree = false; }
+    else if (awaitingFree && s.driver === "") { awaitingFree = false; taking = true; }  // free now: taken at once
   }
   panel();
   for (const fn of listeners) fn(driveState);
@@ -101,6 +103,7 @@ export function startDriving(id) {
   driveState.robot = id;
   driveState.level = s ? s.level : driveState.level;
   taking = !s || s.driver === "";  // a free chair is taken at once; another's only by "take over"
+  awaitingFree = !taking;  // (or once its driver leaves it: the first state told may be one from before a release)
   if (timer === null) timer = window.setInterval(tick, SEND_MS);
   if (!polling) { polling = true; requestAnimationFrame(poll); }
   if (hooks) hooks.setView("first");  // the driver's seat: first person, following this chair
@@ -113,7 +116,7 @@ export function stopDriving() {
   if (driveState.robot === null) return;
   if (mine()) send({ release: true });
   driveState.robot = null; driveState.you = false; driveState.driver = "";
-  taking = false; armedGoto = false;
+  taking = false; awaitingFree = false; armedGoto = false;
   if (timer !== null) { clearInterval(timer); timer = null; }
   changed();
 }
