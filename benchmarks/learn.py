@@ -5,6 +5,7 @@ observation; and the vector environment of 256 chairs in one world, in chair-ste
 
     python benchmarks/learn.py             # 2,000 steps each
     python benchmarks/learn.py --steps 500 --json
+    python benchmarks/learn.py --ppo 20       # and PPO trained 20 minutes (the examples extra)
 
 Targets (issue 36): a single environment >= 5,000 steps/s on one core; a batched vector env of 256
 chairs >= 100,000 chair-steps/s; ChairNav >= 10 times ir-sim's own ``env.step`` with one robot and
@@ -36,11 +37,13 @@ the whole tick as one compiled call per step.
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -120,16 +123,69 @@ def measure_irsim(steps: int) -> float | None:
     return rate
 
 
+EXAMPLE = Path(__file__).resolve().parents[1] / "docs" / "examples" / "ppo_chairnav.py"
+TARGET_PPO_SUCCESS = 0.9  # within TARGET_PPO_MINUTES of training on 2 cores
+TARGET_PPO_MINUTES = 20.0
+PPO_EVAL_EPISODES = 100
+
+
+def _example() -> Any:  # noqa: ANN401 (a module loaded from its path)
+    spec = importlib.util.spec_from_file_location("ppo_chairnav", EXAMPLE)
+    assert spec is not None
+    assert spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["ppo_chairnav"] = module  # its dataclasses look their module up there
+    spec.loader.exec_module(module)
+    return module
+
+
+def measure_ppo(minutes: float) -> dict[str, float] | None:
+    """docs/examples/ppo_chairnav.py's PPO trained for ``minutes`` of wall time (64 chairs, seed 1),
+    then its success rate on 100 episodes it never saw; None without the examples extra."""
+    try:
+        import stable_baselines3  # type: ignore[import-untyped,import-not-found,unused-ignore]  # noqa: F401, PLC0415
+    except ImportError:
+        return None
+    ex = _example()
+    with tempfile.TemporaryDirectory() as d:
+        out = Path(d) / "ppo.zip"
+        figures = ex.train(10**12, 64, 1, out, 10**12, 0, minutes)  # no evaluation during training
+        from stable_baselines3 import PPO  # noqa: PLC0415
+
+        e = ex.evaluate(ex.scaled_policy(PPO.load(out, device="cpu")), PPO_EVAL_EPISODES)
+    return {
+        "ppo_steps": float(figures["steps"]),
+        "ppo_train_wall_s": float(figures["train_wall_s"]),
+        "ppo_success_rate": e.success_rate,
+        "ppo_collision_rate": e.collision_rate,
+        "ppo_timeout_rate": e.timeout_rate,
+    }
+
+
 def main() -> int:
     """Prints the figures (or JSON)."""
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--steps", type=int, default=2000, help="steps per measure (default 2000)")
     p.add_argument("--json", action="store_true", help="the figures as one JSON object")
+    p.add_argument(
+        "--ppo",
+        type=float,
+        default=0.0,
+        metavar="MINUTES",
+        help="also train the PPO example this long and give its success rate on 100 unseen episodes "
+        "(the examples extra; the target is 90 %% within 20 minutes: --ppo 20)",
+    )
     args = p.parse_args()
     r: dict[str, float | None] = dict(measure(args.steps))
     r["irsim_steps_s"] = measure_irsim(args.steps)
     if r["irsim_steps_s"]:
         r["ratio_to_irsim"] = r["env_steps_s"] / r["irsim_steps_s"]  # type: ignore[operator]
+    if args.ppo > 0:
+        ppo = measure_ppo(args.ppo)
+        if ppo is None:
+            print("stable-baselines3 not installed (the examples extra): no PPO figure", file=sys.stderr)
+        else:
+            r |= ppo
     if args.json:
         print(json.dumps(r))
         return 0
@@ -145,6 +201,13 @@ def main() -> int:
     print(
         f"vector env, {BATCH} chairs in one world: {r['vector_chair_steps_s']:,.0f} chair-steps/s (target >= 100,000)"
     )
+    if r.get("ppo_success_rate") is not None:
+        print(
+            f"PPO on ChairNav, {r['ppo_train_wall_s']:,.0f} s of training ({r['ppo_steps']:,.0f} steps):"
+            f" {r['ppo_success_rate']:.0%} of {PPO_EVAL_EPISODES} unseen episodes reached the goal"
+            f" ({r['ppo_collision_rate']:.0%} collided, {r['ppo_timeout_rate']:.0%} timed out)"
+            f" (target >= {TARGET_PPO_SUCCESS:.0%} within {TARGET_PPO_MINUTES:g} minutes on 2 cores)"
+        )
     return 0
 
 
