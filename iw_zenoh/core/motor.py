@@ -8,15 +8,24 @@ Two profiles:
 * Ciber-Rato (legacy): ``out = (0.5 * in + 0.5 * prev) * N(100, MotorsNoise) / 100``; powers are
   lab units per cycle; wheel base 1; the translation uses the *old* heading; the heading is
   wrapped once.
+
+The array functions' arithmetic is compiled, in :mod:`iw_zenoh.core.drive` (the one
+implementation the world runs), which this module imports only when one of them is first called:
+the agents that import the constants or :func:`powers_for_twist` never load numba.
 """
 
 from __future__ import annotations
 
+import importlib
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
+
+if TYPE_CHECKING:
+    from types import ModuleType
 
 __all__ = [
     "MAX_POWER",
@@ -37,6 +46,15 @@ FloatArray = npt.NDArray[np.float64]
 MAX_POWER = 0.15  # Ciber-Rato's motor power limit, kept so its agents still work
 STRAIGHT_EPS_RAD = 1e-12  # below this turn per tick, integrate as a straight line
 CIBER_WHEEL_BASE = 1.0  # Ciber-Rato: 2 x robot radius
+
+_NO_NOISE = np.zeros((0, 2))  # no rows: no speed noise (the kernels take arrays, never None)
+
+
+def _drive() -> ModuleType:
+    """The compiled kernels (:mod:`iw_zenoh.core.drive`), imported on first use: the light
+    agents import MAX_POWER and powers_for_twist from here and must not load numba
+    (``tests/test_agent_imports.py``)."""
+    return importlib.import_module("iw_zenoh.core.drive")
 
 
 @dataclass(frozen=True)
@@ -61,14 +79,13 @@ def clamp_power(power: npt.ArrayLike) -> FloatArray:
         power: Powers, any shape.
 
     Returns:
-        Clamped powers.
+        Clamped powers, the input's shape (a scalar for a scalar).
     """
-    p = np.asarray(power, dtype=np.float64)
-    # np.where rather than np.nan_to_num (same result once clipped: an infinity becomes the
-    # limit either way), which costs several times more on a tick's few robots
-    # and minimum(maximum()) rather than np.clip: the same values (clip's ties are at +-0.15 only,
-    # where both give 0.15's sign), without np.clip's wrappers, which cost more than the sum
-    return np.minimum(np.maximum(np.where(np.isnan(p), 0.0, p), -MAX_POWER), MAX_POWER)
+    d = _drive()
+    p = d.floats(power)
+    out = np.empty(p.shape)
+    d.clamp_into(p.reshape(-1), out.reshape(-1))
+    return out if out.ndim else out[()]
 
 
 def step_motors(out_prev: FloatArray, cmd: FloatArray, curve: FloatArray) -> FloatArray:
@@ -82,8 +99,11 @@ def step_motors(out_prev: FloatArray, cmd: FloatArray, curve: FloatArray) -> Flo
     Returns:
         New outputs, shape (N, 2), within [-0.15, 0.15].
     """
-    c = np.asarray(curve, dtype=np.float64)[:, None]
-    return np.asarray((1.0 - c) * clamp_power(cmd) + c * out_prev, dtype=np.float64)
+    d = _drive()
+    prev = d.floats(out_prev)
+    out = np.empty(prev.shape)
+    d.motors_into(prev, d.floats(cmd), d.floats(curve), out)
+    return out
 
 
 def wheel_speeds_mps(out: FloatArray, max_speed_mps: FloatArray) -> FloatArray:
@@ -96,7 +116,11 @@ def wheel_speeds_mps(out: FloatArray, max_speed_mps: FloatArray) -> FloatArray:
     Returns:
         Speeds, shape (N, 2), m/s.
     """
-    return np.asarray(out * (np.asarray(max_speed_mps)[:, None] / MAX_POWER), dtype=np.float64)
+    d = _drive()
+    o = d.floats(out)
+    speeds = np.empty(o.shape)
+    d.speeds_into(o, d.floats(max_speed_mps), speeds)
+    return speeds
 
 
 def integrate_pose(pose: FloatArray, wheel_mps: FloatArray, wheel_base_m: FloatArray, dt_s: float) -> FloatArray:
@@ -111,20 +135,75 @@ def integrate_pose(pose: FloatArray, wheel_mps: FloatArray, wheel_base_m: FloatA
     Returns:
         New poses, (N, 3), heading wrapped into [-pi, pi).
     """
-    v = 0.5 * (wheel_mps[:, 0] + wheel_mps[:, 1])
-    w = (wheel_mps[:, 1] - wheel_mps[:, 0]) / wheel_base_m
-    th = pose[:, 2]
-    dth = w * dt_s
-    straight = np.abs(dth) < STRAIGHT_EPS_RAD
-    safe = np.where(straight, 1.0, dth)
-    # chord length of the arc over the heading at its middle
-    chord = np.where(straight, v * dt_s, 2.0 * v * dt_s * np.sin(0.5 * dth) / safe)
-    mid = th + 0.5 * dth
-    out = np.empty_like(pose)
-    out[:, 0] = pose[:, 0] + chord * np.cos(mid)
-    out[:, 1] = pose[:, 1] + chord * np.sin(mid)
-    out[:, 2] = (th + dth + np.pi) % (2.0 * np.pi) - np.pi
-    return out
+    d = _drive()
+    p = d.floats(pose)
+    nxt = np.empty(p.shape)
+    d.arcs_into(p, d.floats(wheel_mps), d.floats(wheel_base_m), float(dt_s), nxt)
+    return nxt
+
+
+def step_drive(
+    pose: FloatArray,
+    out_prev: FloatArray,
+    cmd: FloatArray,
+    params: DriveParams,
+    dt_s: float,
+    *,
+    speed_noise: FloatArray | None = None,
+) -> tuple[FloatArray, FloatArray]:
+    """One native tick: motor filter, then kinematics.
+
+    Args:
+        pose: (N, 3) current poses.
+        out_prev: (N, 2) previous motor outputs.
+        cmd: (N, 2) commanded powers.
+        params: Drive constants.
+        dt_s: Tick length, seconds.
+        speed_noise: Optional (N, 2) relative noise on the wheel speeds (movement noise), e.g.
+            ``std * z``; the motors' own state is not affected by it.
+
+    Returns:
+        ``(next_pose, out)``: the proposed poses and the new motor outputs.
+    """
+    d = _drive()
+    p = d.floats(pose)
+    nxt, out = np.empty(p.shape), np.empty((len(p), 2))
+    noise = _NO_NOISE if speed_noise is None else d.floats(speed_noise)
+    d.drive_into(
+        p,
+        d.floats(out_prev),
+        d.floats(cmd),
+        d.floats(params.curve),
+        d.floats(params.max_speed_mps),
+        d.floats(params.wheel_base_m),
+        float(dt_s),
+        noise,
+        nxt,
+        out,
+    )
+    return nxt, out
+
+
+def step_drive_ciberrato(
+    pose: FloatArray, out_prev: FloatArray, cmd: FloatArray, motor_gain: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """One Ciber-Rato cycle, exactly as the legacy simulator computes it.
+
+    Args:
+        pose: (N, 3) x, y (lab units), heading (rad).
+        out_prev: (N, 2) previous outputs (lab units per cycle).
+        cmd: (N, 2) input powers; clamped here.
+        motor_gain: (N, 2) multiplicative motor noise, ``N(100, MotorsNoise) / 100`` per motor
+            (ones for none).
+
+    Returns:
+        ``(next_pose, out)``.
+    """
+    d = _drive()
+    p = d.floats(pose)
+    nxt, out = np.empty(p.shape), np.empty((len(p), 2))
+    d.ciber_into(p, d.floats(out_prev), d.floats(cmd), d.floats(motor_gain), nxt, out)
+    return nxt, out
 
 
 def powers_for_twist(v_mps: float, w_radps: float, max_speed_mps: float, wheel_base_m: float) -> tuple[float, float]:
@@ -154,64 +233,6 @@ def powers_for_twist(v_mps: float, w_radps: float, max_speed_mps: float, wheel_b
     if over > 1.0:
         left, right = left / over, right / over
     return left, right
-
-
-def step_drive(
-    pose: FloatArray,
-    out_prev: FloatArray,
-    cmd: FloatArray,
-    params: DriveParams,
-    dt_s: float,
-    *,
-    speed_noise: FloatArray | None = None,
-) -> tuple[FloatArray, FloatArray]:
-    """One native tick: motor filter, then kinematics.
-
-    Args:
-        pose: (N, 3) current poses.
-        out_prev: (N, 2) previous motor outputs.
-        cmd: (N, 2) commanded powers.
-        params: Drive constants.
-        dt_s: Tick length, seconds.
-        speed_noise: Optional (N, 2) relative noise on the wheel speeds (movement noise), e.g.
-            ``std * z``; the motors' own state is not affected by it.
-
-    Returns:
-        ``(next_pose, out)``: the proposed poses and the new motor outputs.
-    """
-    out = step_motors(out_prev, cmd, params.curve)
-    speeds = wheel_speeds_mps(out, params.max_speed_mps)
-    if speed_noise is not None:
-        speeds = speeds * (1.0 + speed_noise)
-    return integrate_pose(pose, speeds, params.wheel_base_m, dt_s), out
-
-
-def step_drive_ciberrato(
-    pose: FloatArray, out_prev: FloatArray, cmd: FloatArray, motor_gain: FloatArray
-) -> tuple[FloatArray, FloatArray]:
-    """One Ciber-Rato cycle, exactly as the legacy simulator computes it.
-
-    Args:
-        pose: (N, 3) x, y (lab units), heading (rad).
-        out_prev: (N, 2) previous outputs (lab units per cycle).
-        cmd: (N, 2) input powers; clamped here.
-        motor_gain: (N, 2) multiplicative motor noise, ``N(100, MotorsNoise) / 100`` per motor
-            (ones for none).
-
-    Returns:
-        ``(next_pose, out)``.
-    """
-    out = (0.5 * clamp_power(cmd) + 0.5 * out_prev) * motor_gain
-    lin = 0.5 * (out[:, 1] + out[:, 0])
-    rot = (out[:, 1] - out[:, 0]) / CIBER_WHEEL_BASE
-    th = pose[:, 2]
-    nxt = np.empty_like(pose)
-    nxt[:, 0] = pose[:, 0] + lin * np.cos(th)
-    nxt[:, 1] = pose[:, 1] + lin * np.sin(th)
-    t = th + rot
-    t = np.where(t > np.pi, t - 2.0 * np.pi, t)
-    nxt[:, 2] = np.where(t < -np.pi, t + 2.0 * np.pi, t)
-    return nxt, np.asarray(out, dtype=np.float64)
 
 
 def ticks_to_fraction(curve: float, fraction: float) -> int:

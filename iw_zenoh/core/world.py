@@ -11,11 +11,12 @@ from functools import lru_cache
 import numpy as np
 import numpy.typing as npt
 
+from iw_zenoh.core import drive
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.collision import Collisions, check_collisions, check_collisions_ciberrato
+from iw_zenoh.core.drive import bools, floats
 from iw_zenoh.core.lab import Scene
 from iw_zenoh.core.modes import Profile
-from iw_zenoh.core.motor import clamp_power, step_drive, step_drive_ciberrato, wheel_speeds_mps
 from iw_zenoh.core.spec import RobotType
 
 __all__ = [
@@ -23,6 +24,7 @@ __all__ = [
     "Proposal",
     "WorldState",
     "commit",
+    "commit_flags",
     "initial_state",
     "propose",
     "step",
@@ -30,6 +32,10 @@ __all__ = [
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
+
+_NO_NOISE = np.zeros((0, 2))  # no rows: no movement noise (the kernels take arrays, never None)
+_NO_REPORT = np.zeros((0, 3))  # no rows: no Real robot's report
+_NO_HOLD = np.zeros(0, dtype=np.bool_)  # no rows: nobody held
 
 
 @dataclass(frozen=True)
@@ -103,33 +109,35 @@ def propose(
     Returns:
         The proposal.
     """
-    cmd = clamp_power(state.cmd)
-    if profile == Profile.CIBERRATO:
-        gain = np.ones_like(cmd) if noise_z is None else 1.0 + motors_noise_pct / 100.0 * noise_z
-        nxt, out = step_drive_ciberrato(state.pose, state.motor_out, cmd, gain)
-        rolled = out.copy()
-    else:
-        mean = bodies.noise_mean["motion"][:, None]
-        std = bodies.noise_std["motion"][:, None]
-        noise = None if noise_z is None else mean + std * noise_z
-        nxt, out = step_drive(state.pose, state.motor_out, cmd, bodies.drive, dt_s, speed_noise=noise)
-        rolled = wheel_speeds_mps(out, bodies.drive.max_speed_mps) * dt_s
-    linear = 0.5 * (out[:, 0] + out[:, 1])
-    real = _real(bodies)
-    if reported_pose is not None and real.any():
-        have = real & np.all(np.isfinite(reported_pose), axis=1)
-        nxt = np.where(have[:, None], reported_pose, nxt)
-        hold = real & ~have
-        nxt = np.where(hold[:, None], state.pose, nxt)
+    n = len(state.pose)
+    nxt, out, linear, rolled = np.empty((n, 3)), np.empty((n, 2)), np.empty(n), np.empty((n, 2))
+    drive.propose_into(
+        floats(state.pose),
+        floats(state.motor_out),
+        floats(state.cmd),
+        _table(bodies),
+        float(dt_s),
+        profile == Profile.CIBERRATO,
+        _NO_NOISE if noise_z is None else floats(noise_z),
+        float(motors_noise_pct),
+        _NO_REPORT if reported_pose is None else floats(reported_pose),
+        nxt,
+        out,
+        linear,
+        rolled,
+    )
     return Proposal(nxt, out, linear, rolled)
 
 
 @lru_cache(maxsize=8)
-def _real(bodies: Bodies) -> npt.NDArray[np.bool_]:
-    """(N,) which robots are Real (read-only; worked out once per roster, Bodies hash by identity)."""
-    real = np.asarray([t == RobotType.REAL for t in bodies.types], dtype=bool)
-    real.setflags(write=False)
-    return real
+def _table(bodies: Bodies) -> FloatArray:
+    """(N, 6) what :func:`~iw_zenoh.core.drive.propose_into` reads of each robot: curve, top
+    speed, wheel base, motion noise mean and deviation, 1.0 for a Real robot (worked out once
+    per roster, Bodies hash by identity; nothing writes it)."""
+    d = bodies.drive
+    real = [float(t == RobotType.REAL) for t in bodies.types]
+    cols = (d.curve, d.max_speed_mps, d.wheel_base_m, bodies.noise_mean["motion"], bodies.noise_std["motion"], real)
+    return np.ascontiguousarray(np.column_stack([np.asarray(c, dtype=np.float64) for c in cols]).reshape(-1, 6))
 
 
 def commit(
@@ -156,19 +164,37 @@ def commit(
     Returns:
         The next state.
     """
+    return commit_flags(state, proposal, collisions.collided, profile=profile, hold=hold)
+
+
+def commit_flags(
+    state: WorldState,
+    proposal: Proposal,
+    collided: BoolArray,
+    *,
+    profile: Profile = Profile.NATIVE,
+    hold: BoolArray | None = None,
+) -> WorldState:
+    """:func:`commit` from the verdict's (N,) collision flags alone (what the world process is
+    told; it builds no :class:`Collisions`)."""
     n = len(state.pose)
-    held = np.zeros(n, dtype=bool) if hold is None else np.asarray(hold, dtype=bool)
-    hit = collisions.collided
-    pose = proposal.pose.copy()
-    if profile == Profile.CIBERRATO:
-        pose[hit, 0:2] = state.pose[hit, 0:2]
-    else:
-        pose[hit] = state.pose[hit]
-    pose[held] = state.pose[held]
-    out = np.where(held[:, None], state.motor_out, proposal.motor_out)
-    rolled = np.where(held[:, None], 0.0, proposal.rolled_m)
+    pose, out, rolled, hit = np.empty((n, 3)), np.empty((n, 2)), np.empty((n, 2)), np.empty(n, dtype=np.bool_)
+    drive.commit_into(
+        floats(state.pose),
+        floats(state.motor_out),
+        floats(proposal.pose),
+        floats(proposal.motor_out),
+        floats(proposal.rolled_m),
+        bools(collided),
+        _NO_HOLD if hold is None else bools(hold),
+        profile == Profile.CIBERRATO,
+        pose,
+        out,
+        rolled,
+        hit,
+    )
     # the constructor rather than dataclasses.replace (which costs more than the commit on a few robots)
-    return WorldState(state.tick + 1, pose, out, state.cmd, hit & ~held, rolled)
+    return WorldState(state.tick + 1, pose, out, state.cmd, hit, rolled)
 
 
 def step(
