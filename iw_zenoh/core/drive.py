@@ -46,7 +46,7 @@ BoolArray = npt.NDArray[np.bool_]
 CURVE, MAX_SPEED, BASE, MEAN, STD, REAL = range(6)
 TABLE_COLUMNS = 6
 _TWO_PI = 2.0 * math.pi
-_NO_ROWS2 = np.zeros((0, 2))
+_F64, _BOOL = np.dtype(np.float64), np.dtype(np.bool_)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -276,14 +276,16 @@ def commit_into(
 def floats(a: npt.ArrayLike) -> FloatArray:
     """``a`` as the kernels take it: C-ordered float64, writable (numba types a read-only array
     apart, and would compile a kernel again for it), copied only when it is not already."""
-    if type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous and a.flags.writeable:
+    # the cheapest checks (a tick makes a dozen): builtin dtypes are singletons, and carray is
+    # C-contiguous, aligned and writable in one flag
+    if type(a) is np.ndarray and a.dtype is _F64 and a.flags.carray:
         return a
     return np.array(a, dtype=np.float64, order="C")
 
 
 def bools(a: npt.ArrayLike) -> BoolArray:
     """``a`` as (N,) C-ordered writable bools (see :func:`floats`)."""
-    if type(a) is np.ndarray and a.dtype == np.bool_ and a.flags.c_contiguous and a.flags.writeable:
+    if type(a) is np.ndarray and a.dtype is _BOOL and a.flags.carray:
         return a
     return np.array(a, dtype=np.bool_, order="C")
 

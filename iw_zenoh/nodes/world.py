@@ -17,6 +17,7 @@ from iw_zenoh.bus import Bus, PendingQuery
 from iw_zenoh.bus.clock import Clock, WallClock
 from iw_zenoh.bus.fairbox import FairInbox
 from iw_zenoh.bus.wake import CountedWake
+from iw_zenoh.core import drive
 from iw_zenoh.core.lab import Grid
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.errors import IwError
@@ -414,6 +415,12 @@ def _run(proc: Process, core: WorldCore) -> None:
         time.sleep(0.05)  # let the last state and events leave before the session closes
 
 
+def warm_up() -> None:
+    """Compiles (or loads from the cache) the world's own kernels, its propose and commit
+    (:mod:`iw_zenoh.core.drive`), before the process joins the bus."""
+    drive.warm_up()
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Runs ``iwz world``."""
     return start_role(
@@ -430,6 +437,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             '  iwz world --options \'{"map": "maps/liacc.xml", "mode": "lockstep"}\'    (as iwz run starts it)'
         ),
         arguments=add_arguments,
+        warm_up=warm_up,  # before joining: the first tick must not wait for a compilation
         prepare=prepare,
         run=_run,
     )

@@ -19,12 +19,10 @@ from cachetools import LRUCache
 from iw_zenoh import keys
 from iw_zenoh.convert import grid_to_msg, lab_to_msg, spec_to_msg
 from iw_zenoh.core.bodies import Bodies
-from iw_zenoh.core.collision import Collisions
 from iw_zenoh.core.lab import Grid, Lab, Scene
 from iw_zenoh.core.modes import Mode, Profile, Silence
 from iw_zenoh.core.spec import RobotType
-from iw_zenoh.core.world import Proposal, commit, initial_state, propose
-from iw_zenoh.core.world import WorldState as CoreState
+from iw_zenoh.core.world import Proposal, commit_flags, initial_state, propose, with_cmd
 from iw_zenoh.messages import (
     Actions,
     Control,
@@ -94,6 +92,7 @@ class WorldCore:
         # what every tick uses, worked out once (the configuration does not change)
         self._profile = Profile(cfg.profile)
         self._period_ns = cfg.period_ns
+        self._dt_s = cfg.period_ms / 1000.0
         self._watchdog_ns = int(cfg.action_timeout_ms * MS) if cfg.silent_robots == Silence.STOP else None
         self._proposed_key, self._state_key, self._tick_key = (
             keys.proposed(cfg.sim),
@@ -315,19 +314,18 @@ class WorldCore:
         reported, NaN rows for none), pending until :meth:`commit_next`: what :meth:`begin_tick` does
         once it has the commands, without a message (:class:`~iw_zenoh.sim.local.LocalWorld`'s
         array path calls it directly)."""
-        st = self.state  # the constructor: dataclasses.replace costs more than a tick of a few robots
-        self.state = CoreState(st.tick, st.pose, st.motor_out, cmd, st.collided, st.rolled_m)
+        self.state = with_cmd(self.state, cmd)
         profile = self._profile
         prop = propose(
             self.state,
             self.bodies,
-            dt_s=self.cfg.period_ms / 1000.0,
+            dt_s=self._dt_s,
             profile=profile,
             noise_z=self._motion_noise(self.registry.arrayed, profile),
             motors_noise_pct=self.cfg.motors_noise_pct,
             reported_pose=report,
         )
-        self._pending = (self.tick + 1, prop)
+        self._pending = (self.state.tick + 1, prop)
         return prop
 
     def _motion_noise(self, ids: list[int], profile: Profile) -> np.ndarray | None:
@@ -389,12 +387,10 @@ class WorldCore:
         hold: np.ndarray | None = None
         if collided is None:
             hold = np.ones(len(self.registry.arrayed), dtype=bool)
-            col = Collisions.none(len(hold))
-        else:
-            empty = np.zeros((0, 2), dtype=np.int64)
-            col = Collisions(collided, collided.copy(), collided.copy(), empty, empty.copy())
+            collided = np.zeros(len(hold), dtype=bool)
         was = self.state.collided.copy()
-        self.state = commit(self.state, prop, col, profile=self._profile, hold=hold)
+        # the flags alone: a Collisions built around them (with copies) cost more than the commit
+        self.state = commit_flags(self.state, prop, collided, profile=self._profile, hold=hold)
         if self.state.tick != n:  # commit counts the tick already
             self.state = replace(self.state, tick=n)
         if self.steps_left > 0:

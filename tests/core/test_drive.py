@@ -10,11 +10,12 @@ The ``_old_*`` functions below are those expressions, kept verbatim as the oracl
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import FrozenInstanceError, astuple, fields, replace
 from functools import cache
 
 import numpy as np
 import numpy.typing as npt
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
@@ -34,7 +35,7 @@ from iw_zenoh.core.motor import (
     wheel_speeds_mps,
 )
 from iw_zenoh.core.spec import RobotSpec, RobotType
-from iw_zenoh.core.world import Profile, Proposal, WorldState, commit, propose
+from iw_zenoh.core.world import Profile, Proposal, WorldState, commit, propose, with_cmd
 
 F = npt.NDArray[np.float64]
 B = npt.NDArray[np.bool_]
@@ -345,3 +346,23 @@ def test_clamp_power_of_a_scalar_is_a_scalar(power: float) -> None:
     got = clamp_power(power)
     assert np.ndim(got) == 0
     _same(np.float64(got), np.float64(_old_clamp(power)))
+
+
+def test_the_states_and_proposals_built_without_the_constructor_are_the_constructors() -> None:
+    bodies = _base(2)
+    rng = np.random.default_rng(3)
+    pose = rng.uniform(0, 5, (2, 3))
+    start = WorldState(4, pose, np.zeros((2, 2)), np.zeros((2, 2)), np.zeros(2, bool), np.zeros((2, 2)))
+    cmd = np.full((2, 2), 0.1)
+    commanded = with_cmd(start, cmd)
+    assert vars(commanded).keys() == vars(replace(start, cmd=cmd)).keys()
+    assert all(getattr(commanded, f.name) is getattr(replace(start, cmd=cmd), f.name) for f in fields(WorldState))
+    prop = propose(commanded, bodies, dt_s=0.1)
+    state = commit(commanded, prop, Collisions.none(2))
+    for built, cls in ((commanded, WorldState), (prop, Proposal), (state, WorldState)):
+        assert type(built) is cls
+        assert len(astuple(built)) == len(fields(cls))  # every field set
+        assert repr(built).startswith(cls.__name__)
+        with pytest.raises(FrozenInstanceError):
+            built.pose = pose  # type: ignore[misc]
+    assert state.tick == 5
