@@ -16,6 +16,7 @@ microseconds a result). Cached on disk as the other kernels.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -47,6 +48,20 @@ CURVE, MAX_SPEED, BASE, MEAN, STD, REAL = range(6)
 TABLE_COLUMNS = 6
 _TWO_PI = 2.0 * math.pi
 _F64, _BOOL = np.dtype(np.float64), np.dtype(np.bool_)
+
+
+@njit(cache=True, nogil=True)
+def _rows(a: FloatArray, n: int, k: int) -> None:  # pragma: no cover
+    """Raises unless ``a`` is (n, k): the kernels index without bounds checks."""
+    if a.shape[0] != n or a.shape[1] != k:
+        raise ValueError("an array's shape does not fit the robots' (N, k)")
+
+
+@njit(cache=True, nogil=True)
+def _long(a: npt.NDArray[Any], n: int) -> None:  # pragma: no cover
+    """Raises unless ``a`` is (n,)."""
+    if a.shape[0] != n:
+        raise ValueError("an array's length is not the robots' N")
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -131,6 +146,7 @@ def _ciber(
 @njit(cache=True, nogil=True, error_model="numpy")
 def clamp_into(p: FloatArray, out: FloatArray) -> None:  # pragma: no cover
     """(M,) powers clamped into ``out`` (:func:`iw_zenoh.core.motor.clamp_power`)."""
+    _long(out, p.shape[0])
     for k in range(p.shape[0]):
         out[k] = _clamp(p[k])
 
@@ -138,6 +154,8 @@ def clamp_into(p: FloatArray, out: FloatArray) -> None:  # pragma: no cover
 @njit(cache=True, nogil=True, error_model="numpy")
 def motors_into(prev: FloatArray, cmd: FloatArray, curve: FloatArray, out: FloatArray) -> None:  # pragma: no cover
     """(N, 2) motor outputs after a tick into ``out`` (:func:`iw_zenoh.core.motor.step_motors`)."""
+    n = prev.shape[0]
+    _rows(prev, n, 2), _rows(cmd, n, 2), _long(curve, n), _rows(out, n, 2)
     for i in range(prev.shape[0]):
         out[i, 0] = _motor(prev[i, 0], cmd[i, 0], curve[i])
         out[i, 1] = _motor(prev[i, 1], cmd[i, 1], curve[i])
@@ -146,6 +164,8 @@ def motors_into(prev: FloatArray, cmd: FloatArray, curve: FloatArray, out: Float
 @njit(cache=True, nogil=True, error_model="numpy")
 def speeds_into(out: FloatArray, max_speed: FloatArray, speeds: FloatArray) -> None:  # pragma: no cover
     """(N, 2) wheel speeds into ``speeds`` (:func:`iw_zenoh.core.motor.wheel_speeds_mps`)."""
+    n = out.shape[0]
+    _rows(out, n, 2), _long(max_speed, n), _rows(speeds, n, 2)
     for i in range(out.shape[0]):
         scale = max_speed[i] / MAX_POWER
         speeds[i, 0], speeds[i, 1] = out[i, 0] * scale, out[i, 1] * scale
@@ -156,6 +176,8 @@ def arcs_into(
     pose: FloatArray, wheel: FloatArray, base: FloatArray, dt: float, nxt: FloatArray
 ) -> None:  # pragma: no cover
     """(N, 3) poses after ``dt`` into ``nxt`` (:func:`iw_zenoh.core.motor.integrate_pose`)."""
+    n = pose.shape[0]
+    _rows(pose, n, 3), _rows(wheel, n, 2), _long(base, n), _rows(nxt, n, 3)
     for i in range(pose.shape[0]):
         x, y, th = pose[i, 0], pose[i, 1], pose[i, 2]
         nxt[i, 0], nxt[i, 1], nxt[i, 2] = _arc(x, y, th, wheel[i, 0], wheel[i, 1], base[i], dt)
@@ -177,6 +199,11 @@ def drive_into(
     """A native tick into ``nxt`` and ``out`` (:func:`iw_zenoh.core.motor.step_drive`; ``noise``
     with no rows: none)."""
     noisy = noise.shape[0] > 0
+    n = pose.shape[0]
+    _rows(pose, n, 3), _rows(prev, n, 2), _rows(cmd, n, 2), _rows(nxt, n, 3), _rows(out, n, 2)
+    _long(curve, n), _long(max_speed, n), _long(base, n)
+    if noisy:
+        _rows(noise, n, 2)
     for i in range(pose.shape[0]):
         nl, nr = (noise[i, 0], noise[i, 1]) if noisy else (0.0, 0.0)
         _native(pose, prev, cmd, i, curve[i], max_speed[i], base[i], dt, noisy, nl, nr, nxt, out)
@@ -187,6 +214,8 @@ def ciber_into(
     pose: FloatArray, prev: FloatArray, cmd: FloatArray, gain: FloatArray, nxt: FloatArray, out: FloatArray
 ) -> None:  # pragma: no cover
     """A Ciber-Rato cycle into ``nxt`` and ``out`` (:func:`iw_zenoh.core.motor.step_drive_ciberrato`)."""
+    n = pose.shape[0]
+    _rows(pose, n, 3), _rows(prev, n, 2), _rows(cmd, n, 2), _rows(gain, n, 2), _rows(nxt, n, 3), _rows(out, n, 2)
     for i in range(pose.shape[0]):
         _ciber(pose, prev, cmd, i, gain[i, 0], gain[i, 1], nxt, out)
 
@@ -216,6 +245,13 @@ def propose_into(
     robot (the table's ``REAL`` column) goes to its finite row or stays at ``pose``.
     """
     noisy = z.shape[0] > 0
+    n = pose.shape[0]
+    _rows(pose, n, 3), _rows(prev, n, 2), _rows(cmd, n, 2), _rows(table, n, TABLE_COLUMNS)
+    _rows(nxt, n, 3), _rows(out, n, 2), _long(linear, n), _rows(rolled, n, 2)
+    if noisy:
+        _rows(z, n, 2)
+    if reported.shape[0] > 0:
+        _rows(reported, n, 3)
     k = motors_noise_pct / 100.0
     for i in range(pose.shape[0]):
         if ciberrato:
@@ -256,6 +292,11 @@ def commit_into(
     y, taking the new heading); a held one (``held`` with no rows: none) keeps its pose and motors,
     rolls 0 and reads no collision."""
     some_held = held.shape[0] > 0
+    n = pose.shape[0]
+    _rows(pose, n, 3), _rows(prev, n, 2), _rows(prop_pose, n, 3), _rows(prop_out, n, 2), _rows(prop_rolled, n, 2)
+    _rows(nxt, n, 3), _rows(out, n, 2), _rows(rolled, n, 2), _long(hit, n), _long(collided, n)
+    if some_held:
+        _long(held, n)
     for i in range(pose.shape[0]):
         if some_held and held[i]:
             nxt[i, 0], nxt[i, 1], nxt[i, 2] = pose[i, 0], pose[i, 1], pose[i, 2]

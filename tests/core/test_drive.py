@@ -366,3 +366,27 @@ def test_the_states_and_proposals_built_without_the_constructor_are_the_construc
         with pytest.raises(FrozenInstanceError):
             built.pose = pose  # type: ignore[misc]
     assert state.tick == 5
+
+
+def test_arrays_that_do_not_fit_the_robots_are_refused_not_read_past() -> None:
+    # the kernels index without bounds checks: a wrong shape must stop them (numpy refused it too)
+    bodies = _base(3)
+    state = WorldState(0, np.zeros((3, 3)), np.zeros((3, 2)), np.zeros((3, 2)), np.zeros(3, bool), np.zeros((3, 2)))
+    for bad in (
+        replace(state, cmd=np.zeros((2, 2))),
+        replace(state, motor_out=np.zeros((4, 2))),
+        replace(state, pose=np.zeros((3, 2))),
+    ):
+        with pytest.raises(ValueError, match="shape does not fit"):
+            propose(bad, bodies, dt_s=0.1)
+    with pytest.raises(ValueError, match="shape does not fit"):
+        propose(state, bodies, dt_s=0.1, noise_z=np.zeros((2, 2)))
+    with pytest.raises(ValueError, match="shape does not fit"):
+        propose(state, bodies, dt_s=0.1, reported_pose=np.zeros((1, 3)))
+    prop = propose(state, bodies, dt_s=0.1)
+    with pytest.raises(ValueError, match="length is not"):
+        commit(state, prop, Collisions.none(2))
+    with pytest.raises(ValueError, match="length is not"):
+        commit(state, prop, Collisions.none(3), hold=np.ones(5, bool))
+    with pytest.raises(ValueError, match="shape does not fit"):
+        integrate_pose(np.zeros((2, 3)), np.zeros((3, 2)), np.ones(2), 0.1)
