@@ -27,7 +27,7 @@ from gymnasium.vector.utils import batch_space
 from iw_zenoh.core.lab import Lab, Wall
 from iw_zenoh.core.spec import RobotSpec, default_ir_sensors
 from iw_zenoh.learn.chairnav import SEEDS, default_chair
-from iw_zenoh.learn.nav import ACTIONS, Goal, Reward, Senses, clearance_m, to_powers_batch
+from iw_zenoh.learn.nav import ACTIONS, Goal, Reward, Senses, bounded_rows, clearance_m, to_powers_batch
 from iw_zenoh.learn.rooms import SIZES, free_point, random_room
 from iw_zenoh.sim.local import ArrayStep, LocalWorld
 
@@ -140,16 +140,14 @@ class ChairVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         """Every sub-environment's observation (ChairNav's layout, :mod:`iw_zenoh.learn.nav`), at once."""
         r, sn = s.readings, self.senses
         assert r is not None
-        prox = r.proximity_m.reshape(len(s.ids), -1)[idx]
-        prox = np.where(np.isfinite(prox), prox, sn.ir_range)
-        laser = r.laser_m.reshape(len(s.ids), -1)[idx]
-        laser = np.where(np.isfinite(laser), laser, sn.laser_range)
+        n = len(s.ids)
         c = np.radians(r.compass_deg[idx])
         dx, dy = self.goal_xy[:, 0] - s.pose[idx, 0], self.goal_xy[:, 1] - s.pose[idx, 1]
         bearing = np.arctan2(dy, dx) - s.pose[idx, 2]
         rolled = s.rolled_m[idx] / sn.period_s
         tail = np.column_stack([np.sin(c), np.cos(c), np.hypot(dx, dy), np.sin(bearing), np.cos(bearing), rolled])
-        return np.asarray(np.clip(np.concatenate([prox, laser, tail], axis=1).astype(np.float32), sn.lo, sn.hi))
+        prox, laser = r.proximity_m.reshape(n, -1), r.laser_m.reshape(n, -1)
+        return bounded_rows(prox, laser, idx, sn.ranges, tail, sn.lo, sn.hi)
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """One tick of every chair; sub-environments that ended at the last step start again."""
