@@ -10,7 +10,8 @@ walls (the sensors' kernels look at every wall within range, seen or not: with r
 side by side, a 10 m laser's search took in the walls of about seven rooms). Observation,
 action and reward are ChairNav's; a sub-environment that ends is reset at its next step
 (Gymnasium's ``NEXT_STEP`` autoreset: that step returns its first observation, reward 0): its
-chair is taken out and a new one placed at a new start, with a new goal, in the same room.
+chair is moved at rest to a new start (:meth:`~iw_zenoh.sim.local.LocalWorld.move`: the same robot,
+so nothing built per roster is built again), with a new goal, in the same room.
 """
 
 from __future__ import annotations
@@ -86,17 +87,20 @@ class ChairVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         self.world: LocalWorld | None = None
 
     def _place(self, i: int) -> None:
-        """Sub-environment ``i``'s chair at a new start (a new robot id), with a new goal."""
+        """Sub-environment ``i``'s chair at a new start (placed at ``reset``, moved at a restart),
+        with a new goal."""
         assert self.world is not None
         g, (room, ox, oy) = self.np_random, self.rooms[i]
         x, y = free_point(g, room, self._margin)
         gx, gy = free_point(g, room, self._margin, away=[(x, y)])
-        self._next_id += 1
         heading = float(g.uniform(-180, 180))
-        rid = self.world.add(
-            replace(self.chair, name=f"env-{i}", id=self._next_id, x_m=x + ox, y_m=y + oy, dir_deg=heading)
-        )
-        self.rid[i], self.goal_xy[i], self.steps[i] = rid, (gx + ox, gy + oy), 0
+        if self.rid[i]:  # a restart: the same chair moved, so the roster (and what is built for it) stays
+            self.world.move(self.rid[i], x + ox, y + oy, heading)
+        else:
+            self.rid[i] = self.world.add(
+                replace(self.chair, name=f"env-{i}", id=i + 1, x_m=x + ox, y_m=y + oy, dir_deg=heading)
+            )
+        self.goal_xy[i], self.steps[i] = (gx + ox, gy + oy), 0
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -116,7 +120,6 @@ class ChairVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         rows = math.ceil(n / cols)
         lab = Lab(f"{n} rooms", cols * (CELL_W + self._gap) + 1.0, rows * (CELL_H + self._gap) + 1.0, tuple(walls))
         self.world = LocalWorld(lab, seed=int(g.integers(SEEDS)), sim="vector")
-        self._next_id = 0
         self.rid = [0] * n
         self.goal_xy = np.zeros((n, 2))
         self.steps = np.zeros(n, dtype=np.int64)
@@ -155,7 +158,6 @@ class ChairVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         n, w = self.num_envs, self.world
         restarted = self._ended
         for k in np.flatnonzero(restarted).tolist():
-            w.remove(self.rid[k])
             self._place(k)
         powers = to_powers_batch(np.asarray(actions, dtype=np.float64).reshape(n, 2), self.chair, self.action_mode)
         powers[restarted] = 0.0  # a chair placed again starts at rest
