@@ -5,11 +5,12 @@ indices and the flags set.
 
 Why one call (numba): :func:`iw_zenoh.core.collision.check_collisions` was numpy glue around
 two compiled calls (picking the active robots, flags by fancy indexing, a dozen small arrays
-returned and boxed one by one), about 30-45 us for a learning environment's one chair, most of
-it fixed costs; here the flags are written into one array the caller gives and both kinds of
-pair come back in one array, so a call boxes one array and passes few. The operations and their
-order are the glue's (``tests/core/test_collide.py`` checks the results against it, array for
-array). Cached on disk as the other kernels (``cache=True``).
+returned and boxed one by one), about 22 us of CPU time for a learning environment's one chair
+on a loaded machine, most of it fixed costs (now about 9 us): here the flags are written into
+one array the caller gives and both kinds of pair come back in one array, so a call boxes one
+array and passes few. The operations and their order are the glue's
+(``tests/core/test_collide.py`` checks the results against it, array for array). Cached on
+disk as the other kernels (``cache=True``).
 """
 
 from __future__ import annotations
