@@ -126,12 +126,17 @@ def check_collisions(
 
     Returns:
         The collisions, by robot index.
+
+    Raises:
+        ValueError: The arrays do not have one row per robot (the kernel does not check bounds).
     """
     n = len(pose_now)
     if n == 0:
         return Collisions.none(0)
     act = _ALL if active is None else np.ascontiguousarray(active, dtype=np.bool_)
     free = _ALL if ignore_walls is None else np.ascontiguousarray(ignore_walls, dtype=np.bool_)
+    if len(outline) != n or len(pose_next) != n or len(act) not in (0, n) or len(free) not in (0, n):
+        raise ValueError("check_collisions: outline, poses, active and ignore_walls need one row per robot")
     # one compiled call: the robots taking part, their outlines now, half-way
     # (interpolate_pose(now, nxt, 0.5)) and next (each to_world's bit for bit), the tests, the flags
     flags = np.empty((3, n), dtype=np.bool_)

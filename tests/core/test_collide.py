@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
@@ -177,3 +178,19 @@ def test_a_crowd_in_a_wide_lab_as_the_glue() -> None:
 def test_no_robots() -> None:
     got = check_collisions(SCENE, np.zeros((0, 4, 2)), np.zeros((0, 3)), np.zeros((0, 3)))
     _same(got, Collisions.none(0))
+
+
+def test_arrays_of_another_length_are_refused() -> None:
+    """The kernel reads without bounds checks: a mask or outline of the wrong length is an error."""
+    outline = Bodies.from_specs([RobotSpec("r", id=1)]).outline
+    one = np.asarray([[3.0, 3.0, 0.0]])
+    two = np.asarray([[3.0, 3.0, 0.0], [5.0, 3.0, 0.0]])
+    with pytest.raises(ValueError, match="one row per robot"):
+        check_collisions(SCENE, outline, two, two)
+    with pytest.raises(ValueError, match="one row per robot"):
+        check_collisions(SCENE, outline, one, two)
+    with pytest.raises(ValueError, match="one row per robot"):
+        check_collisions(SCENE, outline, one, one, active=np.ones(2, dtype=bool))
+    with pytest.raises(ValueError, match="one row per robot"):
+        check_collisions(SCENE, outline, one, one, ignore_walls=np.ones(2, dtype=bool))
+    _same(check_collisions(SCENE, outline, one, one, active=np.ones(0, dtype=bool)), Collisions.none(1))
