@@ -15,14 +15,15 @@ from pathlib import Path
 WARM_UP = """
 import json
 from numba.core.registry import CPUDispatcher
-from iw_zenoh.core import cellgrid, cones, laser, placing, readout
+from iw_zenoh.core import cellgrid, collide, cones, contact, laser, placing, readout
 
 cones.warm_up()
 laser.warm_up()
 placing.warm_up()
 readout.warm_up()
+collide.warm_up()
 stats = {}
-for module in (cones, laser, cellgrid, placing, readout):
+for module in (cones, laser, cellgrid, placing, readout, contact, collide):
     for name, obj in vars(module).items():
         if isinstance(obj, CPUDispatcher) and obj.signatures:
             s = obj.stats
@@ -44,11 +45,21 @@ def _warm_up(cache: Path) -> dict[str, list[int]]:
 def test_a_second_process_loads_every_kernel_from_the_disk_cache(tmp_path: Path) -> None:
     cache = tmp_path / "numba-cache"
     first = _warm_up(cache)
-    assert {"iw_zenoh.core.cones._scan", "iw_zenoh.core.laser._scan", "iw_zenoh.core.placing.wedges"} <= set(first)
+    assert {
+        "iw_zenoh.core.cones._scan",
+        "iw_zenoh.core.laser._scan",
+        "iw_zenoh.core.placing.wedges",
+        "iw_zenoh.core.collide._collide",
+    } <= set(first)
     assert all(misses >= 1 for _, misses in first.values())  # compiled: nothing was there yet
     assert list(cache.rglob("*.nbi")), "the first process wrote no cache index"
 
     second = _warm_up(cache)  # the kernels the warm-ups call, loaded with what they call inlined
     assert {name: misses for name, (_, misses) in second.items()} == dict.fromkeys(second, 0)
-    for entry in ("iw_zenoh.core.cones._scan", "iw_zenoh.core.laser._scan", "iw_zenoh.core.placing.wedges"):
+    for entry in (
+        "iw_zenoh.core.cones._scan",
+        "iw_zenoh.core.laser._scan",
+        "iw_zenoh.core.placing.wedges",
+        "iw_zenoh.core.collide._collide",
+    ):
         assert second[entry][0] >= 1, f"{entry} did not come from the cache"
