@@ -82,7 +82,9 @@ class SensorsNode:
         self.early: Computed | None = None  # readings that went out before their state
         self._undo: tuple[list[int], np.ndarray, tuple[int, list[int], np.ndarray] | None, int] | None = None
         self.corrections = 0  # ticks whose early readings the state proved wrong
-        self._layout: tuple[Bodies, np.ndarray, tuple[tuple[int, float], ...], list[int], list[int]] | None = None
+        self._layout: (
+            tuple[Bodies, np.ndarray, tuple[tuple[int, float], ...], list[int], list[int], list[bool]] | None
+        ) = None
 
     def warm(self, view: WorldView) -> None:
         """Computes the view's robots once, where they were placed, in a throwaway node (its own
@@ -197,12 +199,12 @@ class SensorsNode:
         if self._z is not None and self._z[0] <= tick:
             self._z = None
 
-    def _normals(self, tick: int, ids: list[int], counts: list[int], starts: list[int], only: np.ndarray) -> np.ndarray:
+    def _normals(self, tick: int, ids: list[int], counts: list[int], starts: list[int], only: list[bool]) -> np.ndarray:
         """This tick's standard normals, drawn once per tick (a tick computed again reuses them)."""
         if self._z is not None and self._z[0] == tick and self._z[1] == ids:
             return self._z[2]
         z = np.zeros(int(sum(counts)))
-        self._noise.fill(ids, counts, starts, only.tolist(), z)
+        self._noise.fill(ids, counts, starts, only, z)
         self._z = (tick, ids, z)
         return z
 
@@ -237,9 +239,9 @@ class SensorsNode:
         (N, 3) poses, (N,) collision flags and (N, 2) distances rolled, robots ``ids`` (``bodies``):
         the readings, the robots computed, and the encoder counts after the tick (not committed:
         :meth:`commit_counts`)."""
-        mine, moving, counts, starts = self._roster(view, ids, bodies)
+        mine, moving, counts, starts, mine_list = self._roster(view, ids, bodies)
         only = mine if subset is None else mine & subset
-        z = self._normals(tick, ids, counts, starts, mine)
+        z = self._normals(tick, ids, counts, starts, mine_list)
         enc = self._encoders(ids)
         r = read_sensors(
             view.scene,
@@ -258,7 +260,7 @@ class SensorsNode:
 
     def _roster(
         self, view: WorldView, ids: list[int], bodies: Bodies
-    ) -> tuple[np.ndarray, tuple[tuple[int, float], ...], list[int], list[int]]:
+    ) -> tuple[np.ndarray, tuple[tuple[int, float], ...], list[int], list[int], list[bool]]:
         """This shard's robots (read-only), the beacons robots carry, and the noise layout of a
         roster: the same every tick, worked out again only when its bodies change (a view builds
         one per roster, so the same bodies are the same view and robots)."""
@@ -269,7 +271,7 @@ class SensorsNode:
             # robots that carry a beacon (Ciber-Rato's RobotBeacon), in id order after the lab's
             moving = tuple((i, h) for i, rid in enumerate(ids) if (h := view.specs[rid].beacon_height_m) is not None)
             counts, starts = noise_layout(bodies, len(view.scene.lab.beacons) + len(moving))
-            self._layout = (bodies, mine, moving, counts.tolist(), starts.tolist())
+            self._layout = (bodies, mine, moving, counts.tolist(), starts.tolist(), mine.tolist())
         return self._layout[1:]
 
     def _encoders(self, ids: list[int]) -> np.ndarray:
