@@ -15,14 +15,15 @@ from pathlib import Path
 WARM_UP = """
 import json
 from numba.core.registry import CPUDispatcher
-from iw_zenoh.core import cellgrid, cones, laser, placing, readout
+from iw_zenoh.core import cellgrid, cones, laser, placing, read_all, readout
 
 cones.warm_up()
 laser.warm_up()
 placing.warm_up()
 readout.warm_up()
+read_all.warm_up()
 stats = {}
-for module in (cones, laser, cellgrid, placing, readout):
+for module in (cones, laser, cellgrid, placing, readout, read_all):
     for name, obj in vars(module).items():
         if isinstance(obj, CPUDispatcher) and obj.signatures:
             s = obj.stats
@@ -50,5 +51,10 @@ def test_a_second_process_loads_every_kernel_from_the_disk_cache(tmp_path: Path)
 
     second = _warm_up(cache)  # the kernels the warm-ups call, loaded with what they call inlined
     assert {name: misses for name, (_, misses) in second.items()} == dict.fromkeys(second, 0)
-    for entry in ("iw_zenoh.core.cones._scan", "iw_zenoh.core.laser._scan", "iw_zenoh.core.placing.wedges"):
+    for entry in (
+        "iw_zenoh.core.cones._scan",
+        "iw_zenoh.core.laser._scan",
+        "iw_zenoh.core.placing.wedges",
+        "iw_zenoh.core.read_all._read",
+    ):
         assert second[entry][0] >= 1, f"{entry} did not come from the cache"
