@@ -64,13 +64,23 @@ def read_all(
         ``(proximity_m, proximity_legacy, compass_deg, gps, encoder_acc, laser_m)`` as
         :class:`~iw_zenoh.core.sensors.Readings` holds them.
     """
+    pose = np.ascontiguousarray(pose, dtype=np.float64)
+    z = np.ascontiguousarray(z, dtype=np.float64)
+    acc = np.ascontiguousarray(encoder_acc, dtype=np.float64)
+    rolled = np.ascontiguousarray(rolled_m, dtype=np.float64)
+    n, fixed = bodies.n, _fixed(bodies)
+    # the kernel does not check its indices (a short array would be read past its end)
+    if pose.shape != (n, 3) or acc.shape != (n, 2) or rolled.shape != (n, 2) or z.shape != (fixed[0],):
+        raise ValueError(
+            f"{n} robots: poses {pose.shape}, encoders {acc.shape}, rolled {rolled.shape}, normals {z.shape}"
+        )
     return _read(  # type: ignore[no-any-return, call-arg]
-        np.ascontiguousarray(pose, dtype=np.float64),
+        pose,
         *_walls(scene),
-        *_fixed(bodies),
-        np.ascontiguousarray(z, dtype=np.float64),
-        np.ascontiguousarray(encoder_acc, dtype=np.float64),
-        np.ascontiguousarray(rolled_m, dtype=np.float64),
+        *fixed[1:],
+        z,
+        acc,
+        rolled,
         float(gps_offset_m[0]),
         float(gps_offset_m[1]),
     )
@@ -91,11 +101,13 @@ def _walls(scene: Scene) -> tuple[object, ...]:
 
 @lru_cache(maxsize=ROSTERS_KEPT)
 def _fixed(bodies: Bodies) -> tuple[object, ...]:
-    """A roster's arrays as the kernel's arguments (the same every tick: worked out once)."""
+    """The normals a tick of this roster takes, then its arrays as the kernel's arguments (the
+    same every tick: worked out once)."""
     s = _slots(bodies, 0)
     nm, ns = bodies.noise_mean, bodies.noise_std
     lz = bodies.lasers
     return (
+        int(noise_layout(bodies, 0)[0].sum()),  # the normals a tick takes (not an argument)
         bodies.outline,
         bodies.ir_owner, bodies.ir_xy, bodies.ir_angle_rad, bodies.ir_half_cone_rad, bodies.ir_range_m,
         lz.owner, lz.xy, lz.start_rad, lz.step_rad, lz.first, lz.range_m, lz.beam_owner,

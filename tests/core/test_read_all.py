@@ -6,12 +6,14 @@ beacons and Ciber-Rato) is the oracle."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from iw_zenoh.core import sensors
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.lab import Lab, Scene, Target
+from iw_zenoh.core.read_all import read_all
 from iw_zenoh.core.sensor_noise import noise_layout
 from iw_zenoh.core.spec import BumperSpec, IrSensorSpec, LaserSpec, NoiseSpec, RobotSpec, SensorNoise
 from tests.support.builders import random_poses, random_scene
@@ -100,3 +102,25 @@ def test_the_compiled_tick_reads_what_the_separate_path_reads(seed: int, off_x: 
         assert a.shape == b.shape, field
         assert a.dtype == b.dtype, field
         np.testing.assert_array_equal(_bits(a), _bits(b), err_msg=field)
+
+
+def test_arrays_of_the_wrong_size_are_refused_not_read_past_their_end() -> None:
+    scene, bodies, pose = _world(7)
+    n = bodies.n
+    need = int(noise_layout(bodies, 0)[0].sum())
+    ok = {"z": np.zeros(need), "encoder_acc": np.zeros((n, 2)), "rolled_m": np.zeros((n, 2))}
+    read_all(scene, bodies, pose, ok["z"], ok["encoder_acc"], ok["rolled_m"], (0.0, 0.0))
+    for name, bad in (("z", np.zeros(need - 1)), ("encoder_acc", np.zeros((n + 1, 2))), ("rolled_m", np.zeros((n, 1)))):
+        args = {**ok, name: bad}
+        with pytest.raises(ValueError, match="robots"):
+            read_all(scene, bodies, pose, args["z"], args["encoder_acc"], args["rolled_m"], (0.0, 0.0))
+    with pytest.raises(ValueError, match="robots"):
+        read_all(
+            scene,
+            bodies,
+            pose[:-1] if n > 1 else np.zeros((2, 3)),
+            ok["z"],
+            ok["encoder_acc"],
+            ok["rolled_m"],
+            (0.0, 0.0),
+        )
