@@ -129,7 +129,8 @@ TARGET_PPO_MINUTES = 20.0
 PPO_EVAL_EPISODES = 100
 
 
-def _example() -> Any:  # noqa: ANN401 (a module loaded from its path)
+def load_example() -> Any:  # noqa: ANN401 (a module loaded from its path)
+    """docs/examples/ppo_chairnav.py as a module (the test of its evaluation loads it so too)."""
     spec = importlib.util.spec_from_file_location("ppo_chairnav", EXAMPLE)
     assert spec is not None
     assert spec.loader is not None
@@ -146,7 +147,7 @@ def measure_ppo(minutes: float) -> dict[str, float] | None:
         import stable_baselines3  # type: ignore[import-untyped,import-not-found,unused-ignore]  # noqa: F401, PLC0415
     except ImportError:
         return None
-    ex = _example()
+    ex = load_example()
     with tempfile.TemporaryDirectory() as d:
         out = Path(d) / "ppo.zip"
         figures = ex.train(10**12, 64, 1, out, 10**12, 0, minutes)  # no evaluation during training

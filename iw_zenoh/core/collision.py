@@ -14,6 +14,8 @@ Legacy rule (:func:`check_collisions_ciberrato`): Ciber-Rato's distance tests on
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -83,6 +85,18 @@ def _union(a: IntArray, b: IntArray, width: int) -> IntArray:
     return np.stack([keys // width, keys % width], axis=1)
 
 
+_ALL = np.zeros(0, dtype=np.bool_)  # the kernel's "no mask": every robot takes part, none is wall-free
+
+
+@functools.cache
+def _kernel() -> Callable[..., tuple[IntArray, int]]:
+    """:func:`iw_zenoh.core.collide.collide`, imported on first use, not with this module: the
+    world holds :class:`Collisions` and never loads the kernels (numba)."""
+    from iw_zenoh.core.collide import collide
+
+    return collide
+
+
 def check_collisions(
     scene: Scene,
     outline: FloatArray,
@@ -91,6 +105,7 @@ def check_collisions(
     *,
     active: BoolArray | None = None,
     ignore_walls: BoolArray | None = None,
+    pass_each_other: bool = False,
 ) -> Collisions:
     """Checks every robot's next pose against the walls and the other robots.
 
@@ -106,40 +121,27 @@ def check_collisions(
         active: (N,) robots that take part (default all); inactive ones neither hit nor are hit.
         ignore_walls: (N,) robots that pass through walls and the border (doors: they are hung
             in a wall), still hitting robots.
+        pass_each_other: Whether two robots that both ignore walls never hit each other either
+            (the leaves of a revolving door cross at its hub, two leaves of a double door meet).
 
     Returns:
         The collisions, by robot index.
+
+    Raises:
+        ValueError: The arrays do not have one row per robot (the kernel does not check bounds).
     """
     n = len(pose_now)
-    empty = np.zeros((0, 2), dtype=np.int64)
     if n == 0:
         return Collisions.none(0)
-    idx: IntArray | None = None  # the robots taking part, None: all of them
-    if active is not None and not np.all(active):
-        idx = np.flatnonzero(np.asarray(active, dtype=bool))
-    free = np.zeros(n, dtype=bool) if ignore_walls is None else np.asarray(ignore_walls, dtype=bool)
-    if idx is None:  # every robot takes part (the usual tick): no copies of the arrays
-        o, now, nxt, wall_free = outline, pose_now, pose_next, free
-    else:
-        o, now, nxt, wall_free = outline[idx], pose_now[idx], pose_next[idx], free[idx]
-    # here, not at the top: the world holds Collisions and never loads the kernels (numba)
-    from iw_zenoh.core.contact import touching
-    from iw_zenoh.core.placing import swept_outlines
-
-    # now, half-way (interpolate_pose(now, nxt, 0.5)) and next, each to_world's bit for bit
-    c_now, c_mid, c_next = swept_outlines(_f64(o), _f64(now), _f64(nxt))
-    walls, robots = touching(scene, c_now, c_mid, c_next, wall_free)
-    if idx is None:
-        wall_pairs = walls if len(walls) else empty
-        robot_pairs = robots if len(robots) else empty
-    else:
-        wall_pairs = np.stack([idx[walls[:, 0]], walls[:, 1]], axis=1) if len(walls) else empty
-        robot_pairs = idx[robots] if len(robots) else empty
-    hit_wall = np.zeros(n, dtype=bool)
-    hit_wall[wall_pairs[:, 0]] = True
-    hit_robot = np.zeros(n, dtype=bool)
-    hit_robot[robot_pairs.reshape(-1)] = True
-    return Collisions(hit_wall | hit_robot, hit_wall, hit_robot, wall_pairs, robot_pairs)
+    act = _ALL if active is None else np.ascontiguousarray(active, dtype=np.bool_)
+    free = _ALL if ignore_walls is None else np.ascontiguousarray(ignore_walls, dtype=np.bool_)
+    if len(outline) != n or len(pose_next) != n or len(act) not in (0, n) or len(free) not in (0, n):
+        raise ValueError("check_collisions: outline, poses, active and ignore_walls need one row per robot")
+    # one compiled call: the robots taking part, their outlines now, half-way
+    # (interpolate_pose(now, nxt, 0.5)) and next (each to_world's bit for bit), the tests, the flags
+    flags = np.empty((3, n), dtype=np.bool_)
+    pairs, p = _kernel()(scene, _f64(outline), _f64(pose_now), _f64(pose_next), act, free, pass_each_other, flags)
+    return Collisions(flags[0], flags[1], flags[2], pairs[:p], pairs[p:])
 
 
 def check_collisions_ciberrato(

@@ -76,6 +76,7 @@ def touching(
         w.wall_start,
         w.wall_items,
         g,
+        False,
     )
 
 
@@ -202,6 +203,7 @@ def _touching(
     wall_start: IntArray,
     wall_items: IntArray,
     g: CellGrid,
+    pass_free: bool,
 ) -> tuple[IntArray, IntArray]:  # pragma: no cover
     n = c_now.shape[0]
     k = c_now.shape[1]
@@ -263,7 +265,7 @@ def _touching(
         # robots: each pair once, from its lower index
         for t in range(gather(g, b_start, b_items, box, seen_robot, i, x0, y0, x1, y1, near_robot)):
             j = near_robot[t]
-            if j <= i:
+            if j <= i or (pass_free and wall_free[i] and wall_free[j]):
                 continue
             hit = _convex_touch(c_next[i], k, c_next[j], k)
             if not hit:

@@ -114,24 +114,42 @@ class Episode:
     def step(self, actions: Mapping[int, np.ndarray]) -> dict[int, Outcome]:
         """Steps the world with each learner's action (a learner given none stands still); the
         outcome of each learner given one."""
+        if self.fast:
+            return self._step_arrays(actions)
         cmds: dict[int, Any] = dict.fromkeys(self.goals, (0.0, 0.0))  # a learner done stands still
         cmds.update({rid: to_powers(a, self.specs[rid], self.action) for rid, a in actions.items()})
         self.last = self._advance(cmds)
         self.steps += 1
-        tick = self.world.tick
+        return {rid: self._outcome(rid, self._distance(rid), self._collided(rid)) for rid in actions}
+
+    def _outcome(self, rid: int, dist: float, collided: bool) -> Outcome:
+        """A learner's outcome of the step just taken, from its distance to its goal and its flag."""
+        goal, terms = self.goals[rid], self.reward
+        reached = dist < goal.within
+        r = terms.progress * (self._dist[rid] - dist) + terms.time
+        r += terms.goal if reached else 0.0
+        r += terms.collision if collided else 0.0
+        self._dist[rid] = dist
+        info = {"distance": dist, "reached": reached, "collided": collided, "tick": self.world.tick}
+        truncated = self.steps >= self.max_steps or self.world.stopped
+        return Outcome(self.observe(rid), float(r), reached or collided, truncated, info)
+
+    def _step_arrays(self, actions: Mapping[int, np.ndarray]) -> dict[int, Outcome]:
+        """:meth:`step` when every robot is a learner's chair: the powers straight into the world's
+        arrays (the roster cannot change: no agent adds or removes a robot), the same outcomes."""
+        ids = self.world.array_ids()
+        at = {rid: k for k, rid in enumerate(ids)}
+        powers = np.zeros((len(ids), 2))  # a learner done (given no action) stands still
+        for rid, a in actions.items():
+            powers[at[rid]] = to_powers(a, self.specs[rid], self.action)
+        self.arrays = s = self.world.step_arrays(powers)
+        self.last = _Lazy(s, self.world)  # type: ignore[assignment]
+        self.steps += 1
         out: dict[int, Outcome] = {}
         for rid in actions:
-            goal = self.goals[rid]
-            dist = self._distance(rid)
-            reached = dist < goal.within
-            collided = self._collided(rid)
-            r = self.reward.progress * (self._dist[rid] - dist) + self.reward.time
-            r += self.reward.goal if reached else 0.0
-            r += self.reward.collision if collided else 0.0
-            self._dist[rid] = dist
-            info = {"distance": dist, "reached": reached, "collided": collided, "tick": tick}
-            truncated = self.steps >= self.max_steps or self.world.stopped
-            out[rid] = Outcome(self.observe(rid), float(r), reached or collided, truncated, info)
+            g, k = self.goals[rid], at[rid]
+            x, y = s.pose[k, :2].tolist()
+            out[rid] = self._outcome(rid, math.hypot(g.x - x, g.y - y), bool(s.collided[k]))
         return out
 
 

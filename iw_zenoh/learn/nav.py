@@ -29,9 +29,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
+from numba import njit
 
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.motor import MAX_POWER
@@ -39,7 +41,17 @@ from iw_zenoh.core.spec import RobotSpec, default_ir_sensors
 from iw_zenoh.messages import SensorReading, WorldState
 from iw_zenoh.sim.local import ArrayStep
 
-__all__ = ["ACTIONS", "Goal", "Reward", "Senses", "clearance_m", "goal_distance", "to_powers", "to_powers_batch"]
+__all__ = [
+    "ACTIONS",
+    "Goal",
+    "Reward",
+    "Senses",
+    "bounded_rows",
+    "clearance_m",
+    "goal_distance",
+    "to_powers",
+    "to_powers_batch",
+]
 
 ACTIONS = ("vw", "wheels")
 FARTHEST_M = 1000.0  # the goal's distance is clipped to this (farther than any lab's diagonal)
@@ -118,14 +130,11 @@ class Senses:
         goal: Goal,
     ) -> np.ndarray:
         """The vector from one chair's readings (nothing in range: NaN or inf) and its state."""
-        # proximity and laser at once (element by element, the same values as each part alone)
-        seen = np.concatenate([prox, laser])
-        seen = np.clip(np.where(np.isfinite(seen), seen, self.ranges), 0.0, self.ranges)
         c = math.radians(compass_deg)
         x, y, h = pose
         dist = math.hypot(goal.x - x, goal.y - y)
         bearing = math.atan2(goal.y - y, goal.x - x) - h
-        tail = [
+        tail = (
             math.sin(c),
             math.cos(c),
             dist,
@@ -133,8 +142,73 @@ class Senses:
             math.cos(bearing),
             rolled[0] / self.period_s,
             rolled[1] / self.period_s,
-        ]
-        return np.clip(np.concatenate([seen, tail]).astype(np.float32), self.lo, self.hi)
+        )
+        return _bounded(_f64(prox), _f64(laser), self.ranges, tail, self.lo, self.hi)
+
+
+def _f64(a: np.ndarray) -> np.ndarray:
+    return a if a.dtype == np.float64 and a.flags.c_contiguous else np.ascontiguousarray(a, dtype=np.float64)
+
+
+@njit(cache=True, nogil=True)
+def _clip(v: Any, lo: Any, hi: Any) -> Any:  # pragma: no cover (float64 or float32 alike)
+    """One value clipped as numpy clips it: the larger of ``v`` and ``lo``, then the smaller of that and ``hi``,
+    NaN kept (numpy's ``_NPY_CLIP``: ``a > b ? a : b`` then ``a < b ? a : b``, so -0.0 against 0.0
+    gives the bound)."""
+    if v != v:
+        return v
+    m = v if v > lo else lo
+    return m if m < hi else hi
+
+
+@njit(cache=True, nogil=True)
+def _bounded(
+    prox: np.ndarray, laser: np.ndarray, ranges: np.ndarray, tail: tuple[float, ...], lo: np.ndarray, hi: np.ndarray
+) -> np.ndarray:  # pragma: no cover
+    """The observation vector in one compiled pass, as the numpy expressions gave it: each reading
+    not finite becomes its range, is clipped to ``[0, range]`` (float64), then the vector with the
+    tail is cast to float32 and clipped to the observation space's bounds."""
+    k, b = prox.shape[0], laser.shape[0]
+    out = np.empty(k + b + len(tail), dtype=np.float32)
+    for i in range(k + b):
+        v = prox[i] if i < k else laser[i - k]
+        r = ranges[i]
+        if not np.isfinite(v):
+            v = r
+        out[i] = _clip(np.float32(_clip(v, 0.0, r)), lo[i], hi[i])
+    i = k + b
+    for v in tail:
+        out[i] = _clip(np.float32(v), lo[i], hi[i])
+        i += 1
+    return out
+
+
+@njit(cache=True, nogil=True)
+def bounded_rows(
+    prox: np.ndarray,
+    laser: np.ndarray,
+    rows: np.ndarray,
+    ranges: np.ndarray,
+    tail: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+) -> np.ndarray:  # pragma: no cover
+    """Many chairs' observations in one compiled pass (the vector environment's): row ``i`` from
+    readings row ``rows[i]`` of (R, k) ``prox`` and (R, b) ``laser``, each reading not finite
+    becoming its range, then with row ``i`` of (N, t) ``tail`` cast to float32 and clipped to the
+    bounds (what ``np.clip(np.concatenate(...).astype(np.float32), lo, hi)`` gave)."""
+    n, k, b, t = rows.shape[0], prox.shape[1], laser.shape[1], tail.shape[1]
+    out = np.empty((n, k + b + t), dtype=np.float32)
+    for i in range(n):
+        row = rows[i]
+        for j in range(k + b):
+            v = prox[row, j] if j < k else laser[row, j - k]
+            if not np.isfinite(v):
+                v = ranges[j]
+            out[i, j] = _clip(np.float32(v), lo[j], hi[j])
+        for j in range(t):
+            out[i, k + b + j] = _clip(np.float32(tail[i, j]), lo[k + b + j], hi[k + b + j])
+    return out
 
 
 @lru_cache(maxsize=8)

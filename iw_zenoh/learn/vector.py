@@ -10,7 +10,8 @@ walls (the sensors' kernels look at every wall within range, seen or not: with r
 side by side, a 10 m laser's search took in the walls of about seven rooms). Observation,
 action and reward are ChairNav's; a sub-environment that ends is reset at its next step
 (Gymnasium's ``NEXT_STEP`` autoreset: that step returns its first observation, reward 0): its
-chair is taken out and a new one placed at a new start, with a new goal, in the same room.
+chair is moved at rest to a new start (:meth:`~iw_zenoh.sim.local.LocalWorld.move`: the same robot,
+so nothing built per roster is built again), with a new goal, in the same room.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from gymnasium.vector.utils import batch_space
 from iw_zenoh.core.lab import Lab, Wall
 from iw_zenoh.core.spec import RobotSpec, default_ir_sensors
 from iw_zenoh.learn.chairnav import SEEDS, default_chair
-from iw_zenoh.learn.nav import ACTIONS, Goal, Reward, Senses, clearance_m, to_powers_batch
+from iw_zenoh.learn.nav import ACTIONS, Goal, Reward, Senses, bounded_rows, clearance_m, to_powers_batch
 from iw_zenoh.learn.rooms import SIZES, free_point, random_room
 from iw_zenoh.sim.local import ArrayStep, LocalWorld
 
@@ -86,17 +87,20 @@ class ChairVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         self.world: LocalWorld | None = None
 
     def _place(self, i: int) -> None:
-        """Sub-environment ``i``'s chair at a new start (a new robot id), with a new goal."""
+        """Sub-environment ``i``'s chair at a new start (placed at ``reset``, moved at a restart),
+        with a new goal."""
         assert self.world is not None
         g, (room, ox, oy) = self.np_random, self.rooms[i]
         x, y = free_point(g, room, self._margin)
         gx, gy = free_point(g, room, self._margin, away=[(x, y)])
-        self._next_id += 1
         heading = float(g.uniform(-180, 180))
-        rid = self.world.add(
-            replace(self.chair, name=f"env-{i}", id=self._next_id, x_m=x + ox, y_m=y + oy, dir_deg=heading)
-        )
-        self.rid[i], self.goal_xy[i], self.steps[i] = rid, (gx + ox, gy + oy), 0
+        if self.rid[i]:  # a restart: the same chair moved, so the roster (and what is built for it) stays
+            self.world.move(self.rid[i], x + ox, y + oy, heading)
+        else:
+            self.rid[i] = self.world.add(
+                replace(self.chair, name=f"env-{i}", id=i + 1, x_m=x + ox, y_m=y + oy, dir_deg=heading)
+            )
+        self.goal_xy[i], self.steps[i] = (gx + ox, gy + oy), 0
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -116,7 +120,6 @@ class ChairVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         rows = math.ceil(n / cols)
         lab = Lab(f"{n} rooms", cols * (CELL_W + self._gap) + 1.0, rows * (CELL_H + self._gap) + 1.0, tuple(walls))
         self.world = LocalWorld(lab, seed=int(g.integers(SEEDS)), sim="vector")
-        self._next_id = 0
         self.rid = [0] * n
         self.goal_xy = np.zeros((n, 2))
         self.steps = np.zeros(n, dtype=np.int64)
@@ -140,16 +143,14 @@ class ChairVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         """Every sub-environment's observation (ChairNav's layout, :mod:`iw_zenoh.learn.nav`), at once."""
         r, sn = s.readings, self.senses
         assert r is not None
-        prox = r.proximity_m.reshape(len(s.ids), -1)[idx]
-        prox = np.where(np.isfinite(prox), prox, sn.ir_range)
-        laser = r.laser_m.reshape(len(s.ids), -1)[idx]
-        laser = np.where(np.isfinite(laser), laser, sn.laser_range)
+        n = len(s.ids)
         c = np.radians(r.compass_deg[idx])
         dx, dy = self.goal_xy[:, 0] - s.pose[idx, 0], self.goal_xy[:, 1] - s.pose[idx, 1]
         bearing = np.arctan2(dy, dx) - s.pose[idx, 2]
         rolled = s.rolled_m[idx] / sn.period_s
         tail = np.column_stack([np.sin(c), np.cos(c), np.hypot(dx, dy), np.sin(bearing), np.cos(bearing), rolled])
-        return np.asarray(np.clip(np.concatenate([prox, laser, tail], axis=1).astype(np.float32), sn.lo, sn.hi))
+        prox, laser = r.proximity_m.reshape(n, -1), r.laser_m.reshape(n, -1)
+        return bounded_rows(prox, laser, idx, sn.ranges, tail, sn.lo, sn.hi)
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """One tick of every chair; sub-environments that ended at the last step start again."""
@@ -157,7 +158,6 @@ class ChairVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         n, w = self.num_envs, self.world
         restarted = self._ended
         for k in np.flatnonzero(restarted).tolist():
-            w.remove(self.rid[k])
             self._place(k)
         powers = to_powers_batch(np.asarray(actions, dtype=np.float64).reshape(n, 2), self.chair, self.action_mode)
         powers[restarted] = 0.0  # a chair placed again starts at rest

@@ -9,7 +9,7 @@ from collections.abc import Sequence
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus
-from iw_zenoh.core.contact import warm_up
+from iw_zenoh.core.collide import warm_up
 from iw_zenoh.errors import ProtocolError
 from iw_zenoh.messages import Proposed
 from iw_zenoh.nodes.info import InfoCache

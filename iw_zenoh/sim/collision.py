@@ -69,9 +69,11 @@ class CollisionNode:
         judges, without messages: :class:`~iw_zenoh.sim.local.LocalWorld`'s array path)."""
         if view.info.profile == Profile.CIBERRATO:
             return check_collisions_ciberrato(view.scene, now, nxt, linear, active=active)
+        # doors pass through walls and each other: the leaves of one revolving door cross at its hub
+        # (each leaf is a Door robot turning about the hub), and two leaves of a double door meet
         doors = self._doors_of(bodies)
-        return _doors_pass_doors(
-            check_collisions(view.scene, bodies.outline, now, nxt, active=active, ignore_walls=doors), doors
+        return check_collisions(
+            view.scene, bodies.outline, now, nxt, active=active, ignore_walls=doors, pass_each_other=True
         )
 
     def on_proposed(self, msg: Proposed, view: WorldView) -> Verdict:
@@ -93,15 +95,3 @@ class CollisionNode:
             collided=col.collided.tolist(),
             hits=hits,
         )
-
-
-def _doors_pass_doors(col: Collisions, doors: npt.NDArray[np.bool_]) -> Collisions:
-    """The collisions without door-door contacts: the leaves of one revolving door cross at its hub
-    (each leaf is a Door robot turning about the hub), and two leaves of a double door meet."""
-    pairs = col.robot_pairs
-    if len(pairs) == 0 or not doors.any():
-        return col
-    keep = pairs[~(doors[pairs[:, 0]] & doors[pairs[:, 1]])]
-    hit_robot = np.zeros(len(doors), dtype=bool)
-    hit_robot[keep.reshape(-1)] = True
-    return Collisions(col.hit_wall | hit_robot, col.hit_wall, hit_robot, col.wall_pairs, keep)

@@ -152,6 +152,19 @@ class Registry:
         if spec.dir_deg is not None:
             d = spec.dir_deg
         placed = spec.placed(rid, x, y, d)
+        self.check_free(placed, pose, on_robots=on_robots)
+        return placed
+
+    def check_free(
+        self, placed: RobotSpec, pose: dict[int, tuple[float, float, float]], *, on_robots: bool = False
+    ) -> None:
+        """Refuses a body at its spec's start pose outside the lab, on a wall (not for a door), or
+        on one of the robots of ``pose`` (unless ``on_robots``).
+
+        Raises:
+            Refused: Why the place is not free.
+        """
+        x, y, d = placed.x_m or 0.0, placed.y_m or 0.0, placed.dir_deg or 0.0
         lab = self.scene.lab
         if not (0.0 < x < lab.width_m and 0.0 < y < lab.height_m):
             raise Refused(f"start ({x:g}, {y:g}) is outside the lab ({lab.width_m:g} x {lab.height_m:g})")
@@ -164,7 +177,6 @@ class Registry:
         other = None if on_robots else self._robot_under(placed, poly, (x, y), pose)
         if other is not None:
             raise Refused(f"start ({x:g}, {y:g}) puts the body on robot {other}; choose a free place")
-        return placed
 
     def _robot_under(
         self,
@@ -255,6 +267,13 @@ class Registry:
             if rid in self.entries:
                 out[rid] = (float(p[0]), float(p[1]), float(p[2]))
         return out
+
+    def poses_near(self, state: WorldState, x: float, y: float) -> dict[int, tuple[float, float, float]]:
+        """The poses of the arrays' robots near enough to (x, y) for a body there to touch them
+        (what :meth:`check_free` looks at), by id; the arrays must be current (no newcomer)."""
+        p = state.pose
+        near = np.flatnonzero((np.abs(p[:, 0] - x) <= _REACH_M) & (np.abs(p[:, 1] - y) <= _REACH_M))
+        return {self.arrayed[j]: (float(p[j, 0]), float(p[j, 1]), float(p[j, 2])) for j in near.tolist()}
 
     def arrange(self, state: WorldState) -> tuple[WorldState, Bodies] | None:
         """The arrays for the current roster when it changed since they were last built, keeping

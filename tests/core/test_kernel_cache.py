@@ -15,15 +15,16 @@ from pathlib import Path
 WARM_UP = """
 import json
 from numba.core.registry import CPUDispatcher
-from iw_zenoh.core import cellgrid, cones, laser, placing, read_all, readout
+from iw_zenoh.core import cellgrid, collide, cones, contact, laser, placing, read_all, readout
 
 cones.warm_up()
 laser.warm_up()
 placing.warm_up()
 readout.warm_up()
+collide.warm_up()
 read_all.warm_up()
 stats = {}
-for module in (cones, laser, cellgrid, placing, readout, read_all):
+for module in (cones, laser, cellgrid, placing, readout, contact, collide, read_all):
     for name, obj in vars(module).items():
         if isinstance(obj, CPUDispatcher) and obj.signatures:
             s = obj.stats
@@ -45,7 +46,13 @@ def _warm_up(cache: Path) -> dict[str, list[int]]:
 def test_a_second_process_loads_every_kernel_from_the_disk_cache(tmp_path: Path) -> None:
     cache = tmp_path / "numba-cache"
     first = _warm_up(cache)
-    assert {"iw_zenoh.core.cones._scan", "iw_zenoh.core.laser._scan", "iw_zenoh.core.placing.wedges"} <= set(first)
+    assert {
+        "iw_zenoh.core.cones._scan",
+        "iw_zenoh.core.laser._scan",
+        "iw_zenoh.core.placing.wedges",
+        "iw_zenoh.core.collide._collide",
+        "iw_zenoh.core.read_all._read",
+    } <= set(first)
     assert all(misses >= 1 for _, misses in first.values())  # compiled: nothing was there yet
     assert list(cache.rglob("*.nbi")), "the first process wrote no cache index"
 
@@ -55,6 +62,7 @@ def test_a_second_process_loads_every_kernel_from_the_disk_cache(tmp_path: Path)
         "iw_zenoh.core.cones._scan",
         "iw_zenoh.core.laser._scan",
         "iw_zenoh.core.placing.wedges",
+        "iw_zenoh.core.collide._collide",
         "iw_zenoh.core.read_all._read",
     ):
         assert second[entry][0] >= 1, f"{entry} did not come from the cache"

@@ -3,29 +3,14 @@ example's training needs the examples extra: no test trains; this needs only the
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-from types import ModuleType
-
 import gymnasium
 import numpy as np
 
-EXAMPLE = Path(__file__).resolve().parents[2] / "docs" / "examples" / "ppo_chairnav.py"
-
-
-def _example() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("ppo_chairnav", EXAMPLE)
-    assert spec is not None
-    assert spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["ppo_chairnav"] = module  # its dataclasses look their module up there
-    spec.loader.exec_module(module)
-    return module
+from benchmarks.learn import load_example
 
 
 def test_the_evaluation_counts_every_episode_once_by_how_it_ended() -> None:
-    ex = _example()
+    ex = load_example()
     e = ex.evaluate(ex.random_policy(1), 4, seed=7, max_steps=40)
     assert e.episodes == 4
     assert e.success_rate + e.collision_rate + e.timeout_rate == 1.0
@@ -38,7 +23,7 @@ def test_the_evaluation_counts_every_episode_once_by_how_it_ended() -> None:
 
 
 def test_a_chair_that_stands_still_times_out_and_the_scale_divides_by_one_to_ten() -> None:
-    ex = _example()
+    ex = load_example()
     e = ex.evaluate(lambda obs: np.zeros(2, dtype=np.float32), 2, seed=3, max_steps=20)
     assert e.timeout_rate == 1.0
     assert e.mean_steps_to_goal == 0.0

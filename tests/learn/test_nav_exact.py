@@ -13,7 +13,7 @@ from hypothesis.extra.numpy import arrays
 
 from iw_zenoh.core.motor import MAX_POWER
 from iw_zenoh.learn.chairnav import default_chair
-from iw_zenoh.learn.nav import Goal, Senses, to_powers
+from iw_zenoh.learn.nav import Goal, Senses, bounded_rows, to_powers
 
 CHAIR = default_chair()
 SENSES = Senses(CHAIR, 0.1)
@@ -74,5 +74,34 @@ def test_the_observation_is_the_numpy_one_bit_for_bit(
     goal = Goal(3.0, -2.0)
     got = SENSES._vector(prox, laser, compass, pose, rolled, goal)
     want = _old_vector(prox, laser, compass, pose, rolled, goal)
+    assert got.dtype == want.dtype
+    assert got.tobytes() == want.tobytes()
+
+
+def _old_rows(prox: np.ndarray, laser: np.ndarray, rows: np.ndarray, tail: np.ndarray) -> np.ndarray:
+    s = SENSES
+    p = np.where(np.isfinite(prox[rows]), prox[rows], s.ir_range)
+    b = np.where(np.isfinite(laser[rows]), laser[rows], s.laser_range)
+    return np.asarray(np.clip(np.concatenate([p, b, tail], axis=1).astype(np.float32), s.lo, s.hi))
+
+
+@given(
+    st.integers(1, 6).flatmap(
+        lambda n: st.tuples(
+            arrays(np.float64, (n, len(SENSES.ir_range)), elements=SEEN),
+            arrays(np.float64, (n, len(SENSES.laser_range)), elements=SEEN),
+            arrays(np.float64, (n, 7), elements=st.one_of(st.floats(-2e3, 2e3), st.sampled_from([math.nan, -0.0]))),
+            st.permutations(range(n)),
+        )
+    )
+)
+@settings(max_examples=200)
+def test_the_vector_environments_observations_are_the_numpy_ones_bit_for_bit(
+    parts: tuple[np.ndarray, np.ndarray, np.ndarray, list[int]],
+) -> None:
+    prox, laser, tail, order = parts
+    rows = np.asarray(order, dtype=np.int64)
+    got = bounded_rows(prox, laser, rows, SENSES.ranges, tail, SENSES.lo, SENSES.hi)
+    want = _old_rows(prox, laser, rows, tail)
     assert got.dtype == want.dtype
     assert got.tobytes() == want.tobytes()

@@ -47,13 +47,18 @@ def test_an_environment_that_ended_starts_again_at_its_next_step() -> None:
         _, _, _, truncated, _ = env.step(hold)
         assert not truncated.any()
     before = list(env.rid)
+    assert env.world is not None
+    revision, poses = env.world.world.revision, env.world.world.state.pose[:, :2].copy()
     _, _, _, truncated, _ = env.step(hold)
     assert truncated.all()
     obs, reward, terminated, truncated, _ = env.step(hold)  # the autoreset step: first observations
     assert np.array_equal(reward, np.zeros(4))
     assert not (terminated | truncated).any()
     assert env.observation_space.contains(obs)
-    assert all(new != old for new, old in zip(env.rid, before, strict=True))  # a new chair in each room
+    assert env.rid == before  # the same chairs, moved: the roster (and all built for it) did not change
+    assert env.world is not None
+    assert env.world.world.revision == revision
+    assert not np.array_equal(env.world.world.state.pose[:, :2], poses)  # each at a new start
 
 
 def test_no_sensor_search_reaches_another_rooms_walls() -> None:

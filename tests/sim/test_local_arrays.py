@@ -109,3 +109,36 @@ def test_step_arrays_refuses_wrong_shapes_and_real_robots_with_reasons() -> None
     with pytest.raises(IwError, match="Real robot"):
         w.step_arrays(np.zeros((3, 2)))
     assert w.step().state.tick == 1  # the world is unharmed: step() goes on
+
+
+def test_a_moved_robot_is_at_rest_at_its_new_pose_and_the_roster_stays() -> None:
+    w = _world()
+    ids = w.array_ids()
+    for _ in range(40):  # both drive ahead: "a" toward "b", "b" toward the wall
+        s = w.step_arrays(np.full((2, 2), 0.15), sense=False)
+    assert s.collided.any()
+    revision, bodies = w.world.revision, s.bodies
+    w.move(ids[0], 15.0, 5.0, 90.0)
+    after = w.step_arrays(np.zeros((2, 2)))
+    assert w.world.revision == revision  # nothing per roster built again
+    assert after.bodies is bodies
+    assert after.pose[0].tolist() == [15.0, 5.0, math.radians(90.0)]  # at rest: its motors cleared
+    assert after.rolled_m[0].tolist() == [0.0, 0.0]
+    assert not after.collided[0]
+    assert w.array_ids() == ids
+
+
+def test_a_move_onto_a_wall_or_a_robot_or_of_no_robot_is_refused_and_changes_nothing() -> None:
+    w = _world()
+    ids = w.array_ids()
+    w.step_arrays(np.zeros((2, 2)), sense=False)
+    pose = w.world.state.pose.copy()
+    with pytest.raises(IwError, match="on wall"):
+        w.move(ids[0], 9.5, 5.0, 0.0)
+    with pytest.raises(IwError, match="on robot"):
+        w.move(ids[0], 5.2, 5.0, 0.0)
+    with pytest.raises(IwError, match="outside the lab"):
+        w.move(ids[0], 25.0, 5.0, 0.0)
+    with pytest.raises(IwError, match="no robot 99"):
+        w.move(99, 1.0, 1.0, 0.0)
+    assert np.array_equal(w.world.state.pose, pose)
