@@ -29,6 +29,7 @@ from iw_zenoh.core.lab import Scene
 from iw_zenoh.core.laser import laser_distances
 from iw_zenoh.core.legacy_ir import ciberrato_ir_distances
 from iw_zenoh.core.placing import outline_at, wedges
+from iw_zenoh.core.read_all import read_all
 from iw_zenoh.core.sensor_noise import TickNormals, noise_bank, noise_layout, tick_normals
 
 __all__ = [
@@ -291,6 +292,40 @@ def read_sensors(
     p = params or SensorParams()
     if only is not None and np.all(only):
         only = None  # every robot (the usual shard of one): what None means, without the selections
+    if only is None and not legacy_ir and not scene.lab.beacons and not moving_beacons and bodies.n:
+        # the usual tick in one compiled call (core.read_all: the same functions, the same numbers)
+        prox, legacy, compass, gps, encoders, laser_m = read_all(
+            scene, bodies, pose, z, encoder_acc, rolled_m, p.gps_offset_m
+        )
+        return Readings(
+            proximity_m=prox,
+            proximity_legacy=legacy,
+            compass_deg=compass,
+            beacon_deg=np.empty((bodies.n, 0)),  # no beacons: no values (what np.full gives)
+            gps=gps,
+            ground=_ground(scene, bodies, pose),
+            collision=np.asarray(collided, dtype=bool).copy(),
+            encoder_acc=encoders,
+            bumpers=_bumpers(scene, bodies, pose),
+            laser_m=laser_m,
+        )
+    return _separately(scene, bodies, pose, collided, encoder_acc, rolled_m, z, p, only, legacy_ir, moving_beacons)
+
+
+def _separately(
+    scene: Scene,
+    bodies: Bodies,
+    pose: FloatArray,
+    collided: BoolArray,
+    encoder_acc: FloatArray,
+    rolled_m: FloatArray,
+    z: FloatArray,
+    p: SensorParams,
+    only: BoolArray | None,
+    legacy_ir: bool,
+    moving_beacons: tuple[tuple[int, float], ...],
+) -> Readings:
+    """:func:`read_sensors` sensor kind after sensor kind (a shard, Ciber-Rato's IR, beacons)."""
     nm, ns = bodies.noise_mean, bodies.noise_std
     z_of = tick_normals(bodies, z, len(scene.lab.beacons) + len(moving_beacons))
     # the bodies at their poses, binned once for the cones and the scanners

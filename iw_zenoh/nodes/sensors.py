@@ -21,7 +21,7 @@ from collections.abc import Sequence
 
 from iw_zenoh import keys
 from iw_zenoh.bus import Bus, Delivery, Inbox
-from iw_zenoh.core import cones, laser, placing, readout
+from iw_zenoh.core import cones, laser, placing, read_all, readout
 from iw_zenoh.core.modes import Profile
 from iw_zenoh.errors import ProtocolError
 from iw_zenoh.messages import Proposed, WorldState, encode_sensor_batch
@@ -267,3 +267,4 @@ def _warm_up() -> None:
     laser.warm_up()
     placing.warm_up()  # the wedges, mounting points and outlines they are given
     readout.warm_up()  # the noise on what they read
+    read_all.warm_up()  # all of them in one call, the usual tick's path

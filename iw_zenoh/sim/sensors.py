@@ -28,6 +28,7 @@ from iw_zenoh.sim.view import ROSTERS_KEPT, WorldView
 
 __all__ = ["Computed", "SensorsNode", "state_from_proposal"]  # state_from_proposal: from sim.early
 
+_PARAMS = SensorParams()  # the sensors' tick-wide settings (the defaults; frozen)
 ALL_AGAIN = 0.25  # when this share of robots is touched, all are computed again (no merging)
 
 
@@ -82,7 +83,7 @@ class SensorsNode:
         self.early: Computed | None = None  # readings that went out before their state
         self._undo: tuple[list[int], np.ndarray, tuple[int, list[int], np.ndarray] | None, int] | None = None
         self.corrections = 0  # ticks whose early readings the state proved wrong
-        self._layout: tuple[Bodies, np.ndarray, tuple[tuple[int, float], ...], list[int], list[int]] | None = None
+        self._layout: _Layout | None = None
 
     def warm(self, view: WorldView) -> None:
         """Computes the view's robots once, where they were placed, in a throwaway node (its own
@@ -197,12 +198,12 @@ class SensorsNode:
         if self._z is not None and self._z[0] <= tick:
             self._z = None
 
-    def _normals(self, tick: int, ids: list[int], counts: list[int], starts: list[int], only: np.ndarray) -> np.ndarray:
+    def _normals(self, tick: int, ids: list[int], counts: list[int], starts: list[int], only: list[bool]) -> np.ndarray:
         """This tick's standard normals, drawn once per tick (a tick computed again reuses them)."""
         if self._z is not None and self._z[0] == tick and self._z[1] == ids:
             return self._z[2]
         z = np.zeros(int(sum(counts)))
-        self._noise.fill(ids, counts, starts, only.tolist(), z)
+        self._noise.fill(ids, counts, starts, only, z)
         self._z = (tick, ids, z)
         return z
 
@@ -237,9 +238,9 @@ class SensorsNode:
         (N, 3) poses, (N,) collision flags and (N, 2) distances rolled, robots ``ids`` (``bodies``):
         the readings, the robots computed, and the encoder counts after the tick (not committed:
         :meth:`commit_counts`)."""
-        mine, moving, counts, starts = self._roster(view, ids, bodies)
-        only = mine if subset is None else mine & subset
-        z = self._normals(tick, ids, counts, starts, mine)
+        lay = self._roster(view, ids, bodies)
+        only = lay.mine if subset is None else lay.mine & subset
+        z = self._normals(tick, ids, lay.counts, lay.starts, lay.mine_list)
         enc = self._encoders(ids)
         r = read_sensors(
             view.scene,
@@ -249,28 +250,30 @@ class SensorsNode:
             encoder_acc=enc,
             rolled_m=rolled,
             z=z,
-            params=SensorParams(),
-            only=only,
+            params=_PARAMS,
+            only=None if subset is None and lay.all_mine else only,  # None: every robot, without a test
             legacy_ir=view.info.profile == Profile.CIBERRATO,
-            moving_beacons=moving,
+            moving_beacons=lay.moving,
         )
+        if subset is None and lay.all_mine:  # every robot's count moves on (np.where's values, without the test)
+            return r, only, r.encoder_acc.copy()
         return r, only, np.where(only[:, None], r.encoder_acc, enc)
 
-    def _roster(
-        self, view: WorldView, ids: list[int], bodies: Bodies
-    ) -> tuple[np.ndarray, tuple[tuple[int, float], ...], list[int], list[int]]:
+    def _roster(self, view: WorldView, ids: list[int], bodies: Bodies) -> _Layout:
         """This shard's robots (read-only), the beacons robots carry, and the noise layout of a
         roster: the same every tick, worked out again only when its bodies change (a view builds
         one per roster, so the same bodies are the same view and robots)."""
-        if self._layout is None or self._layout[0] is not bodies:
+        if self._layout is None or self._layout.bodies is not bodies:
             k, n = self.shard
             mine = np.asarray(ids, dtype=np.int64) % n == k % n
             mine.setflags(write=False)
             # robots that carry a beacon (Ciber-Rato's RobotBeacon), in id order after the lab's
             moving = tuple((i, h) for i, rid in enumerate(ids) if (h := view.specs[rid].beacon_height_m) is not None)
             counts, starts = noise_layout(bodies, len(view.scene.lab.beacons) + len(moving))
-            self._layout = (bodies, mine, moving, counts.tolist(), starts.tolist())
-        return self._layout[1:]
+            self._layout = _Layout(
+                bodies, mine, moving, counts.tolist(), starts.tolist(), mine.tolist(), bool(mine.all())
+            )
+        return self._layout
 
     def _encoders(self, ids: list[int]) -> np.ndarray:
         """(N, 2) encoder counts before this tick, for roster ``ids``."""
@@ -323,6 +326,18 @@ class SensorsNode:
                 key = self._keys[rid] = keys.sensors(self.sim, rid)
             out.append((key, reading))
         return out
+
+
+class _Layout(NamedTuple):
+    """A roster's shard and noise layout (the same every tick: worked out when its bodies change)."""
+
+    bodies: Bodies
+    mine: np.ndarray  # (N,) this shard's robots, read-only
+    moving: tuple[tuple[int, float], ...]  # the beacons robots carry: (robot index, height)
+    counts: list[int]  # normals a robot draws a tick
+    starts: list[int]  # where its normals start
+    mine_list: list[bool]  # mine, as fill takes it
+    all_mine: bool  # every robot is this shard's
 
 
 class _Runs(NamedTuple):

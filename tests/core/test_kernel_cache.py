@@ -15,7 +15,7 @@ from pathlib import Path
 WARM_UP = """
 import json
 from numba.core.registry import CPUDispatcher
-from iw_zenoh.core import cellgrid, collide, cones, contact, drive, laser, placing, readout
+from iw_zenoh.core import cellgrid, collide, cones, contact, drive, laser, placing, read_all, readout
 
 cones.warm_up()
 drive.warm_up()
@@ -23,8 +23,9 @@ laser.warm_up()
 placing.warm_up()
 readout.warm_up()
 collide.warm_up()
+read_all.warm_up()
 stats = {}
-for module in (cones, laser, cellgrid, placing, readout, contact, collide, drive):
+for module in (cones, laser, cellgrid, placing, readout, contact, collide, read_all, drive):
     for name, obj in vars(module).items():
         if isinstance(obj, CPUDispatcher) and obj.signatures:
             s = obj.stats
@@ -47,7 +48,8 @@ def test_a_second_process_loads_every_kernel_from_the_disk_cache(tmp_path: Path)
     cache = tmp_path / "numba-cache"
     first = _warm_up(cache)
     kernels = ["iw_zenoh.core.cones._scan", "iw_zenoh.core.laser._scan", "iw_zenoh.core.placing.wedges"]
-    kernels += ["iw_zenoh.core.collide._collide", "iw_zenoh.core.drive.propose_into", "iw_zenoh.core.drive.commit_into"]
+    kernels += ["iw_zenoh.core.collide._collide", "iw_zenoh.core.read_all._read"]
+    kernels += ["iw_zenoh.core.drive.propose_into", "iw_zenoh.core.drive.commit_into"]
     assert set(kernels) <= set(first)
     assert all(misses >= 1 for _, misses in first.values())  # compiled: nothing was there yet
     assert list(cache.rglob("*.nbi")), "the first process wrote no cache index"

@@ -8,6 +8,7 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from iw_zenoh.core import noise
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.lab import Beacon, Lab, Scene, Target, Wall
 from iw_zenoh.core.noise import NoiseBank, NoiseStreams, Stream, rng_for
@@ -334,6 +335,56 @@ def test_noise_streams_fill_gives_what_take_gives(ticks: list[list[tuple[int, bo
             if mine:
                 want[s0 : s0 + c] = taken.take(rid, c)
         assert got.tolist() == want.tolist()
+
+
+_ROSTERS = (  # (ids, counts, only) a fill may be asked for, tick after tick
+    ([4, 1, 7], [3, 0, 5], [True, True, True]),
+    ([4, 1, 7], [3, 0, 5], [True, False, True]),
+    ([1, 7], [2, 5], [True, True]),
+    ([7, 4, 9], [5, 3, 1], [True, True, True]),
+)
+
+
+@given(
+    st.lists(
+        st.one_of(
+            st.tuples(st.just("fill"), st.integers(0, len(_ROSTERS) - 1), st.integers(1, 9)),
+            st.tuples(st.just("take"), st.sampled_from([1, 4, 7, 9]), st.integers(0, 40)),
+        ),
+        max_size=25,
+    ),
+    st.integers(1, 4),
+)
+def test_noise_streams_fill_drawn_ahead_gives_each_generator_sequence(
+    events: list[tuple[str, int, int]], rows_max: int
+) -> None:
+    """fill serves a roster's ticks from rows drawn ahead; whatever the rosters, the ticks a
+    roster stays, the takes between fills and the rows drawn at once, every robot's values are
+    its generator's sequence, in order, and skipped slots keep what they held."""
+    was = noise.ROWS_MAX
+    noise.ROWS_MAX = rows_max
+    try:
+        streams = NoiseStreams(9, Stream.SENSORS, block=16)
+        used = {rid: 0 for rid in (1, 4, 7, 9)}
+        want = {rid: rng_for(9, rid, Stream.SENSORS).standard_normal(2000) for rid in used}
+        for kind, a, b in events:
+            if kind == "take":
+                np.testing.assert_array_equal(streams.take(a, b), want[a][used[a] : used[a] + b])
+                used[a] += b
+                continue
+            ids, counts, only = _ROSTERS[a]
+            starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(int).tolist()
+            for _ in range(b):
+                got = np.full(sum(counts), -99.0)
+                streams.fill(ids, counts, starts, only, got)
+                expected = np.full(sum(counts), -99.0)
+                for rid, c, s0, mine in zip(ids, counts, starts, only, strict=True):
+                    if mine:
+                        expected[s0 : s0 + c] = want[rid][used[rid] : used[rid] + c]
+                        used[rid] += c
+                np.testing.assert_array_equal(got, expected)
+    finally:
+        noise.ROWS_MAX = was
 
 
 def test_a_sensor_inside_a_wall_or_another_body_reads_zero() -> None:
