@@ -11,27 +11,17 @@ Targets (issue 36): a single environment >= 5,000 steps/s on one core; a batched
 chairs >= 100,000 chair-steps/s; ChairNav >= 10 times ir-sim's own ``env.step`` with one robot and
 a 64-beam lidar in a room of the same size, measured in the same run (ir-sim is in the dev extra).
 
-Measured (k36, 2026-11-28, the branch's last commit), one core (``taskset -c 1``) of a 2-core
-machine shared with four other engineers' test runs (load average 8 to 10), the tree before
-(main at 953bc60) and after run back to back three times, each figure the best of 5 to 7 blocks of
-CPU time (``time.process_time``, less sensitive to the load than wall time). Still short of every
-target:
+Measured on a quiet machine (nothing else running), one core (``taskset -c 1``), 2026-11-28,
+after each part of the tick became one compiled call (core/drive.py, core/collide.py,
+core/read_all.py, the observation in learn/nav.py):
 
-    ChairNav-v0, steps/s            before 720 / 911 / 1,368         after 2,073 / 1,714 / 2,917
-    vector env, 256 chairs,         before 21,848 / 21,412 / 24,282  after 24,309 / 32,513 / 44,745
-      chair-steps/s
-    ir-sim env.step, same rounds    991 / 1,254 / 1,694
-    ChairNav / ir-sim               before 0.73 / 0.73 / 0.81        after 2.1 / 1.4 / 1.7
+    ChairNav-v0                     6,309 steps/s      (target 5,000: met)
+    ir-sim env.step, same run       1,816 steps/s      ChairNav / ir-sim 3.47 (target 10)
+    vector env, 256 chairs          38,533 chair-steps/s (target 100,000)
 
-(targets: 5,000 steps/s, 100,000 chair-steps/s, 10 times ir-sim)
-
-What changed: the collision check's and the sensors' numpy glue compiled (``core/placing.py``:
-outlines at poses, mounting points, the cones' wedges; ``core/readout.py``: the readings' noise),
-the bodies placed and binned once a tick for cones and laser, the vector env's rooms laid further
-apart than the sensors reach (a laser's search took in about seven rooms' walls), the noise drawn
-for all robots in one call. A step is still some 150 small numpy and Python calls (propose,
-commit, the collision wrapper, the observation) around the kernels: reaching 5,000 steps/s needs
-the whole tick as one compiled call per step.
+Before this session's pass (session 17, quiet, same command): 2,174 / 1,375 (1.58) / 38,646. At
+one chair what is left is about a dozen compiled calls, each paying numba's argument handling,
+and the Python between them; at 256 chairs, the laser's and cones' kernels themselves.
 """
 
 from __future__ import annotations
