@@ -169,6 +169,8 @@ def _bounded(
     not finite becomes its range, is clipped to ``[0, range]`` (float64), then the vector with the
     tail is cast to float32 and clipped to the observation space's bounds."""
     k, b = prox.shape[0], laser.shape[0]
+    if k + b != ranges.shape[0] or k + b + len(tail) != lo.shape[0] or lo.shape != hi.shape:
+        raise ValueError("the readings do not fit the chair's observation (its spec's sensor and beam counts)")
     out = np.empty(k + b + len(tail), dtype=np.float32)
     for i in range(k + b):
         v = prox[i] if i < k else laser[i - k]
@@ -198,6 +200,13 @@ def bounded_rows(
     becoming its range, then with row ``i`` of (N, t) ``tail`` cast to float32 and clipped to the
     bounds (what ``np.clip(np.concatenate(...).astype(np.float32), lo, hi)`` gave)."""
     n, k, b, t = rows.shape[0], prox.shape[1], laser.shape[1], tail.shape[1]
+    if k + b != ranges.shape[0] or k + b + t != lo.shape[0] or lo.shape != hi.shape or tail.shape[0] != n:
+        raise ValueError("the readings do not fit the chair's observation (its spec's sensor and beam counts)")
+    if prox.shape[0] != laser.shape[0]:
+        raise ValueError("proximity and laser readings of different robot counts")
+    for i in range(n):
+        if rows[i] < 0 or rows[i] >= prox.shape[0]:
+            raise ValueError("a row beyond the readings")
     out = np.empty((n, k + b + t), dtype=np.float32)
     for i in range(n):
         row = rows[i]

@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
@@ -105,3 +106,18 @@ def test_the_vector_environments_observations_are_the_numpy_ones_bit_for_bit(
     want = _old_rows(prox, laser, rows, tail)
     assert got.dtype == want.dtype
     assert got.tobytes() == want.tobytes()
+
+
+def test_readings_that_do_not_fit_the_chairs_spec_are_refused_not_read_past() -> None:
+    s = SENSES
+    k, b = len(s.ir_range), len(s.laser_range)
+    goal = Goal(3.0, -2.0)
+    with pytest.raises(ValueError, match="do not fit"):  # a reading without its laser scan
+        s._vector(np.ones(k), np.ones(0), 0.0, (0.0, 0.0, 0.0), (0.0, 0.0), goal)
+    with pytest.raises(ValueError, match="do not fit"):  # one proximity value too many
+        s._vector(np.ones(k + 1), np.ones(b), 0.0, (0.0, 0.0, 0.0), (0.0, 0.0), goal)
+    tail = np.zeros((1, 7))
+    with pytest.raises(ValueError, match="do not fit"):
+        bounded_rows(np.ones((1, k)), np.ones((1, b + 1)), np.zeros(1, dtype=np.int64), s.ranges, tail, s.lo, s.hi)
+    with pytest.raises(ValueError, match="beyond"):
+        bounded_rows(np.ones((1, k)), np.ones((1, b)), np.ones(1, dtype=np.int64), s.ranges, tail, s.lo, s.hi)
