@@ -141,11 +141,11 @@ def measure(n: int, seconds: float) -> dict[str, float]:
         gaps = np.concatenate([np.diff(a[len(a) // 10 :]) for a in arrivals.values() if len(a) > 20]) * 1000
         # every cycle: each Time from a robot's first Measures to its last, exactly once
         missed = repeated = 0
-        for t in stamps.values():
-            t = t[len(t) // 10 :]
-            if t:
-                missed += (max(t) - min(t) + 1) - len(set(t))
-                repeated += len(t) - len(set(t))
+        for times in stamps.values():
+            times = times[len(times) // 10 :]
+            if times:
+                missed += (max(times) - min(times) + 1) - len(set(times))
+                repeated += len(times) - len(set(times))
         return {
             "robots": n,
             "p50_ms": float(np.percentile(gaps, 50)),

@@ -40,7 +40,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks import exit_on_sigterm  # noqa: E402
 from benchmarks.floor import crowded_floor  # noqa: E402
-from benchmarks.scale import Run  # noqa: E402
+from benchmarks.scale_run import Run  # noqa: E402
 from iw_zenoh import keys  # noqa: E402
 from iw_zenoh.bus import Inbox, ZenohBus  # noqa: E402
 from iw_zenoh.bus.net import NetConfig  # noqa: E402

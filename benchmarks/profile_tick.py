@@ -41,7 +41,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks import exit_on_sigterm  # noqa: E402
-from benchmarks.scale import Run, measure_lockstep  # noqa: E402
+from benchmarks.scale import measure_lockstep  # noqa: E402
+from benchmarks.scale_run import Run  # noqa: E402
 
 # the names scale_run.Run gives its processes (an agent process is probeK, as its --name)
 ROLES = ("world", "collision", "sensors1", "probe0", "router")

@@ -26,6 +26,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -138,7 +139,7 @@ def size_per_minute(chairs: int = 100) -> dict[str, float]:
                     sim_time_ns=t * TICK,
                     robot_id=rid,
                     proximity_ids=list(range(8)),
-                    proximity_m=prox,
+                    proximity_m=list[float | None](prox),
                     proximity_legacy=[round(1 / v, 1) for v in prox],
                     compass_deg=float(g.uniform(-180, 180)),
                     gps=(1.0, 2.0, 3.0),
@@ -191,8 +192,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", action="store_true", help="one JSON object")
     args = ap.parse_args(argv)
     exit_on_sigterm()
-    res = {}
-    for name, fn in (("sustained", lambda: sustained(args.seconds)), ("size", size_per_minute), ("seek", seek)):
+    res: dict[str, dict[str, float]] = {}
+    measures: tuple[tuple[str, Callable[[], dict[str, float]]], ...] = (
+        ("sustained", lambda: sustained(args.seconds)),
+        ("size", size_per_minute),
+        ("seek", seek),
+    )
+    for name, fn in measures:
         print(f"  measuring {name} ...", file=sys.stderr, flush=True)
         res[name] = fn()
     if args.json:
