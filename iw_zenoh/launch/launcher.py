@@ -321,6 +321,8 @@ class Launcher:
             if c.alive() or c.expected_exit or c.proc is None:
                 continue
             code = c.proc.returncode
+            if c.role == "world" and code == 0:
+                continue  # it ended the run (its duration, a stop) between _ended's look and this: _ended's next
             if self.restarts.restartable(c, code) and c.restarts < MAX_RESTARTS:
                 if c.name not in self.restarts.lost_at:
                     self._say(f"{c.name} exited with {code}; restarting it ({c.restarts + 1}/{MAX_RESTARTS})")

@@ -86,3 +86,24 @@ def test_a_restarted_world_is_handed_the_last_committed_state_in_its_options(tmp
     assert opts.resume.robots[0].pose == (12.5, 6.0, 0.1)
     assert opts.obstacles[0].name == "A"  # the scenario's options are kept beside it
     assert world.restarts == 1
+
+
+def test_a_world_that_ended_its_run_is_not_taken_for_one_lost(tmp_path: Path) -> None:
+    # the world exits 0 at its duration; if it does so between the launcher's look for the run's
+    # end and its look for lost roles, the second must leave it to the first (it ended the run
+    # with exit 3, "world exited with 0", in a CI run)
+    import subprocess
+    import sys
+
+    from iw_zenoh.launch.launcher import Launcher
+    from iw_zenoh.scenario.file import load_scenario
+
+    maps = Path(__file__).resolve().parents[2] / "maps"
+    launcher = Launcher(load_scenario(maps / "scenarios" / "demo.toml"), port=7999, log_dir=tmp_path, status=False)
+    launcher.plan()
+    world = next(c for c in launcher.children if c.role == "world")
+    world.proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    assert world.proc.wait(60) == 0
+    world.seen = True
+    assert launcher._restart_lost() is None
+    assert launcher._ended(None, world) == 0  # type: ignore[arg-type]  # the run's end, found on the next pass
