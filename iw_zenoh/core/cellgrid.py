@@ -79,6 +79,11 @@ class SceneWalls(NamedTuple):
         wall_box: (W, 4) each wall's box.
         wall_start: CSR offsets of the walls touching each cell.
         wall_items: The walls, cell after cell.
+        seg_side: (S,) which side of each wall edge ``a -> b`` the wall is on: 1.0 its left (a
+            wall listed counter-clockwise), -1.0 its right (clockwise); 0.0 on the border's edges
+            (the lab's outside is solid, and a real chair's scanner may be out there). A ray from
+            outside every wall first meets a wall where it enters it, through an edge with the
+            ray's origin on its outer side: the laser's kernel skips the other edges.
     """
 
     grid: CellGrid
@@ -91,6 +96,7 @@ class SceneWalls(NamedTuple):
     wall_box: FloatArray
     wall_start: IntArray
     wall_items: IntArray
+    seg_side: FloatArray
 
 
 def grid_for(width_m: float, height_m: float) -> CellGrid:
@@ -142,9 +148,20 @@ def scene_walls(scene: Scene) -> SceneWalls:
         else np.zeros((0, 4))
     )
     wall_start, wall_items = bin_boxes(wall_box, grid.x0, grid.y0, grid.cell, grid.nx, grid.ny)
-    walls = SceneWalls(grid, segs, seg_box, seg_start, seg_items, first, counts, wall_box, wall_start, wall_items)
+    side = _sides(segs, first, counts)
+    walls = SceneWalls(grid, segs, seg_box, seg_start, seg_items, first, counts, wall_box, wall_start, wall_items, side)
     scene._cache[_CACHE_KEY] = walls
     return walls
+
+
+def _sides(segs: FloatArray, first: IntArray, counts: IntArray) -> FloatArray:
+    """:attr:`SceneWalls.seg_side`: each wall's orientation (the sign of its area, the shoelace
+    sum over its edges), and 0.0 on the border's edges (the last ones, after every wall's)."""
+    side = np.zeros(segs.shape[0])
+    for f, c in zip(first.tolist(), counts.tolist(), strict=True):
+        e = segs[f : f + c]
+        side[f : f + c] = np.sign(np.sum(e[:, 0] * e[:, 3] - e[:, 2] * e[:, 1]))
+    return side
 
 
 class SceneIndex(NamedTuple):
@@ -320,3 +337,26 @@ def in_walls(w: SceneWalls, px: float, py: float) -> bool:  # pragma: no cover
         if in_wall(px, py, w.segs, w.wall_first[k], w.wall_count[k]):
             return True
     return False
+
+
+@njit(cache=True, nogil=True)
+def _flat(ix: SceneIndex) -> tuple:  # type: ignore[type-arg]  # pragma: no cover
+    """``ix`` as a flat tuple of arrays and numbers (what a parallel loop may take), for :func:`_index`."""
+    w, g = ix.walls, ix.walls.grid
+    return (
+        g.x0, g.y0, g.cell, g.nx, g.ny, w.segs, w.seg_box, w.seg_start, w.seg_items, w.wall_first, w.wall_count,
+        w.wall_box, w.wall_start, w.wall_items, w.seg_side, ix.body_xy, ix.bbox, ix.b_start, ix.b_items,
+    )  # fmt: skip
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _index(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
+    x0, y0, cell, nx, ny, segs, seg_box, seg_start, seg_items, wall_first, wall_count,
+    wall_box, wall_start, wall_items, seg_side, body_xy, bbox, b_start, b_items,
+):  # fmt: skip  # noqa: ANN001  # pragma: no cover
+    """The :class:`SceneIndex` that :func:`_flat` flattened."""
+    w = SceneWalls(
+        CellGrid(x0, y0, cell, nx, ny), segs, seg_box, seg_start, seg_items, wall_first, wall_count,
+        wall_box, wall_start, wall_items, seg_side,
+    )  # fmt: skip
+    return SceneIndex(w, body_xy, bbox, b_start, b_items)

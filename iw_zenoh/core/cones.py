@@ -21,9 +21,9 @@ import math
 
 import numpy as np
 import numpy.typing as npt
-from numba import njit
+from numba import njit, prange
 
-from iw_zenoh.core.cellgrid import SceneIndex, gather, in_convex, in_walls, scene_index
+from iw_zenoh.core.cellgrid import SceneIndex, _flat, _index, gather, in_convex, in_walls, scene_index
 from iw_zenoh.core.lab import Lab, Scene, Wall
 
 __all__ = ["cone_distances", "warm_up"]
@@ -122,41 +122,127 @@ def _scan(
     owner: IntArray,
     ix: SceneIndex,
 ) -> FloatArray:  # pragma: no cover
+    best = np.empty(ox.shape[0])
+    _scan_part(0, ox.shape[0], ox, oy, nrm, rng, box, owner, ix, best)
+    return best
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def _scan_parallel(
+    ox: FloatArray,
+    oy: FloatArray,
+    nrm: FloatArray,
+    rng: FloatArray,
+    box: FloatArray,
+    owner: IntArray,
+    ix: SceneIndex,
+    parts: int,
+) -> FloatArray:  # pragma: no cover
+    """:func:`_scan` with its sensors cut into ``parts`` runs of neighbours, computed on numba's
+    threads: each distance is the same arithmetic on the same values, so the same bits."""
     m = ox.shape[0]
+    best = np.empty(m)
+    # numba's threads take arrays and numbers, not tuples of them: the index goes in flat
+    (
+        gx, gy, cell, nx, ny, segs, seg_box, seg_start, seg_items, w_first, w_count,
+        w_box, w_start, w_items, side, body_xy, bbox, b_start, b_items,
+    ) = _flat(ix)  # fmt: skip
+    for p in prange(parts):  # noqa: PLE1133 (numba's parallel range)
+        ix_p = _index(
+            gx, gy, cell, nx, ny, segs, seg_box, seg_start, seg_items, w_first, w_count,
+            w_box, w_start, w_items, side, body_xy, bbox, b_start, b_items,
+        )  # fmt: skip
+        _scan_part(p * m // parts, (p + 1) * m // parts, ox, oy, nrm, rng, box, owner, ix_p, best)
+    return best
+
+
+@njit(cache=True, nogil=True)
+def _scan_part(
+    i0: int,
+    i1: int,
+    ox: FloatArray,
+    oy: FloatArray,
+    nrm: FloatArray,
+    rng: FloatArray,
+    box: FloatArray,
+    owner: IntArray,
+    ix: SceneIndex,
+    best: FloatArray,
+) -> None:  # pragma: no cover
+    """Sensors ``i0`` to ``i1 - 1``: their distances written to ``best``."""
     w, g = ix.walls, ix.walls.grid
-    segs, seg_box, bbox, body_xy = w.segs, w.seg_box, ix.bbox, ix.body_xy
-    k = body_xy.shape[1]
-    best = np.full(m, np.inf)
+    segs, seg_box, bbox = w.segs, w.seg_box, ix.bbox
     seen_seg = np.full(segs.shape[0], -1, dtype=np.int64)
     seen_body = np.full(bbox.shape[0], -1, dtype=np.int64)
     near_seg = np.empty(segs.shape[0], dtype=np.int64)
     near_body = np.empty(bbox.shape[0], dtype=np.int64)
-    for i in range(m):
-        px, py = ox[i], oy[i]
-        lx, ly, rx, ry = nrm[i, 0], nrm[i, 1], nrm[i, 2], nrm[i, 3]
-        x0, y0, x1, y1 = box[i, 0], box[i, 1], box[i, 2], box[i, 3]
-        d = math.inf
-        for t in range(gather(g, w.seg_start, w.seg_items, seg_box, seen_seg, i, x0, y0, x1, y1, near_seg)):
-            s = near_seg[t]
-            d = min(d, _wedge(px, py, lx, ly, rx, ry, segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3]))
-        for t in range(gather(g, ix.b_start, ix.b_items, bbox, seen_body, i, x0, y0, x1, y1, near_body)):
-            b = near_body[t]
-            if b == owner[i]:
-                continue
-            inside_box = bbox[b, 0] <= px <= bbox[b, 2] and bbox[b, 1] <= py <= bbox[b, 3]
-            if inside_box and in_convex(px, py, body_xy[b], k):
-                d = 0.0  # a mounting point inside another body sees it at 0
-            for e in range(k):
-                f = (e + 1) % k
-                ax, ay = body_xy[b, e, 0], body_xy[b, e, 1]
-                bx, by = body_xy[b, f, 0], body_xy[b, f, 1]
-                # only edges facing the sensor can hold the nearest point of a convex body
-                if (bx - ax) * (py - ay) - (by - ay) * (px - ax) <= 0.0:
-                    d = min(d, _wedge(px, py, lx, ly, rx, ry, ax, ay, bx, by))
-        if d > 0.0 and in_walls(w, px, py):
-            d = 0.0  # a mounting point inside a wall sees distance 0 (even-odd rule over its edges)
-        best[i] = d if d <= rng[i] else math.inf
-    return best
+    i = i0
+    while i < i1:
+        # a robot's cones (neighbours, one owner) look its walls and bodies up once, in the box
+        # around all their boxes; each cone then tests the ones whose box meets its own: the
+        # same candidates as a look-up of its own, so the same minimum
+        j = i + 1
+        while j < i1 and owner[j] == owner[i]:
+            j += 1
+        ux0, uy0, ux1, uy1 = box[i, 0], box[i, 1], box[i, 2], box[i, 3]
+        for c in range(i + 1, j):
+            ux0, uy0 = min(ux0, box[c, 0]), min(uy0, box[c, 1])
+            ux1, uy1 = max(ux1, box[c, 2]), max(uy1, box[c, 3])
+        n_seg = gather(g, w.seg_start, w.seg_items, seg_box, seen_seg, i, ux0, uy0, ux1, uy1, near_seg)
+        n_body = gather(g, ix.b_start, ix.b_items, bbox, seen_body, i, ux0, uy0, ux1, uy1, near_body)
+        for c in range(i, j):
+            best[c] = _cone(c, ox, oy, nrm, rng, box, owner, ix, near_seg, n_seg, near_body, n_body)
+        i = j
+
+
+# inlined (numba IR) into the loop over a robot's cones: a call passing the index's tuple pays
+# reference counts on each of its arrays
+@njit(cache=True, nogil=True, inline="always")
+def _cone(
+    i: int,
+    ox: FloatArray,
+    oy: FloatArray,
+    nrm: FloatArray,
+    rng: FloatArray,
+    box: FloatArray,
+    owner: IntArray,
+    ix: SceneIndex,
+    near_seg: IntArray,
+    n_seg: int,
+    near_body: IntArray,
+    n_body: int,
+) -> float:  # pragma: no cover
+    """Sensor ``i``'s distance, ``inf`` beyond its range, from the candidate walls' edges and
+    bodies (``near_seg[:n_seg]``, ``near_body[:n_body]``: every one whose box meets its box)."""
+    w = ix.walls
+    segs, seg_box, bbox, body_xy = w.segs, w.seg_box, ix.bbox, ix.body_xy
+    k = body_xy.shape[1]
+    px, py = ox[i], oy[i]
+    lx, ly, rx, ry = nrm[i, 0], nrm[i, 1], nrm[i, 2], nrm[i, 3]
+    x0, y0, x1, y1 = box[i, 0], box[i, 1], box[i, 2], box[i, 3]
+    d = math.inf
+    for t in range(n_seg):
+        s = near_seg[t]
+        if seg_box[s, 0] > x1 or seg_box[s, 2] < x0 or seg_box[s, 1] > y1 or seg_box[s, 3] < y0:
+            continue
+        d = min(d, _wedge(px, py, lx, ly, rx, ry, segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3]))
+    for t in range(n_body):
+        b = near_body[t]
+        if b == owner[i] or bbox[b, 0] > x1 or bbox[b, 2] < x0 or bbox[b, 1] > y1 or bbox[b, 3] < y0:
+            continue
+        inside_box = bbox[b, 0] <= px <= bbox[b, 2] and bbox[b, 1] <= py <= bbox[b, 3]
+        if inside_box and in_convex(px, py, body_xy[b], k):
+            d = 0.0  # a mounting point inside another body sees it at 0
+        for e in range(k):
+            f = (e + 1) % k
+            ax, ay = body_xy[b, e, 0], body_xy[b, e, 1]
+            bx, by = body_xy[b, f, 0], body_xy[b, f, 1]
+            # only edges facing the sensor can hold the nearest point of a convex body
+            if (bx - ax) * (py - ay) - (by - ay) * (px - ax) <= 0.0:
+                d = min(d, _wedge(px, py, lx, ly, rx, ry, ax, ay, bx, by))
+    if d > 0.0 and in_walls(w, px, py):
+        d = 0.0  # a mounting point inside a wall sees distance 0 (even-odd rule over its edges)
+    return d if d <= rng[i] else math.inf
 
 
 def warm_up() -> None:

@@ -19,12 +19,12 @@ import math
 
 import numpy as np
 import numpy.typing as npt
-from numba import njit
+from numba import njit, prange
 
 from iw_zenoh.core.bodies import Bodies
-from iw_zenoh.core.cellgrid import SceneIndex, gather, in_convex, in_walls, scene_index
+from iw_zenoh.core.cellgrid import SceneIndex, _flat, _index, gather, in_convex, in_walls, scene_index
 from iw_zenoh.core.lab import Lab, Scene, Wall
-from iw_zenoh.core.placing import mounts, outline_at
+from iw_zenoh.core.placing import mod_two_pi, mounts, outline_at
 
 __all__ = ["laser_distances", "laser_ranges", "warm_up"]
 
@@ -175,9 +175,9 @@ def _cast(
     ex = bx - ax
     ey = by - ay
     if nb > 1 and step > 0.0:
-        ta = (math.atan2(ay, ax) - start) % TWO_PI
-        tb = (math.atan2(by, bx) - start) % TWO_PI
-        sweep = (tb - ta + math.pi) % TWO_PI - math.pi
+        ta = mod_two_pi(math.atan2(ay, ax) - start)
+        tb = mod_two_pi(math.atan2(by, bx) - start)
+        sweep = mod_two_pi(tb - ta + math.pi) - math.pi
         lo = ta if sweep >= 0.0 else tb
         width = abs(sweep)
         for shift in (-TWO_PI, 0.0, TWO_PI):  # the arc may wrap past the first beam either way
@@ -217,21 +217,69 @@ def _scan(
     owner: IntArray,
     ix: SceneIndex,
 ) -> FloatArray:  # pragma: no cover
+    out = np.full(first[ox.shape[0]], np.inf)
+    _scan_part(0, ox.shape[0], ox, oy, start, step, first, rng, owner, ix, out)
+    return out
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def _scan_parallel(
+    ox: FloatArray,
+    oy: FloatArray,
+    start: FloatArray,
+    step: FloatArray,
+    first: IntArray,
+    rng: FloatArray,
+    owner: IntArray,
+    ix: SceneIndex,
+    parts: int,
+) -> FloatArray:  # pragma: no cover
+    """:func:`_scan` with its scanners cut into ``parts`` runs of neighbours, computed on numba's
+    threads: each beam's range is the same arithmetic on the same values, so the same bits."""
     ns = ox.shape[0]
-    w, g = ix.walls, ix.walls.grid
-    segs, seg_box, bbox, body_xy = w.segs, w.seg_box, ix.bbox, ix.body_xy
-    k = body_xy.shape[1]
     out = np.full(first[ns], np.inf)
+    # numba's threads take arrays and numbers, not tuples of them: the index goes in flat
+    (
+        gx, gy, cell, nx, ny, segs, seg_box, seg_start, seg_items, w_first, w_count,
+        w_box, w_start, w_items, side, body_xy, bbox, b_start, b_items,
+    ) = _flat(ix)  # fmt: skip
+    for p in prange(parts):  # noqa: PLE1133 (numba's parallel range)
+        ix_p = _index(
+            gx, gy, cell, nx, ny, segs, seg_box, seg_start, seg_items, w_first, w_count,
+            w_box, w_start, w_items, side, body_xy, bbox, b_start, b_items,
+        )  # fmt: skip
+        _scan_part(p * ns // parts, (p + 1) * ns // parts, ox, oy, start, step, first, rng, owner, ix_p, out)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _scan_part(
+    i0: int,
+    i1: int,
+    ox: FloatArray,
+    oy: FloatArray,
+    start: FloatArray,
+    step: FloatArray,
+    first: IntArray,
+    rng: FloatArray,
+    owner: IntArray,
+    ix: SceneIndex,
+    out: FloatArray,
+) -> None:  # pragma: no cover
+    """Scanners ``i0`` to ``i1 - 1``: their beams' ranges written to ``out`` (``inf`` before)."""
+    w, g = ix.walls, ix.walls.grid
+    segs, side, seg_box, bbox, body_xy = w.segs, w.seg_side, w.seg_box, ix.bbox, ix.body_xy
+    k = body_xy.shape[1]
     seen_seg = np.full(segs.shape[0], -1, dtype=np.int64)
     seen_body = np.full(bbox.shape[0], -1, dtype=np.int64)
     near_seg = np.empty(segs.shape[0], dtype=np.int64)
     near_body = np.empty(bbox.shape[0], dtype=np.int64)
     most = 0
-    for i in range(ns):
+    for i in range(i0, i1):
         most = max(most, first[i + 1] - first[i])
     cs = np.empty(most)
     sn = np.empty(most)
-    for i in range(ns):
+    for i in range(i0, i1):
         px, py, r = ox[i], oy[i], rng[i]
         off, nb = first[i], first[i + 1] - first[i]
         for j in range(nb):
@@ -241,10 +289,11 @@ def _scan(
         blind = False  # the mounting point is inside something
         for t in range(gather(g, w.seg_start, w.seg_items, seg_box, seen_seg, i, x0, y0, x1, y1, near_seg)):
             s = near_seg[t]
-            _cast(
-                segs[s, 0] - px, segs[s, 1] - py, segs[s, 2] - px, segs[s, 3] - py,
-                r, start[i], step[i], cs, sn, out, off, nb,
-            )  # fmt: skip
+            ax, ay, bx, by = segs[s, 0] - px, segs[s, 1] - py, segs[s, 2] - px, segs[s, 3] - py
+            # only an edge whose solid side faces away from the scanner can hold a beam's first
+            # hit (a beam that meets a wall enters it there); a scanner inside a wall is blind
+            if side[s] * ((bx - ax) * (-ay) - (by - ay) * (-ax)) <= 0.0:
+                _cast(ax, ay, bx, by, r, start[i], step[i], cs, sn, out, off, nb)
         for t in range(gather(g, ix.b_start, ix.b_items, bbox, seen_body, i, x0, y0, x1, y1, near_body)):
             b = near_body[t]
             if b == owner[i]:
@@ -265,7 +314,6 @@ def _scan(
                 out[j] = 0.0
             elif out[j] > r:
                 out[j] = math.inf
-    return out
 
 
 def warm_up() -> None:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from functools import lru_cache
 
+import numba
 import numpy as np
 import numpy.typing as npt
 from numba import njit
@@ -32,11 +33,13 @@ from iw_zenoh.core.placing import mounts, outline_at, wedges
 from iw_zenoh.core.sensor_noise import ROSTERS_KEPT, _slots, noise_layout
 from iw_zenoh.core.spec import LaserSpec, prototype_chair
 
-__all__ = ["read_all", "warm_up"]
+__all__ = ["PARALLEL_FROM", "read_all", "warm_up"]
 
 FloatArray = npt.NDArray[np.float64]
 _CACHE_KEY = "read_all_walls"  # where a scene keeps its walls as the kernel's arguments
 IntArray = npt.NDArray[np.int64]
+# below this many robots a tick's sensors cost less than starting numba's threads on them
+PARALLEL_FROM = 16
 
 
 def read_all(
@@ -47,6 +50,7 @@ def read_all(
     encoder_acc: FloatArray,
     rolled_m: FloatArray,
     gps_offset_m: tuple[float, float],
+    threads: int = 1,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
     """Every robot's noisy cones, compass, GPS, encoders and laser beams (no beacons).
 
@@ -59,6 +63,9 @@ def read_all(
         encoder_acc: (N, 2) encoder ticks before this tick.
         rolled_m: (N, 2) distance each wheel rolled this tick.
         gps_offset_m: Added to GPS x and y.
+        threads: Compute the cones and the laser beams on up to this many of numba's threads
+            when there are at least :data:`PARALLEL_FROM` robots (1: on the caller's; the
+            readings are the same bits either way).
 
     Returns:
         ``(proximity_m, proximity_legacy, compass_deg, gps, encoder_acc, laser_m)`` as
@@ -83,7 +90,16 @@ def read_all(
         rolled,
         float(gps_offset_m[0]),
         float(gps_offset_m[1]),
+        _parts(threads, n),
     )
+
+
+def _parts(threads: int, n: int) -> int:
+    """How many runs of sensors the kernel computes on threads (1: none, the serial kernels)."""
+    if threads <= 1 or n < PARALLEL_FROM:
+        return 1
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))  # type: ignore[attr-defined]
+    return threads
 
 
 def _walls(scene: Scene) -> tuple[object, ...]:
@@ -94,7 +110,7 @@ def _walls(scene: Scene) -> tuple[object, ...]:
         return got[1:]
     g = w.grid
     args: tuple[object, ...] = (g.x0, g.y0, g.cell, g.nx, g.ny, w.segs, w.seg_box, w.seg_start, w.seg_items)
-    args = (*args, w.wall_first, w.wall_count, w.wall_box, w.wall_start, w.wall_items)
+    args = (*args, w.wall_first, w.wall_count, w.wall_box, w.wall_start, w.wall_items, w.seg_side)
     scene._cache[_CACHE_KEY] = (w, *args)
     return args
 
@@ -132,7 +148,7 @@ def _take2(z: FloatArray, idx: IntArray) -> FloatArray:  # pragma: no cover
 def _read(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
     pose,
     gx, gy, cell, nx, ny, segs, seg_box, seg_start, seg_items,
-    wall_first, wall_count, wall_box, wall_start, wall_items,
+    wall_first, wall_count, wall_box, wall_start, wall_items, seg_side,
     outline,
     own, ir_xy, ir_angle, ir_half, ir_range,
     l_own, l_xy, l_start, l_step, l_first, l_range, beam_owner,
@@ -140,10 +156,12 @@ def _read(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
     prox_mean, prox_std, legacy_std, laser_mean, laser_std,
     compass_mean, compass_std, gps_mean, gps_std, heading_mean, heading_std,
     slip_mean, slip_std, ticks_per_m,
-    z, acc, rolled, off_x, off_y,
+    z, acc, rolled, off_x, off_y, parts,
 ):  # fmt: skip  # noqa: ANN001  # pragma: no cover
     g = CellGrid(gx, gy, cell, nx, ny)
-    w = SceneWalls(g, segs, seg_box, seg_start, seg_items, wall_first, wall_count, wall_box, wall_start, wall_items)
+    w = SceneWalls(
+        g, segs, seg_box, seg_start, seg_items, wall_first, wall_count, wall_box, wall_start, wall_items, seg_side
+    )
     body_xy = outline_at(outline, pose)
     bbox = _boxes(body_xy)
     b_start, b_items = bin_boxes(bbox, g.x0, g.y0, g.cell, g.nx, g.ny)
@@ -154,13 +172,19 @@ def _read(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
     box = np.empty((own.shape[0], 4))
     box[:, :2] = lo
     box[:, 2:] = hi
-    true_d = cones._scan(ox, oy, nrm, ir_range, box, own, ix)
+    if parts > 1:
+        true_d = cones._scan_parallel(ox, oy, nrm, ir_range, box, own, ix, parts)
+    else:
+        true_d = cones._scan(ox, oy, nrm, ir_range, box, own, ix)
     # the scanners (laser.laser_distances, every scanner)
     lx, ly = mounts(pose, l_own, l_xy, np.arange(l_own.shape[0]))
     start = np.empty(l_own.shape[0])
     for t in range(l_own.shape[0]):
         start[t] = pose[l_own[t], 2] + l_start[t]
-    ranges = laser._scan(lx, ly, start, l_step, l_first, l_range, l_own, ix)
+    if parts > 1:
+        ranges = laser._scan_parallel(lx, ly, start, l_step, l_first, l_range, l_own, ix, parts)
+    else:
+        ranges = laser._scan(lx, ly, start, l_step, l_first, l_range, l_own, ix)
     # the noise (sensor_noise.tick_normals, then sensors._noisy and readout.noisy_ranges)
     prox, legacy = readout.noisy_proximity(true_d, true_d, z[z_prox], own, prox_mean, prox_std, legacy_std)
     compass, gps = readout.pose_readings(

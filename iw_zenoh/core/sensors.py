@@ -57,10 +57,14 @@ class SensorParams:
     Attributes:
         beacon_aperture_rad: Half-aperture of beacon sensors (pi: all around).
         gps_offset_m: Constant (x, y) added to GPS positions (Ciber-Rato hides the lab origin).
+        threads: The usual tick's cones and laser beams on up to this many of numba's threads
+            when there are many robots (:func:`~iw_zenoh.core.read_all.read_all`); the readings
+            are the same bits whatever it is.
     """
 
     beacon_aperture_rad: float = float(np.pi)
     gps_offset_m: tuple[float, float] = (0.0, 0.0)
+    threads: int = 1
 
 
 @dataclass(frozen=True)
@@ -295,7 +299,7 @@ def read_sensors(
     if only is None and not legacy_ir and not scene.lab.beacons and not moving_beacons and bodies.n:
         # the usual tick in one compiled call (core.read_all: the same functions, the same numbers)
         prox, legacy, compass, gps, encoders, laser_m = read_all(
-            scene, bodies, pose, z, encoder_acc, rolled_m, p.gps_offset_m
+            scene, bodies, pose, z, encoder_acc, rolled_m, p.gps_offset_m, p.threads
         )
         return Readings(
             proximity_m=prox,

@@ -17,6 +17,7 @@ so nothing built per roster is built again), with a new goal, in the same room.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import replace
 from typing import Any
 
@@ -56,6 +57,9 @@ class ChairVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         chair: Every chair's spec (default ChairNav's).
         max_steps: Steps before a sub-environment is truncated.
         reward: The reward's terms.
+        threads: Sense the chairs on up to this many threads (numba's; the same readings,
+            :mod:`iw_zenoh.core.read_all`); default: as many as the CPUs this process may run
+            on (``os.sched_getaffinity``), so ``taskset -c 1`` gives one.
     """
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP}  # noqa: RUF012 (gymnasium's convention)
@@ -68,12 +72,16 @@ class ChairVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         chair: RobotSpec | None = None,
         max_steps: int = 600,
         reward: Reward | None = None,
+        threads: int | None = None,
     ) -> None:
         if action not in ACTIONS:
             raise ValueError(f"action must be one of {ACTIONS}, got {action!r}")
         if num_envs < 1:
             raise ValueError(f"num_envs must be at least 1, got {num_envs}")
         self.num_envs, self.action_mode, self.max_steps = num_envs, action, max_steps
+        self.threads = threads if threads is not None else len(os.sched_getaffinity(0))
+        if self.threads < 1:
+            raise ValueError(f"threads must be at least 1, got {threads}")
         self.chair, self.reward_terms = chair or default_chair(), reward or Reward()
         self.senses = Senses(self.chair, 0.1)
         self.single_observation_space = self.senses.space
@@ -119,7 +127,7 @@ class ChairVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
             walls += _walled(room, ox, oy)
         rows = math.ceil(n / cols)
         lab = Lab(f"{n} rooms", cols * (CELL_W + self._gap) + 1.0, rows * (CELL_H + self._gap) + 1.0, tuple(walls))
-        self.world = LocalWorld(lab, seed=int(g.integers(SEEDS)), sim="vector")
+        self.world = LocalWorld(lab, seed=int(g.integers(SEEDS)), sim="vector", threads=self.threads)
         self.rid = [0] * n
         self.goal_xy = np.zeros((n, 2))
         self.steps = np.zeros(n, dtype=np.int64)

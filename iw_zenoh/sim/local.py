@@ -132,6 +132,8 @@ class LocalWorld:
         radio: Radio limits (default Ciber-Rato's).
         duration_ticks: Stop after this many ticks (0: never); :attr:`stopped` says so.
         motors_noise_pct: Ciber-Rato MotorsNoise (legacy profile).
+        threads: The sensors' kernels on up to this many threads when there are many robots
+            (the same readings: :class:`~iw_zenoh.sim.sensors.SensorsNode`).
     """
 
     def __init__(
@@ -146,6 +148,7 @@ class LocalWorld:
         radio: RadioConfig | None = None,
         duration_ticks: int = 0,
         motors_noise_pct: float = 0.0,
+        threads: int = 1,
     ) -> None:
         self.cfg = WorldConfig(
             sim=sim,
@@ -159,7 +162,7 @@ class LocalWorld:
         )
         self.world = WorldCore(self.cfg, lab, grid if grid is not None else Grid())
         self.collide = CollisionNode()
-        self.sensors = SensorsNode(sim, seed)
+        self.sensors = SensorsNode(sim, seed, threads=threads)
         self.radio = RadioNode(sim, radio)
         self._view: WorldView | None = None
         self._scene_src: Scene | None = None  # the world's scene the view's was built from

@@ -68,10 +68,15 @@ class SensorsNode:
         sim: Simulation name.
         seed: The run's seed (each robot's sensor stream derives from it).
         shard: ``(K, N)``.
+        threads: Compute the cones and laser beams on up to this many threads when there are
+            many robots (:func:`~iw_zenoh.core.read_all.read_all`; the same readings). The
+            distributed role keeps 1: it shares the machine with every other role, and a
+            parallel step waits for its slowest thread.
     """
 
-    def __init__(self, sim: str, seed: int = 0, shard: tuple[int, int] = (1, 1)) -> None:
+    def __init__(self, sim: str, seed: int = 0, shard: tuple[int, int] = (1, 1), *, threads: int = 1) -> None:
         self.sim = sim
+        self._params = _PARAMS if threads == 1 else SensorParams(threads=threads)
         self.seed = seed
         self.shard = shard
         self.last_tick = -1  # the newest tick whose readings went out
@@ -250,7 +255,7 @@ class SensorsNode:
             encoder_acc=enc,
             rolled_m=rolled,
             z=z,
-            params=_PARAMS,
+            params=self._params,
             only=None if subset is None and lay.all_mine else only,  # None: every robot, without a test
             legacy_ir=view.info.profile == Profile.CIBERRATO,
             moving_beacons=lay.moving,

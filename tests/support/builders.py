@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from iw_zenoh.core.lab import Lab, Scene, Wall
+from iw_zenoh.core.lab import Lab, Scene, Wall, check_wall
 from iw_zenoh.messages import LabMsg, Proposed, RegisterReply, RobotSpecMsg, WorldInfo, WorldState, encode
 
 if TYPE_CHECKING:
@@ -29,6 +29,25 @@ def random_scene(g: np.random.Generator) -> Scene:
         w, h = g.uniform(0.05, 2.0, 2)
         walls.append(box_wall(x, y, min(x + w, 9.9), min(y + h, 9.9)))
     return Scene(Lab("random", 10.0, 10.0, tuple(walls)))
+
+
+def random_polygon_scene(g: np.random.Generator) -> Scene:
+    """A 10 x 10 m lab with up to five random simple polygons as walls, convex or not, listed
+    clockwise or counter-clockwise, overlapping one another or not (star-shaped: corners at
+    increasing angles around a centre, each at its own distance)."""
+    walls = []
+    for _ in range(g.integers(0, 6)):
+        cx, cy = g.uniform(1.6, 8.4, 2)
+        k = int(g.integers(3, 9))
+        angles = np.sort(g.uniform(0.0, 2.0 * np.pi, k))
+        radii = g.uniform(0.1, 1.5, k)
+        corners = [(float(cx + r * np.cos(a)), float(cy + r * np.sin(a))) for a, r in zip(angles, radii, strict=True)]
+        if g.random() < 0.5:
+            corners.reverse()
+        wall = Wall(tuple(corners), 4.0)
+        if check_wall(wall.corners, 10.0, 10.0) is None:  # two angles drawn too close: left out
+            walls.append(wall)
+    return Scene(Lab("random polygons", 10.0, 10.0, tuple(walls)))
 
 
 def random_poses(g: np.random.Generator, n: int) -> np.ndarray:
