@@ -21,9 +21,9 @@ import math
 
 import numpy as np
 import numpy.typing as npt
-from numba import njit, prange
+from numba import njit
 
-from iw_zenoh.core.cellgrid import SceneIndex, _flat, _index, gather, in_convex, in_walls, scene_index
+from iw_zenoh.core.cellgrid import SceneIndex, gather, in_convex, in_walls, scene_index
 from iw_zenoh.core.lab import Lab, Scene, Wall
 
 __all__ = ["cone_distances", "warm_up"]
@@ -124,35 +124,6 @@ def _scan(
 ) -> FloatArray:  # pragma: no cover
     best = np.empty(ox.shape[0])
     _scan_part(0, ox.shape[0], ox, oy, nrm, rng, box, owner, ix, best)
-    return best
-
-
-@njit(cache=True, nogil=True, parallel=True)
-def _scan_parallel(
-    ox: FloatArray,
-    oy: FloatArray,
-    nrm: FloatArray,
-    rng: FloatArray,
-    box: FloatArray,
-    owner: IntArray,
-    ix: SceneIndex,
-    parts: int,
-) -> FloatArray:  # pragma: no cover
-    """:func:`_scan` with its sensors cut into ``parts`` runs of neighbours, computed on numba's
-    threads: each distance is the same arithmetic on the same values, so the same bits."""
-    m = ox.shape[0]
-    best = np.empty(m)
-    # numba's threads take arrays and numbers, not tuples of them: the index goes in flat
-    (
-        gx, gy, cell, nx, ny, segs, seg_box, seg_start, seg_items, w_first, w_count,
-        w_box, w_start, w_items, side, body_xy, bbox, b_start, b_items,
-    ) = _flat(ix)  # fmt: skip
-    for p in prange(parts):  # noqa: PLE1133 (numba's parallel range)
-        ix_p = _index(
-            gx, gy, cell, nx, ny, segs, seg_box, seg_start, seg_items, w_first, w_count,
-            w_box, w_start, w_items, side, body_xy, bbox, b_start, b_items,
-        )  # fmt: skip
-        _scan_part(p * m // parts, (p + 1) * m // parts, ox, oy, nrm, rng, box, owner, ix_p, best)
     return best
 
 

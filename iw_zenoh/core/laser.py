@@ -19,10 +19,10 @@ import math
 
 import numpy as np
 import numpy.typing as npt
-from numba import njit, prange
+from numba import njit
 
 from iw_zenoh.core.bodies import Bodies
-from iw_zenoh.core.cellgrid import SceneIndex, _flat, _index, gather, in_convex, in_walls, scene_index
+from iw_zenoh.core.cellgrid import SceneIndex, gather, in_convex, in_walls, scene_index
 from iw_zenoh.core.lab import Lab, Scene, Wall
 from iw_zenoh.core.placing import mod_two_pi, mounts, outline_at
 
@@ -219,36 +219,6 @@ def _scan(
 ) -> FloatArray:  # pragma: no cover
     out = np.full(first[ox.shape[0]], np.inf)
     _scan_part(0, ox.shape[0], ox, oy, start, step, first, rng, owner, ix, out)
-    return out
-
-
-@njit(cache=True, nogil=True, parallel=True)
-def _scan_parallel(
-    ox: FloatArray,
-    oy: FloatArray,
-    start: FloatArray,
-    step: FloatArray,
-    first: IntArray,
-    rng: FloatArray,
-    owner: IntArray,
-    ix: SceneIndex,
-    parts: int,
-) -> FloatArray:  # pragma: no cover
-    """:func:`_scan` with its scanners cut into ``parts`` runs of neighbours, computed on numba's
-    threads: each beam's range is the same arithmetic on the same values, so the same bits."""
-    ns = ox.shape[0]
-    out = np.full(first[ns], np.inf)
-    # numba's threads take arrays and numbers, not tuples of them: the index goes in flat
-    (
-        gx, gy, cell, nx, ny, segs, seg_box, seg_start, seg_items, w_first, w_count,
-        w_box, w_start, w_items, side, body_xy, bbox, b_start, b_items,
-    ) = _flat(ix)  # fmt: skip
-    for p in prange(parts):  # noqa: PLE1133 (numba's parallel range)
-        ix_p = _index(
-            gx, gy, cell, nx, ny, segs, seg_box, seg_start, seg_items, w_first, w_count,
-            w_box, w_start, w_items, side, body_xy, bbox, b_start, b_items,
-        )  # fmt: skip
-        _scan_part(p * ns // parts, (p + 1) * ns // parts, ox, oy, start, step, first, rng, owner, ix_p, out)
     return out
 
 

@@ -7,7 +7,9 @@ created in keeps a robot's noise the same whichever process (or sensor shard) co
 from __future__ import annotations
 
 import enum
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 import numpy.typing as npt
@@ -99,12 +101,16 @@ class NoiseStreams:
         seed: The run's seed.
         stream: Which of each robot's streams.
         block: Values drawn ahead per refill (at least what one take asks for).
+        threads: Draw a many-robot roster's ticks ahead (:meth:`fill`) on up to this many
+            threads, robot after robot in runs (each robot has its own generator, and numpy's
+            draws release the GIL): the same values.
     """
 
-    def __init__(self, seed: int, stream: Stream, *, block: int = 512) -> None:
+    def __init__(self, seed: int, stream: Stream, *, block: int = 512, threads: int = 1) -> None:
         self.seed = seed
         self.stream = stream
         self.block = block
+        self.threads = threads
         self._rngs: dict[int, np.random.Generator] = {}
         self._buf: dict[int, npt.NDArray[np.float64]] = {}
         self._pos: dict[int, int] = {}
@@ -127,6 +133,22 @@ class NoiseStreams:
             pos = 0
         self._pos[robot_id] = pos + count
         return buf[pos : pos + count]
+
+    def _take_into(self, robot_id: int, out: npt.NDArray[np.float64]) -> None:
+        """Writes the robot's next ``len(out)`` values to ``out`` (1-D, contiguous): what is
+        left of its block first, then straight from its generator, drawing no more than that."""
+        buf = self._buf.get(robot_id)
+        pos = self._pos.get(robot_id, 0)
+        k = 0
+        if buf is not None and pos < len(buf):
+            k = min(len(buf) - pos, len(out))
+            out[:k] = buf[pos : pos + k]
+            self._pos[robot_id] = pos + k
+        if k < len(out):
+            g = self._rngs.get(robot_id)
+            if g is None:
+                g = self._rngs[robot_id] = rng_for(self.seed, robot_id, self.stream)
+            g.standard_normal(out=out[k:])
 
     def fill(
         self, ids: list[int], counts: list[int], starts: list[int], only: list[bool], out: npt.NDArray[np.float64]
@@ -159,10 +181,25 @@ class NoiseStreams:
         ticks = max(1, min(ROWS_MAX, ROWS_BYTES // (8 * max(total, 1))))
         buf = np.zeros((ticks, total))
         mask = np.zeros(total, dtype=bool)
-        for rid, c, s0, mine in zip(ids, counts, starts, only, strict=True):
-            if mine and c:
-                buf[:, s0 : s0 + c] = self._take(rid, ticks * c).reshape(ticks, c)
-                mask[s0 : s0 + c] = True
+        jobs = [(rid, c, s0) for rid, c, s0, mine in zip(ids, counts, starts, only, strict=True) if mine and c]
+        for _, c, s0 in jobs:
+            mask[s0 : s0 + c] = True
+
+        def draw(part: list[tuple[int, int, int]]) -> None:
+            for rid, c, s0 in part:  # the robots' own generators and slots: runs may go on threads
+                vals = np.empty(ticks * c)
+                self._take_into(rid, vals)
+                buf[:, s0 : s0 + c] = vals.reshape(ticks, c)
+
+        k = min(self.threads, len(jobs) // THREADS_FROM)
+        if k > 1:
+            runs = [jobs[i * len(jobs) // k : (i + 1) * len(jobs) // k] for i in range(k)]
+            done = [_pool(k).submit(draw, run) for run in runs[1:]]
+            draw(runs[0])
+            for f in done:
+                f.result()
+        else:
+            draw(jobs)
         return _Rows((list(ids), list(counts), list(only)), list(starts), buf, None if mask.all() else mask)
 
     def _hand_back(self) -> None:
@@ -179,6 +216,16 @@ class NoiseStreams:
                 after = buf[self._pos.get(rid, 0) :] if buf is not None else np.zeros(0)
                 self._buf[rid] = np.concatenate([rest, after])
                 self._pos[rid] = 0
+
+
+THREADS_FROM = 16  # robots a thread at least (fewer: one thread draws them all)
+
+
+@lru_cache(maxsize=4)
+def _pool(threads: int) -> ThreadPoolExecutor:
+    """The threads :meth:`NoiseStreams.fill` draws on (one fewer than ``threads``: the caller
+    draws a run too), started on first use."""
+    return ThreadPoolExecutor(max_workers=threads - 1, thread_name_prefix="noise")
 
 
 ROWS_BYTES = 1 << 22  # fill draws at most this much ahead (4 MB: 256 chairs of 78 values, 26 ticks)

@@ -23,11 +23,11 @@ from functools import lru_cache
 import numba
 import numpy as np
 import numpy.typing as npt
-from numba import njit
+from numba import njit, prange
 
 from iw_zenoh.core import cones, laser, readout
 from iw_zenoh.core.bodies import Bodies
-from iw_zenoh.core.cellgrid import CellGrid, SceneIndex, SceneWalls, _boxes, bin_boxes, scene_walls
+from iw_zenoh.core.cellgrid import CellGrid, SceneIndex, SceneWalls, _boxes, _flat, _index, bin_boxes, scene_walls
 from iw_zenoh.core.lab import Lab, Scene, Wall
 from iw_zenoh.core.placing import mounts, outline_at, wedges
 from iw_zenoh.core.sensor_noise import ROSTERS_KEPT, _slots, noise_layout
@@ -166,25 +166,14 @@ def _read(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
     bbox = _boxes(body_xy)
     b_start, b_items = bin_boxes(bbox, g.x0, g.y0, g.cell, g.nx, g.ny)
     ix = SceneIndex(w, body_xy, bbox, b_start, b_items)
-    # the cones (sensors._proximity, every sensor)
-    rows = np.arange(own.shape[0])
-    ox, oy, nrm, lo, hi = wedges(pose, own, rows, ir_xy, ir_angle, ir_half, ir_range)
-    box = np.empty((own.shape[0], 4))
-    box[:, :2] = lo
-    box[:, 2:] = hi
+    # the cones (sensors._proximity) and the scanners (laser.laser_distances), every one
+    true_d = np.empty(own.shape[0])
+    ranges = np.full(l_first[l_own.shape[0]], np.inf)
+    sensed = (pose, own, ir_xy, ir_angle, ir_half, ir_range, l_own, l_xy, l_start, l_step, l_first, l_range)
     if parts > 1:
-        true_d = cones._scan_parallel(ox, oy, nrm, ir_range, box, own, ix, parts)
+        _sense_parallel(parts, *sensed, *_flat(ix), true_d, ranges)
     else:
-        true_d = cones._scan(ox, oy, nrm, ir_range, box, own, ix)
-    # the scanners (laser.laser_distances, every scanner)
-    lx, ly = mounts(pose, l_own, l_xy, np.arange(l_own.shape[0]))
-    start = np.empty(l_own.shape[0])
-    for t in range(l_own.shape[0]):
-        start[t] = pose[l_own[t], 2] + l_start[t]
-    if parts > 1:
-        ranges = laser._scan_parallel(lx, ly, start, l_step, l_first, l_range, l_own, ix, parts)
-    else:
-        ranges = laser._scan(lx, ly, start, l_step, l_first, l_range, l_own, ix)
+        _sense_part(0, 1, *sensed, ix, true_d, ranges)
     # the noise (sensor_noise.tick_normals, then sensors._noisy and readout.noisy_ranges)
     prox, legacy = readout.noisy_proximity(true_d, true_d, z[z_prox], own, prox_mean, prox_std, legacy_std)
     compass, gps = readout.pose_readings(
@@ -199,6 +188,56 @@ def _read(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
     encoders = readout.encoders(acc, rolled, ticks_per_m, _take2(z, z_enc), slip_mean, slip_std)
     laser_m = readout.noisy_ranges(ranges, z[z_laser], beam_owner, laser_mean, laser_std)
     return prox, legacy, compass, gps, encoders, laser_m
+
+
+@njit(cache=True, nogil=True)
+def _sense_part(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
+    p, parts,
+    pose, own, ir_xy, ir_angle, ir_half, ir_range, l_own, l_xy, l_start, l_step, l_first, l_range,
+    ix, true_d, ranges,
+):  # fmt: skip  # noqa: ANN001  # pragma: no cover
+    """Run ``p`` of ``parts`` of the cones and of the scanners (each cut into ``parts`` runs of
+    neighbours): their wedges or mounting points, then their distances, written to ``true_d``
+    and ``ranges``. Every sensor's values are the same arithmetic on the same values whatever
+    the run it falls in."""
+    m = own.shape[0]
+    c0, c1 = p * m // parts, (p + 1) * m // parts
+    if c1 > c0:
+        ox, oy, nrm, lo, hi = wedges(pose, own[c0:c1], np.arange(c0, c1), ir_xy, ir_angle, ir_half, ir_range)
+        box = np.empty((c1 - c0, 4))
+        box[:, :2] = lo
+        box[:, 2:] = hi
+        cones._scan_part(0, c1 - c0, ox, oy, nrm, ir_range[c0:c1], box, own[c0:c1], ix, true_d[c0:c1])
+    ns = l_own.shape[0]
+    s0, s1 = p * ns // parts, (p + 1) * ns // parts
+    if s1 > s0:
+        lx, ly = mounts(pose, l_own[s0:s1], l_xy, np.arange(s0, s1))
+        start = np.empty(s1 - s0)
+        for t in range(s1 - s0):
+            start[t] = pose[l_own[s0 + t], 2] + l_start[s0 + t]
+        first = l_first[s0 : s1 + 1]  # the beams' places in ranges, as they are
+        laser._scan_part(0, s1 - s0, lx, ly, start, l_step[s0:s1], first, l_range[s0:s1], l_own[s0:s1], ix, ranges)
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def _sense_parallel(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
+    parts,
+    pose, own, ir_xy, ir_angle, ir_half, ir_range, l_own, l_xy, l_start, l_step, l_first, l_range,
+    gx, gy, cell, nx, ny, segs, seg_box, seg_start, seg_items, w_first, w_count,
+    w_box, w_start, w_items, side, body_xy, bbox, b_start, b_items,
+    true_d, ranges,
+):  # fmt: skip  # noqa: ANN001  # pragma: no cover
+    """Every run of :func:`_sense_part` on numba's threads (the scene's index comes flat: a
+    parallel loop takes arrays and numbers, not tuples of them)."""
+    for p in prange(parts):  # noqa: PLE1133 (numba's parallel range)
+        ix = _index(
+            gx, gy, cell, nx, ny, segs, seg_box, seg_start, seg_items, w_first, w_count,
+            w_box, w_start, w_items, side, body_xy, bbox, b_start, b_items,
+        )  # fmt: skip
+        _sense_part(
+            p, parts, pose, own, ir_xy, ir_angle, ir_half, ir_range, l_own, l_xy, l_start, l_step, l_first, l_range,
+            ix, true_d, ranges,
+        )  # fmt: skip
 
 
 def warm_up() -> None:

@@ -80,7 +80,7 @@ class SensorsNode:
         self.seed = seed
         self.shard = shard
         self.last_tick = -1  # the newest tick whose readings went out
-        self._noise = NoiseStreams(seed, Stream.SENSORS)
+        self._noise = NoiseStreams(seed, Stream.SENSORS, threads=threads)
         self._z: tuple[int, list[int], np.ndarray] | None = None  # (tick, roster, its normals)
         self._enc_ids: list[int] = []  # the roster of the last tick, and its encoder counts
         self._enc = np.zeros((0, 2))

@@ -387,6 +387,35 @@ def test_noise_streams_fill_drawn_ahead_gives_each_generator_sequence(
         noise.ROWS_MAX = was
 
 
+@settings(max_examples=20, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(2, 3))
+def test_noise_streams_fill_on_threads_gives_each_generator_sequence(seed: int, threads: int) -> None:
+    """A roster of many robots is drawn ahead in runs on threads: still every robot's own
+    sequence, in order, after takes that left part of its block unused."""
+    g = np.random.default_rng(seed)
+    n = int(g.integers(noise.THREADS_FROM * threads, noise.THREADS_FROM * threads + 30))
+    ids = sorted(g.choice(1000, n, replace=False).tolist())
+    counts = g.integers(0, 12, n).tolist()
+    only = (g.random(n) < 0.9).tolist()
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(int).tolist()
+    streams = NoiseStreams(seed, Stream.SENSORS, block=16, threads=threads)
+    want = {rid: rng_for(seed, rid, Stream.SENSORS).standard_normal(3000) for rid in ids}
+    used = dict.fromkeys(ids, 0)
+    for rid in ids[::3]:
+        k = int(g.integers(0, 20))
+        np.testing.assert_array_equal(streams.take(rid, k), want[rid][:k])
+        used[rid] = k
+    for _ in range(int(g.integers(1, 80))):
+        got = np.full(sum(counts), -99.0)
+        streams.fill(ids, counts, starts, only, got)
+        expected = np.full(sum(counts), -99.0)
+        for rid, c, s0, mine in zip(ids, counts, starts, only, strict=True):
+            if mine:
+                expected[s0 : s0 + c] = want[rid][used[rid] : used[rid] + c]
+                used[rid] += c
+        np.testing.assert_array_equal(got, expected)
+
+
 def test_a_sensor_inside_a_wall_or_another_body_reads_zero() -> None:
     scene = Scene(Lab("in", 20.0, 20.0, (box_wall(9.0, 9.0, 11.0, 11.0),)))
     s = (IrSensorSpec(0, 0.0, 0.0, 0.0, 60.0, 4.0),)
