@@ -171,7 +171,7 @@ def _read(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
     ranges = np.full(l_first[l_own.shape[0]], np.inf)
     sensed = (pose, own, ir_xy, ir_angle, ir_half, ir_range, l_own, l_xy, l_start, l_step, l_first, l_range)
     if parts > 1:
-        _sense_parallel(parts, *sensed, *_flat(ix), true_d, ranges)
+        _sense_parallel(parts, *sensed, *_flat(ix), true_d, ranges)  # type: ignore[call-arg]
     else:
         _sense_part(0, 1, *sensed, ix, true_d, ranges)
     # the noise (sensor_noise.tick_normals, then sensors._noisy and readout.noisy_ranges)
