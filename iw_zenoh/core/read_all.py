@@ -127,6 +127,7 @@ def _fixed(bodies: Bodies) -> tuple[object, ...]:
         bodies.outline,
         bodies.ir_owner, bodies.ir_xy, bodies.ir_angle_rad, bodies.ir_half_cone_rad, bodies.ir_range_m,
         lz.owner, lz.xy, lz.start_rad, lz.step_rad, lz.first, lz.range_m, lz.beam_owner,
+        *laser.beam_turns(lz.step_rad, lz.first),
         s.proximity, s.compass, s.gps, s.encoder, s.laser,
         nm["proximity_m"], ns["proximity_m"], ns["proximity_legacy"], nm["laser_m"], ns["laser_m"],
         nm["compass_deg"], ns["compass_deg"], nm["gps_m"], ns["gps_m"], nm["gps_heading_deg"], ns["gps_heading_deg"],
@@ -151,7 +152,7 @@ def _read(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
     wall_first, wall_count, wall_box, wall_start, wall_items, seg_side,
     outline,
     own, ir_xy, ir_angle, ir_half, ir_range,
-    l_own, l_xy, l_start, l_step, l_first, l_range, beam_owner,
+    l_own, l_xy, l_start, l_step, l_first, l_range, beam_owner, turn_c, turn_s,
     z_prox, z_compass, z_gps, z_enc, z_laser,
     prox_mean, prox_std, legacy_std, laser_mean, laser_std,
     compass_mean, compass_std, gps_mean, gps_std, heading_mean, heading_std,
@@ -169,7 +170,22 @@ def _read(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
     # the cones (sensors._proximity) and the scanners (laser.laser_distances), every one
     true_d = np.empty(own.shape[0])
     ranges = np.full(l_first[l_own.shape[0]], np.inf)
-    sensed = (pose, own, ir_xy, ir_angle, ir_half, ir_range, l_own, l_xy, l_start, l_step, l_first, l_range)
+    sensed = (
+        pose,
+        own,
+        ir_xy,
+        ir_angle,
+        ir_half,
+        ir_range,
+        l_own,
+        l_xy,
+        l_start,
+        l_step,
+        l_first,
+        l_range,
+        turn_c,
+        turn_s,
+    )
     if parts > 1:
         _sense_parallel(parts, *sensed, *_flat(ix), true_d, ranges)  # type: ignore[call-arg]
     else:
@@ -193,7 +209,7 @@ def _read(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
 @njit(cache=True, nogil=True)
 def _sense_part(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
     p, parts,
-    pose, own, ir_xy, ir_angle, ir_half, ir_range, l_own, l_xy, l_start, l_step, l_first, l_range,
+    pose, own, ir_xy, ir_angle, ir_half, ir_range, l_own, l_xy, l_start, l_step, l_first, l_range, turn_c, turn_s,
     ix, true_d, ranges,
 ):  # fmt: skip  # noqa: ANN001  # pragma: no cover
     """Run ``p`` of ``parts`` of the cones and of the scanners (each cut into ``parts`` runs of
@@ -216,13 +232,15 @@ def _sense_part(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
         for t in range(s1 - s0):
             start[t] = pose[l_own[s0 + t], 2] + l_start[s0 + t]
         first = l_first[s0 : s1 + 1]  # the beams' places in ranges, as they are
-        laser._scan_part(0, s1 - s0, lx, ly, start, l_step[s0:s1], first, l_range[s0:s1], l_own[s0:s1], ix, ranges)
+        laser._scan_part(
+            0, s1 - s0, lx, ly, start, l_step[s0:s1], first, l_range[s0:s1], l_own[s0:s1], ix, turn_c, turn_s, ranges
+        )
 
 
 @njit(cache=True, nogil=True, parallel=True)
 def _sense_parallel(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
     parts,
-    pose, own, ir_xy, ir_angle, ir_half, ir_range, l_own, l_xy, l_start, l_step, l_first, l_range,
+    pose, own, ir_xy, ir_angle, ir_half, ir_range, l_own, l_xy, l_start, l_step, l_first, l_range, turn_c, turn_s,
     gx, gy, cell, nx, ny, segs, seg_box, seg_start, seg_items, w_first, w_count,
     w_box, w_start, w_items, side, body_xy, bbox, b_start, b_items,
     true_d, ranges,
@@ -236,7 +254,7 @@ def _sense_parallel(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
         )  # fmt: skip
         _sense_part(
             p, parts, pose, own, ir_xy, ir_angle, ir_half, ir_range, l_own, l_xy, l_start, l_step, l_first, l_range,
-            ix, true_d, ranges,
+            turn_c, turn_s, ix, true_d, ranges,
         )  # fmt: skip
 
 
