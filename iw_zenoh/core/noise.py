@@ -7,7 +7,7 @@ created in keeps a robot's noise the same whichever process (or sensor shard) co
 from __future__ import annotations
 
 import enum
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -115,6 +115,7 @@ class NoiseStreams:
         self._buf: dict[int, npt.NDArray[np.float64]] = {}
         self._pos: dict[int, int] = {}
         self._rows: _Rows | None = None  # the roster's ticks drawn ahead by fill
+        self._ahead: Future[_Rows] | None = None  # the roster's rows after those, being drawn on a thread
 
     def take(self, robot_id: int, count: int) -> npt.NDArray[np.float64]:
         """The robot's next ``count`` values (a view: copy it if it is kept)."""
@@ -165,8 +166,19 @@ class NoiseStreams:
         """
         rows = self._rows
         if rows is None or rows.row == len(rows.buf) or rows.key != (ids, counts, only):
-            self._hand_back()
-            rows = self._rows = self._draw_rows(ids, counts, starts, only)
+            if rows is not None and self._ahead is not None and rows.key == (ids, counts, only):
+                rows = self._rows = self._ahead.result()  # the next rows, drawn while these were used
+                self._ahead = None
+            else:
+                self._hand_back()
+                rows = self._rows = self._draw_rows(ids, counts, starts, only)
+            if self.threads > 1 and len(ids) >= THREADS_FROM:
+                # the rows after these, on a thread of their own while the caller goes on (the
+                # robots' streams are not touched here until they are done: take, another
+                # roster and hand-back wait for them)
+                self._ahead = _prefetcher().submit(
+                    self._draw_rows, list(ids), list(counts), list(starts), list(only), 1
+                )
         r = rows.buf[rows.row]
         rows.row += 1
         if rows.mask is None:
@@ -174,9 +186,12 @@ class NoiseStreams:
         else:
             out[rows.mask] = r[rows.mask]
 
-    def _draw_rows(self, ids: list[int], counts: list[int], starts: list[int], only: list[bool]) -> _Rows:
+    def _draw_rows(
+        self, ids: list[int], counts: list[int], starts: list[int], only: list[bool], threads: int | None = None
+    ) -> _Rows:
         """The next ticks of a roster, one row a tick in ``fill``'s layout (robot ``i``'s values of
-        tick ``t`` at ``[t, starts[i]:starts[i] + counts[i]]``)."""
+        tick ``t`` at ``[t, starts[i]:starts[i] + counts[i]]``), drawn on up to ``threads``
+        threads (default :attr:`threads`)."""
         total = max((s0 + c for s0, c in zip(starts, counts, strict=True)), default=0)
         ticks = max(1, min(ROWS_MAX, ROWS_BYTES // (8 * max(total, 1))))
         buf = np.zeros((ticks, total))
@@ -191,7 +206,7 @@ class NoiseStreams:
                 self._take_into(rid, vals)
                 buf[:, s0 : s0 + c] = vals.reshape(ticks, c)
 
-        k = min(self.threads, len(jobs) // THREADS_FROM)
+        k = min(self.threads if threads is None else threads, len(jobs) // THREADS_FROM)
         if k > 1:
             runs = [jobs[i * len(jobs) // k : (i + 1) * len(jobs) // k] for i in range(k)]
             done = [_pool(k).submit(draw, run) for run in runs[1:]]
@@ -205,13 +220,16 @@ class NoiseStreams:
     def _hand_back(self) -> None:
         """Puts the values of the drawn-ahead ticks not used yet back in front of each robot's
         stream (what take and a new roster's block then give first)."""
-        rows, self._rows = self._rows, None
-        if rows is None or rows.row == len(rows.buf):
+        blocks = [self._rows] if self._rows is not None and self._rows.row < len(self._rows.buf) else []
+        if self._ahead is not None:
+            blocks.append(self._ahead.result())  # drawn after the rows in use: given after them
+        self._rows = self._ahead = None
+        if not blocks:
             return
-        ids, counts, only = rows.key
-        for rid, c, s0, mine in zip(ids, counts, rows.starts, only, strict=True):
+        ids, counts, only = blocks[0].key
+        for rid, c, s0, mine in zip(ids, counts, blocks[0].starts, only, strict=True):
             if mine and c:
-                rest = rows.buf[rows.row :, s0 : s0 + c].ravel()
+                rest = np.concatenate([b.buf[b.row :, s0 : s0 + c].ravel() for b in blocks])
                 buf = self._buf.get(rid)
                 after = buf[self._pos.get(rid, 0) :] if buf is not None else np.zeros(0)
                 self._buf[rid] = np.concatenate([rest, after])
@@ -226,6 +244,12 @@ def _pool(threads: int) -> ThreadPoolExecutor:
     """The threads :meth:`NoiseStreams.fill` draws on (one fewer than ``threads``: the caller
     draws a run too), started on first use."""
     return ThreadPoolExecutor(max_workers=threads - 1, thread_name_prefix="noise")
+
+
+@lru_cache(maxsize=1)
+def _prefetcher() -> ThreadPoolExecutor:
+    """The thread :meth:`NoiseStreams.fill` draws a roster's next rows on, started on first use."""
+    return ThreadPoolExecutor(max_workers=1, thread_name_prefix="noise-ahead")
 
 
 ROWS_BYTES = 1 << 22  # fill draws at most this much ahead (4 MB: 256 chairs of 78 values, 26 ticks)

@@ -390,8 +390,10 @@ def test_noise_streams_fill_drawn_ahead_gives_each_generator_sequence(
 @settings(max_examples=20, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.integers(2, 3))
 def test_noise_streams_fill_on_threads_gives_each_generator_sequence(seed: int, threads: int) -> None:
-    """A roster of many robots is drawn ahead in runs on threads: still every robot's own
-    sequence, in order, after takes that left part of its block unused."""
+    """A roster of many robots is drawn ahead in runs on threads, and its next rows on a thread
+    of their own while the rows before are used: still every robot's own sequence, in order,
+    after takes that left part of its block unused, a take between fills and a roster change
+    (each hands back both the rows in use and the rows drawn after them)."""
     g = np.random.default_rng(seed)
     n = int(g.integers(noise.THREADS_FROM * threads, noise.THREADS_FROM * threads + 30))
     ids = sorted(g.choice(1000, n, replace=False).tolist())
@@ -405,15 +407,24 @@ def test_noise_streams_fill_on_threads_gives_each_generator_sequence(seed: int, 
         k = int(g.integers(0, 20))
         np.testing.assert_array_equal(streams.take(rid, k), want[rid][:k])
         used[rid] = k
-    for _ in range(int(g.integers(1, 80))):
-        got = np.full(sum(counts), -99.0)
-        streams.fill(ids, counts, starts, only, got)
-        expected = np.full(sum(counts), -99.0)
-        for rid, c, s0, mine in zip(ids, counts, starts, only, strict=True):
-            if mine:
-                expected[s0 : s0 + c] = want[rid][used[rid] : used[rid] + c]
-                used[rid] += c
-        np.testing.assert_array_equal(got, expected)
+    for phase in range(3):  # fills, a take between them, a roster without some robots
+        if phase == 1:
+            rid = ids[int(g.integers(n))]
+            np.testing.assert_array_equal(streams.take(rid, 5), want[rid][used[rid] : used[rid] + 5])
+            used[rid] += 5
+        if phase == 2:
+            keep = g.random(n) < 0.8
+            ids, counts, only = ([v for v, k in zip(a, keep, strict=True) if k] for a in (ids, counts, only))
+            starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(int).tolist()
+        for _ in range(int(g.integers(1, 60))):
+            got = np.full(sum(counts), -99.0)
+            streams.fill(ids, counts, starts, only, got)
+            expected = np.full(sum(counts), -99.0)
+            for rid, c, s0, mine in zip(ids, counts, starts, only, strict=True):
+                if mine:
+                    expected[s0 : s0 + c] = want[rid][used[rid] : used[rid] + c]
+                    used[rid] += c
+            np.testing.assert_array_equal(got, expected)
 
 
 def test_a_sensor_inside_a_wall_or_another_body_reads_zero() -> None:
