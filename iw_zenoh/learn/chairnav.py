@@ -22,7 +22,7 @@ from iw_zenoh.errors import IwError
 from iw_zenoh.learn.episode import Episode
 from iw_zenoh.learn.nav import ACTIONS, Goal, Reward, Senses, clearance_m
 from iw_zenoh.learn.render import frame
-from iw_zenoh.learn.rooms import free_point, random_room
+from iw_zenoh.learn.rooms import random_room, start_and_goal
 from iw_zenoh.sim.local import LocalWorld
 
 __all__ = ["ChairNavEnv", "default_chair"]
@@ -80,8 +80,13 @@ class ChairNavEnv(gym.Env[np.ndarray, np.ndarray]):
         margin = clearance_m(self.chair)
         for _ in range(100):
             world = LocalWorld(lab, seed=int(g.integers(SEEDS)), sim="chairnav")
-            x, y = free_point(g, lab, margin)
-            gx, gy = free_point(g, lab, margin, away=[(x, y)])
+            try:
+                (x, y), (gx, gy) = start_and_goal(g, lab, margin)
+            except ValueError:
+                if self.maps:
+                    raise
+                lab = random_room(g)  # a room too crowded for a start and a goal: another one
+                continue
             spec = replace(self.chair, id=1, x_m=x, y_m=y, dir_deg=float(g.uniform(-180, 180)))
             try:
                 return lab, world, world.add(spec), Goal(gx, gy)

@@ -29,7 +29,7 @@ from iw_zenoh.learn.chairnav import SEEDS, default_chair
 from iw_zenoh.learn.episode import Episode
 from iw_zenoh.learn.nav import ACTIONS, Goal, Reward, Senses, clearance_m
 from iw_zenoh.learn.render import frame
-from iw_zenoh.learn.rooms import free_point, random_room
+from iw_zenoh.learn.rooms import random_room, start_and_goal
 from iw_zenoh.learn.scenario import build
 from iw_zenoh.scenario.file import load_scenario
 from iw_zenoh.sim.local import LocalWorld
@@ -109,16 +109,24 @@ class ChairsEnv(ParallelEnv[str, np.ndarray, np.ndarray]):  # type: ignore[misc]
 
     def _world(self) -> tuple[LocalWorld, dict[int, Goal]]:
         g = self._g
-        lab = self.maps[int(g.integers(len(self.maps)))] if self.maps else random_room(g)
-        self.lab = lab
         margin = clearance_m(self.chair)
+        for _ in range(100):  # a room with a start and a goal for every chair (a crowded one is drawn again)
+            lab = self.maps[int(g.integers(len(self.maps)))] if self.maps else random_room(g)
+            try:
+                pairs: list[tuple[tuple[float, float], tuple[float, float]]] = []
+                for _rid in self._rid.values():
+                    pairs.append(start_and_goal(g, lab, margin, away=[start for start, _ in pairs]))
+            except ValueError:
+                if self.maps:
+                    raise
+                continue
+            break
+        else:
+            raise ValueError(f"no room of 100 drawn has starts and goals for {len(self._rid)} chairs")
+        self.lab = lab
         world = LocalWorld(lab, seed=int(g.integers(SEEDS)), sim="chairs")
-        starts: list[tuple[float, float]] = []
         goals: dict[int, Goal] = {}
-        for rid in self._rid.values():
-            x, y = free_point(g, lab, margin, away=starts)
-            starts.append((x, y))
-            gx, gy = free_point(g, lab, margin, away=[(x, y)])
+        for rid, ((x, y), (gx, gy)) in zip(self._rid.values(), pairs, strict=True):
             world.add(
                 replace(self.chair, name=f"chair_{rid}", id=rid, x_m=x, y_m=y, dir_deg=float(g.uniform(-180, 180)))
             )

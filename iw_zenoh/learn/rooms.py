@@ -9,7 +9,7 @@ import numpy as np
 
 from iw_zenoh.core.lab import Lab, Wall
 
-__all__ = ["free_point", "random_room"]
+__all__ = ["free_point", "random_room", "start_and_goal"]
 
 SIZES = ((8.0, 6.0), (10.0, 8.0), (12.0, 8.0), (12.0, 10.0))  # room sizes, m
 MAX_BOXES = 4
@@ -52,3 +52,22 @@ def free_point(
             continue
         return float(x), float(y)
     raise ValueError(f"no free place {margin} m from the walls of {lab.name!r}")
+
+
+def start_and_goal(
+    g: np.random.Generator, lab: Lab, margin: float, away: Sequence[tuple[float, float]] = (), *, tries: int = 20
+) -> tuple[tuple[float, float], tuple[float, float]]:
+    """A start (:func:`free_point`, two margins from each point of ``away``) and a goal two
+    margins from it; another start when none is found for one (a start in a small pocket of a
+    crowded room may have no place that far within its reach... or anywhere).
+
+    Raises:
+        ValueError: No pair found from ``tries`` starts, or no start at all.
+    """
+    for _ in range(tries):
+        start = free_point(g, lab, margin, away)
+        try:
+            return start, free_point(g, lab, margin, away=[start])
+        except ValueError:
+            continue
+    raise ValueError(f"no start and goal {2 * margin:g} m apart and {margin:g} m from the walls of {lab.name!r}")

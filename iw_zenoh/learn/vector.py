@@ -30,12 +30,14 @@ from iw_zenoh.core.lab import Lab, Wall
 from iw_zenoh.core.spec import RobotSpec, default_ir_sensors
 from iw_zenoh.learn.chairnav import SEEDS, default_chair
 from iw_zenoh.learn.nav import ACTIONS, Goal, Reward, Senses, bounded_rows, clearance_m, to_powers_batch
-from iw_zenoh.learn.rooms import SIZES, free_point, random_room
+from iw_zenoh.learn.rooms import SIZES, random_room, start_and_goal
 from iw_zenoh.sim.local import ArrayStep, LocalWorld
 
 __all__ = ["ChairVectorEnv", "vector_env"]
 
 WALL_M = 0.2  # the walls between rooms
+ROOM_TRIES = 100  # rooms drawn for a sub-environment before giving up
+_Pair = tuple[tuple[float, float], tuple[float, float]]  # a start and a goal
 CELL_W, CELL_H = max(w for w, _ in SIZES) + 2 * WALL_M + 0.5, max(h for _, h in SIZES) + 2 * WALL_M + 0.5
 
 
@@ -94,13 +96,19 @@ class ChairVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         self.within = Goal(0.0, 0.0).within
         self.world: LocalWorld | None = None
 
-    def _place(self, i: int) -> None:
+    def _place(self, i: int, pair: _Pair | None = None) -> None:
         """Sub-environment ``i``'s chair at a new start (placed at ``reset``, moved at a restart),
-        with a new goal."""
+        with a new goal (``pair``: the start and goal, room coordinates, already drawn)."""
         assert self.world is not None
         g, (room, ox, oy) = self.np_random, self.rooms[i]
-        x, y = free_point(g, room, self._margin)
-        gx, gy = free_point(g, room, self._margin, away=[(x, y)])
+        if pair is None:
+            try:
+                pair = start_and_goal(g, room, self._margin)
+            except ValueError:
+                # a room of few free places (the draws missed them): the last episode backwards,
+                # its goal free and its start two margins from it (a restart, not a crash mid-training)
+                pair = (self.pairs[i][1], self.pairs[i][0])
+        (x, y), (gx, gy) = self.pairs[i] = pair
         heading = float(g.uniform(-180, 180))
         if self.rid[i]:  # a restart: the same chair moved, so the roster (and what is built for it) stays
             self.world.move(self.rid[i], x + ox, y + oy, heading)
@@ -120,8 +128,17 @@ class ChairVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         cols = math.ceil(math.sqrt(n))
         self.rooms: list[tuple[Lab, float, float]] = []
         walls: list[Wall] = []
+        self.pairs: list[_Pair] = []  # each sub-environment's start and goal, room coordinates
         for i in range(n):
-            room = random_room(g)
+            for _ in range(ROOM_TRIES):  # a room with a start and a goal (one too crowded is drawn again)
+                room = random_room(g)
+                try:
+                    self.pairs.append(start_and_goal(g, room, self._margin))
+                    break
+                except ValueError:
+                    continue
+            else:
+                raise ValueError(f"no room of {ROOM_TRIES} drawn has a start and a goal for the chair")
             ox, oy = 0.5 + WALL_M + (i % cols) * (CELL_W + self._gap), 0.5 + WALL_M + (i // cols) * (CELL_H + self._gap)
             self.rooms.append((room, ox, oy))
             walls += _walled(room, ox, oy)
@@ -132,7 +149,7 @@ class ChairVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         self.goal_xy = np.zeros((n, 2))
         self.steps = np.zeros(n, dtype=np.int64)
         for i in range(n):
-            self._place(i)
+            self._place(i, self.pairs[i])
         s = self.world.step_arrays(np.zeros((n, 2)))
         self._dist = self._distances(s, self._where(s))
         self._ended = np.zeros(n, dtype=bool)

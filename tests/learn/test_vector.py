@@ -6,7 +6,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
+from iw_zenoh.core.lab import Lab
+from iw_zenoh.learn.rooms import free_point, start_and_goal
 from iw_zenoh.learn.vector import ChairVectorEnv, vector_env
 
 
@@ -94,3 +97,48 @@ def test_no_sensor_search_reaches_another_rooms_walls() -> None:
         ]
         near = [b for b in boxes if not (b[0] > x1 or b[2] < x0 or b[1] > y1 or b[3] < y0)]
         assert sorted(near) == sorted(mine)
+
+
+def test_a_room_with_no_new_start_and_goal_restarts_the_last_episode_backwards() -> None:
+    """A sub-environment's room is drawn once; when its restart finds no start and goal two
+    margins apart (few free places, the draws missed them), the chair starts at the last goal
+    for the last start, rather than the environment raising in the middle of training."""
+    env = vector_env(2, max_steps=2)
+    env.reset(seed=4)
+    (start, goal), (_, ox, oy) = env.pairs[0], env.rooms[0]
+    # every free place of the room is closer than two margins to any other: no pair exists
+    env.rooms[0] = (Lab("narrow", 2 * env._margin + 0.5, 2 * env._margin + 0.05), ox, oy)
+    hold = np.zeros((2, 2), dtype=np.float32)
+    env.step(hold)
+    _, _, _, truncated, _ = env.step(hold)
+    assert truncated.all()
+    env.step(hold)  # the restart
+    assert env.pairs[0] == (goal, start)
+    assert env.world is not None
+    at = env.world.array_ids().index(env.rid[0])
+    np.testing.assert_allclose(env.world.world.state.pose[at, :2], (goal[0] + ox, goal[1] + oy))
+    np.testing.assert_allclose(env.goal_xy[0], (start[0] + ox, start[1] + oy))
+
+
+def test_a_start_with_no_goal_far_enough_is_drawn_again() -> None:
+    """In a 3 m corridor a start in its middle has no place two margins (2 m) away: drawing
+    the goal for it fails, so start_and_goal draws another start."""
+    lab = Lab("corridor", 5.0, 2.05)
+    failed = 0
+    for seed in range(40):
+        g = np.random.default_rng(seed)
+        (x, y), (gx, gy) = start_and_goal(g, lab, 1.0)
+        assert 1.0 <= x <= 4.0
+        assert 1.0 <= gx <= 4.0
+        assert 1.0 <= y <= 1.05
+        assert 1.0 <= gy <= 1.05
+        assert math.hypot(gx - x, gy - y) >= 2.0
+        g = np.random.default_rng(seed)
+        start = free_point(g, lab, 1.0)
+        try:
+            free_point(g, lab, 1.0, away=[start])
+        except ValueError:
+            failed += 1
+    assert failed > 0  # drawing the start once would have failed for some of them
+    with pytest.raises(ValueError, match="no start and goal 2 m apart"):
+        start_and_goal(np.random.default_rng(0), Lab("tiny", 3.5, 2.05), 1.0)
