@@ -1,27 +1,36 @@
-"""Steps per second of the learning environments on one core (issue 36): ChairNav-v0 (one chair
+"""Steps per second of the learning environments (issue 36): ChairNav-v0 on one core (one chair
 with eight 60-degree cones and a 64-beam laser, the whole tick as the distributed roles run it),
 and beside it the parts of a step: LocalWorld's tick with and without the sensors, and the
-observation; and the vector environment of 256 chairs in one world, in chair-steps per second.
+observation; and the vector environment of 256 chairs in one world, in chair-steps per second, on
+every CPU and on one.
 
-    python benchmarks/learn.py             # 2,000 steps each
+    python benchmarks/learn.py             # 2,000 steps each (no taskset: it pins itself)
     python benchmarks/learn.py --steps 500 --json
     python benchmarks/learn.py --ppo 20       # and PPO trained 20 minutes (the examples extra)
+
+The vector environment is measured first on every CPU the process may use (its sensors on that
+many threads), then the process pins itself to one of them for the single environment, ir-sim and
+the vector environment on one core, then takes every CPU back for PPO.
 
 Targets (issue 36): a single environment >= 5,000 steps/s on one core; a batched vector env of 256
 chairs >= 100,000 chair-steps/s; ChairNav >= 10 times ir-sim's own ``env.step`` with one robot and
 a 64-beam lidar in a room of the same size, measured in the same run (ir-sim is in the dev extra).
 
-Measured on a quiet machine (nothing else running), one core (``taskset -c 1``), 2026-11-28,
-after each part of the tick became one compiled call (core/drive.py, core/collide.py,
-core/read_all.py, the observation in learn/nav.py):
+This machine's speed drifts by up to half between quarters of an hour (ir-sim alone ran 1,151 to
+1,868 steps/s on 2026-11-28), so compare trees run alternately. Session 19, the tree before and
+after its pass, alternately three times (13:15-13:22, a slow hour):
 
-    ChairNav-v0                     6,309 steps/s      (target 5,000: met)
-    ir-sim env.step, same run       1,816 steps/s      ChairNav / ir-sim 3.47 (target 10)
-    vector env, 256 chairs          38,533 chair-steps/s (target 100,000)
+    ChairNav-v0                     3,835-4,659 -> 4,041-4,731 steps/s (target 5,000)
+    ChairNav / ir-sim               2.9-3.4 -> 2.8-3.6                 (target 10)
+    vector env, 256 chairs, 2 CPUs  29,600-32,300 -> 44,500-66,600 chair-steps/s (target 100,000)
+    the same on one core            29,600-32,300 -> 36,500-43,000
 
-Before this session's pass (session 17, quiet, same command): 2,174 / 1,375 (1.58) / 38,646. At
-one chair what is left is about a dozen compiled calls, each paying numba's argument handling,
-and the Python between them; at 256 chairs, the laser's and cones' kernels themselves.
+(the vector figures: mean of 300 steps). Quiet, earlier that day, pinned: ChairNav 7,082 steps/s,
+ir-sim 1,868, 3.79 times; the vector env's median step on two threads 2.6-3.0 ms (85,000-98,000).
+Session 18, quiet, one core: 6,309 / 1,816 (3.47) / 38,533; session 17: 2,174 / 1,375 (1.58) /
+38,646. At one chair what is left is about a dozen compiled calls, each paying numba's argument
+handling, and the Python between them; at 256 chairs, the kernels (about 60 % of a step on one
+core), the collision check, the noise's draws and the Python around them.
 """
 
 from __future__ import annotations
