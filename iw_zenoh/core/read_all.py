@@ -81,17 +81,18 @@ def read_all(
         raise ValueError(
             f"{n} robots: poses {pose.shape}, encoders {acc.shape}, rolled {rolled.shape}, normals {z.shape}"
         )
-    return _read(  # type: ignore[no-any-return, call-arg]
-        pose,
-        *_walls(scene),
-        *fixed[1:],
-        z,
-        acc,
-        rolled,
-        float(gps_offset_m[0]),
-        float(gps_offset_m[1]),
-        _parts(threads, n),
-    )
+    walls, off = _walls(scene), (float(gps_offset_m[0]), float(gps_offset_m[1]))
+    parts = _parts(threads, n)
+    if parts == 1:
+        return _read(pose, *walls, *fixed[1:], z, acc, rolled, *off)  # type: ignore[no-any-return, call-arg]
+    # on threads: the index, the parallel loop, the noise (three calls: the serial kernel does
+    # not reference the parallel one, whose first compilation takes half a minute)
+    outline, sensed, beam_owner, noise = fixed[1], fixed[2:15], fixed[15], fixed[16:]
+    own, l_first = np.asarray(sensed[0]), np.asarray(sensed[9])
+    ix = _index_at(pose, *walls, outline)  # type: ignore[call-arg]
+    true_d, ranges = np.empty(len(own)), np.full(int(l_first[-1]), np.inf)
+    _sense_parallel(parts, pose, *sensed, *_flat(ix), true_d, ranges)  # type: ignore[call-arg]
+    return _noisy(true_d, ranges, pose, own, beam_owner, *noise, z, acc, rolled, *off)  # type: ignore[no-any-return, call-arg]
 
 
 def _parts(threads: int, n: int) -> int:
@@ -126,8 +127,8 @@ def _fixed(bodies: Bodies) -> tuple[object, ...]:
         int(noise_layout(bodies, 0)[0].sum()),  # the normals a tick takes (not an argument)
         bodies.outline,
         bodies.ir_owner, bodies.ir_xy, bodies.ir_angle_rad, bodies.ir_half_cone_rad, bodies.ir_range_m,
-        lz.owner, lz.xy, lz.start_rad, lz.step_rad, lz.first, lz.range_m, lz.beam_owner,
-        *laser.beam_turns(lz.step_rad, lz.first),
+        lz.owner, lz.xy, lz.start_rad, lz.step_rad, lz.first, lz.range_m, *laser.beam_turns(lz.step_rad, lz.first),
+        lz.beam_owner,
         s.proximity, s.compass, s.gps, s.encoder, s.laser,
         nm["proximity_m"], ns["proximity_m"], ns["proximity_legacy"], nm["laser_m"], ns["laser_m"],
         nm["compass_deg"], ns["compass_deg"], nm["gps_m"], ns["gps_m"], nm["gps_heading_deg"], ns["gps_heading_deg"],
@@ -152,13 +153,40 @@ def _read(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
     wall_first, wall_count, wall_box, wall_start, wall_items, seg_side,
     outline,
     own, ir_xy, ir_angle, ir_half, ir_range,
-    l_own, l_xy, l_start, l_step, l_first, l_range, beam_owner, turn_c, turn_s,
+    l_own, l_xy, l_start, l_step, l_first, l_range, turn_c, turn_s, beam_owner,
     z_prox, z_compass, z_gps, z_enc, z_laser,
     prox_mean, prox_std, legacy_std, laser_mean, laser_std,
     compass_mean, compass_std, gps_mean, gps_std, heading_mean, heading_std,
     slip_mean, slip_std, ticks_per_m,
-    z, acc, rolled, off_x, off_y, parts,
+    z, acc, rolled, off_x, off_y,
 ):  # fmt: skip  # noqa: ANN001  # pragma: no cover
+    ix = _index_at(
+        pose, gx, gy, cell, nx, ny, segs, seg_box, seg_start, seg_items,
+        wall_first, wall_count, wall_box, wall_start, wall_items, seg_side, outline,
+    )  # fmt: skip
+    # the cones (sensors._proximity) and the scanners (laser.laser_distances), every one
+    true_d = np.empty(own.shape[0])
+    ranges = np.full(l_first[l_own.shape[0]], np.inf)
+    _sense_part(
+        0, 1, pose, own, ir_xy, ir_angle, ir_half, ir_range, l_own, l_xy, l_start, l_step, l_first, l_range,
+        turn_c, turn_s, ix, true_d, ranges,
+    )  # fmt: skip
+    return _noisy(
+        true_d, ranges, pose, own, beam_owner, z_prox, z_compass, z_gps, z_enc, z_laser,
+        prox_mean, prox_std, legacy_std, laser_mean, laser_std,
+        compass_mean, compass_std, gps_mean, gps_std, heading_mean, heading_std,
+        slip_mean, slip_std, ticks_per_m, z, acc, rolled, off_x, off_y,
+    )  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def _index_at(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
+    pose,
+    gx, gy, cell, nx, ny, segs, seg_box, seg_start, seg_items,
+    wall_first, wall_count, wall_box, wall_start, wall_items, seg_side,
+    outline,
+):  # fmt: skip  # noqa: ANN001  # pragma: no cover
+    """The scene's walls and the bodies placed at ``pose`` and binned: what the kernels search."""
     g = CellGrid(gx, gy, cell, nx, ny)
     w = SceneWalls(
         g, segs, seg_box, seg_start, seg_items, wall_first, wall_count, wall_box, wall_start, wall_items, seg_side
@@ -166,31 +194,20 @@ def _read(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
     body_xy = outline_at(outline, pose)
     bbox = _boxes(body_xy)
     b_start, b_items = bin_boxes(bbox, g.x0, g.y0, g.cell, g.nx, g.ny)
-    ix = SceneIndex(w, body_xy, bbox, b_start, b_items)
-    # the cones (sensors._proximity) and the scanners (laser.laser_distances), every one
-    true_d = np.empty(own.shape[0])
-    ranges = np.full(l_first[l_own.shape[0]], np.inf)
-    sensed = (
-        pose,
-        own,
-        ir_xy,
-        ir_angle,
-        ir_half,
-        ir_range,
-        l_own,
-        l_xy,
-        l_start,
-        l_step,
-        l_first,
-        l_range,
-        turn_c,
-        turn_s,
-    )
-    if parts > 1:
-        _sense_parallel(parts, *sensed, *_flat(ix), true_d, ranges)  # type: ignore[call-arg]
-    else:
-        _sense_part(0, 1, *sensed, ix, true_d, ranges)
-    # the noise (sensor_noise.tick_normals, then sensors._noisy and readout.noisy_ranges)
+    return SceneIndex(w, body_xy, bbox, b_start, b_items)
+
+
+@njit(cache=True, nogil=True)
+def _noisy(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
+    true_d, ranges, pose, own, beam_owner,
+    z_prox, z_compass, z_gps, z_enc, z_laser,
+    prox_mean, prox_std, legacy_std, laser_mean, laser_std,
+    compass_mean, compass_std, gps_mean, gps_std, heading_mean, heading_std,
+    slip_mean, slip_std, ticks_per_m,
+    z, acc, rolled, off_x, off_y,
+):  # fmt: skip  # noqa: ANN001  # pragma: no cover
+    """The readings from the true distances and this tick's normals (sensor_noise.tick_normals,
+    then sensors._noisy and readout.noisy_ranges)."""
     prox, legacy = readout.noisy_proximity(true_d, true_d, z[z_prox], own, prox_mean, prox_std, legacy_std)
     compass, gps = readout.pose_readings(
         pose,
