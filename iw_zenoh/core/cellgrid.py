@@ -16,6 +16,7 @@ from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
+import shapely
 from numba import njit
 
 from iw_zenoh.core.lab import Scene
@@ -159,8 +160,9 @@ def _sides(segs: FloatArray, first: IntArray, counts: IntArray) -> FloatArray:
     sum over its edges), and 0.0 on the border's edges (the last ones, after every wall's)."""
     side = np.zeros(segs.shape[0])
     for f, c in zip(first.tolist(), counts.tolist(), strict=True):
-        e = segs[f : f + c]
-        side[f : f + c] = np.sign(np.sum(e[:, 0] * e[:, 3] - e[:, 2] * e[:, 1]))
+        e = segs[f : f + c] - np.tile(segs[f, :2], 2)  # from its first corner: no rounding far from the origin
+        if shapely.LinearRing(e[:, :2]).is_simple:  # a wall built without the map's checks may cross itself: 0
+            side[f : f + c] = np.sign(np.sum(e[:, 0] * e[:, 3] - e[:, 2] * e[:, 1]))
     return side
 
 

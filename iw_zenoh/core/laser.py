@@ -22,7 +22,7 @@ import numpy.typing as npt
 from numba import njit
 
 from iw_zenoh.core.bodies import Bodies
-from iw_zenoh.core.cellgrid import SceneIndex, gather, in_convex, in_walls, scene_index
+from iw_zenoh.core.cellgrid import SceneIndex, SceneWalls, cell_range, gather, in_convex, in_walls, scene_index
 from iw_zenoh.core.lab import Lab, Scene, Wall
 from iw_zenoh.core.placing import mod_two_pi, mounts, outline_at
 
@@ -206,6 +206,42 @@ def _hit(
         out[k] = t
 
 
+HELD_MAX = 8  # walls whose boxes hold one scanner, at most (more: no edge is skipped)
+
+
+@njit(cache=True, nogil=True)
+def _holding(w: SceneWalls, px: float, py: float, held: IntArray) -> int:  # pragma: no cover
+    """The edges (``[first, end)`` rows of ``held``) of the walls whose boxes hold p; how many,
+    or -1 when more than :data:`HELD_MAX` do."""
+    if w.wall_box.shape[0] == 0:
+        return 0
+    g, box = w.grid, w.wall_box
+    c0, _ = cell_range(px, px, g.x0, g.cell, g.nx)
+    r0, _ = cell_range(py, py, g.y0, g.cell, g.ny)
+    q = r0 * g.nx + c0
+    n = 0
+    for j in range(w.wall_start[q], w.wall_start[q + 1]):
+        k = w.wall_items[j]
+        if box[k, 0] <= px <= box[k, 2] and box[k, 1] <= py <= box[k, 3]:
+            if n == held.shape[0]:
+                return -1
+            held[n, 0] = w.wall_first[k]
+            held[n, 1] = w.wall_first[k] + w.wall_count[k]
+            n += 1
+    return n
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _held(s: int, held: IntArray, n: int) -> bool:  # pragma: no cover
+    """Whether edge ``s`` is one of :func:`_holding`'s (every edge is, when it gave -1)."""
+    if n < 0:
+        return True
+    for e in range(n):  # noqa: SIM110 (a loop numba compiles; any() of a generator it does not)
+        if held[e, 0] <= s < held[e, 1]:
+            return True
+    return False
+
+
 @njit(cache=True, nogil=True)
 def _scan(
     ox: FloatArray,
@@ -267,6 +303,7 @@ def _scan_part(
         most = max(most, first[i + 1] - first[i])
     cs = np.empty(most)
     sn = np.empty(most)
+    held = np.empty((HELD_MAX, 2), dtype=np.int64)
     for i in range(i0, i1):
         px, py, r = ox[i], oy[i], rng[i]
         off, nb = first[i], first[i + 1] - first[i]
@@ -277,12 +314,15 @@ def _scan_part(
             sn[j] = ts * c0 + tc * s0
         x0, y0, x1, y1 = px - r, py - r, px + r, py + r
         blind = False  # the mounting point is inside something
+        n_held = _holding(w, px, py, held)
         for t in range(gather(g, w.seg_start, w.seg_items, seg_box, seen_seg, i, x0, y0, x1, y1, near_seg)):
             s = near_seg[t]
             ax, ay, bx, by = segs[s, 0] - px, segs[s, 1] - py, segs[s, 2] - px, segs[s, 3] - py
-            # only an edge whose solid side faces away from the scanner can hold a beam's first
-            # hit (a beam that meets a wall enters it there); a scanner inside a wall is blind
-            if side[s] * ((bx - ax) * (-ay) - (by - ay) * (-ax)) <= 0.0:
+            # only an edge with its wall away from the scanner can hold a beam's first hit (a
+            # beam from outside a wall enters it there): the others are skipped, except the
+            # edges of a wall whose box holds the scanner (on its outline, the even-odd rule
+            # may call a scanner outside: there every edge is tested, as shapely's cast does)
+            if side[s] * ((bx - ax) * (-ay) - (by - ay) * (-ax)) <= 0.0 or _held(s, held, n_held):
                 _cast(ax, ay, bx, by, r, start[i], step[i], cs, sn, out, off, nb)
         for t in range(gather(g, ix.b_start, ix.b_items, bbox, seen_body, i, x0, y0, x1, y1, near_body)):
             b = near_body[t]

@@ -7,7 +7,9 @@ created in keeps a robot's noise the same whichever process (or sensor shard) co
 from __future__ import annotations
 
 import enum
-from concurrent.futures import Future, ThreadPoolExecutor
+import os
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -167,8 +169,8 @@ class NoiseStreams:
         rows = self._rows
         if rows is None or rows.row == len(rows.buf) or rows.key != (ids, counts, only):
             if rows is not None and self._ahead is not None and rows.key == (ids, counts, only):
-                rows = self._rows = self._ahead.result()  # the next rows, drawn while these were used
-                self._ahead = None
+                ahead, self._ahead = self._ahead, None  # (out first: a failed draw is raised once)
+                rows = self._rows = ahead.result()  # the next rows, drawn while these were used
             else:
                 self._hand_back()
                 rows = self._rows = self._draw_rows(ids, counts, starts, only)
@@ -176,9 +178,7 @@ class NoiseStreams:
                 # the rows after these, on a thread of their own while the caller goes on (the
                 # robots' streams are not touched here until they are done: take, another
                 # roster and hand-back wait for them)
-                self._ahead = _prefetcher().submit(
-                    self._draw_rows, list(ids), list(counts), list(starts), list(only), 1
-                )
+                self._ahead = _submit_ahead(self._draw_rows, list(ids), list(counts), list(starts), list(only), 1)
         r = rows.buf[rows.row]
         rows.row += 1
         if rows.mask is None:
@@ -210,7 +210,10 @@ class NoiseStreams:
         if k > 1:
             runs = [jobs[i * len(jobs) // k : (i + 1) * len(jobs) // k] for i in range(k)]
             done = [_pool(k).submit(draw, run) for run in runs[1:]]
-            draw(runs[0])
+            try:
+                draw(runs[0])
+            finally:
+                wait(done)  # every run ended before anything goes on (or is raised)
             for f in done:
                 f.result()
         else:
@@ -221,9 +224,10 @@ class NoiseStreams:
         """Puts the values of the drawn-ahead ticks not used yet back in front of each robot's
         stream (what take and a new roster's block then give first)."""
         blocks = [self._rows] if self._rows is not None and self._rows.row < len(self._rows.buf) else []
-        if self._ahead is not None:
-            blocks.append(self._ahead.result())  # drawn after the rows in use: given after them
-        self._rows = self._ahead = None
+        ahead, self._ahead = self._ahead, None
+        self._rows = None
+        if ahead is not None:
+            blocks.append(ahead.result())  # drawn after the rows in use: given after them
         if not blocks:
             return
         ids, counts, only = blocks[0].key
@@ -250,6 +254,33 @@ def _pool(threads: int) -> ThreadPoolExecutor:
 def _prefetcher() -> ThreadPoolExecutor:
     """The thread :meth:`NoiseStreams.fill` draws a roster's next rows on, started on first use."""
     return ThreadPoolExecutor(max_workers=1, thread_name_prefix="noise-ahead")
+
+
+_PENDING: set[Future[_Rows]] = set()  # rows being drawn ahead (a fork waits for them)
+
+
+def _submit_ahead(fn: Callable[..., _Rows], *args: object) -> Future[_Rows]:
+    """``fn(*args)`` on :func:`_prefetcher`'s thread, kept in :data:`_PENDING` until it is done."""
+    f = _prefetcher().submit(fn, *args)
+    _PENDING.add(f)
+    f.add_done_callback(_PENDING.discard)
+    return f
+
+
+def _before_fork() -> None:
+    """A process forked while rows are drawn ahead would wait for them for ever (its copy of the
+    pool has no thread), and a robot's stream could be copied half drawn: finish them first."""
+    wait(list(_PENDING))
+
+
+def _after_fork_in_child() -> None:
+    """The child's pools are copies without their threads: it starts its own."""
+    _pool.cache_clear()
+    _prefetcher.cache_clear()
+    _PENDING.clear()
+
+
+os.register_at_fork(before=_before_fork, after_in_child=_after_fork_in_child)
 
 
 ROWS_BYTES = 1 << 22  # fill draws at most this much ahead (4 MB: 256 chairs of 78 values, 26 ticks)

@@ -61,7 +61,7 @@ class ChairVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         reward: The reward's terms.
         threads: Sense the chairs on up to this many threads (numba's; the same readings,
             :mod:`iw_zenoh.core.read_all`); default: as many as the CPUs this process may run
-            on (``os.sched_getaffinity``), so ``taskset -c 1`` gives one.
+            on (``os.sched_getaffinity``; elsewhere than Linux, the machine's), so ``taskset -c 1`` gives one.
     """
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP}  # noqa: RUF012 (gymnasium's convention)
@@ -81,7 +81,7 @@ class ChairVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         if num_envs < 1:
             raise ValueError(f"num_envs must be at least 1, got {num_envs}")
         self.num_envs, self.action_mode, self.max_steps = num_envs, action, max_steps
-        self.threads = threads if threads is not None else len(os.sched_getaffinity(0))
+        self.threads = threads if threads is not None else _cpus()
         if self.threads < 1:
             raise ValueError(f"threads must be at least 1, got {threads}")
         self.chair, self.reward_terms = chair or default_chair(), reward or Reward()
@@ -211,6 +211,12 @@ def _reach_m(chair: RobotSpec) -> float:
     irs = chair.ir_sensors or default_ir_sensors(chair.width_m, chair.height_m, chair.com)
     mounted = [(a.x_m, a.y_m, a.range_m) for a in chair.lasers] + [(s.x_m, s.y_m, s.range_m) for s in irs]
     return max((math.hypot(x, y) + r for x, y, r in mounted), default=0.0)
+
+
+def _cpus() -> int:
+    """The CPUs this process may run on (``os.sched_getaffinity``, Linux), or the machine's."""
+    getaffinity = getattr(os, "sched_getaffinity", None)
+    return len(getaffinity(0)) if getaffinity else os.cpu_count() or 1
 
 
 def vector_env(num_envs: int = 8, **kwargs: Any) -> ChairVectorEnv:

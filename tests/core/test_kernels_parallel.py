@@ -15,6 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from iw_zenoh.core import cones
+from iw_zenoh.core import read_all as read_all_module
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.cellgrid import gather, scene_index
 from iw_zenoh.core.lab import Scene
@@ -89,6 +90,7 @@ def test_the_sensors_on_threads_read_what_one_thread_reads(seed: int, n: int, th
     counts, _ = noise_layout(bodies, 0)
     z = g.standard_normal(int(counts.sum()))
     acc, rolled = g.uniform(-1e3, 1e3, (n, 2)), g.uniform(-0.1, 0.1, (n, 2))
+    assert read_all_module._parts(threads, n) == threads  # the parallel loop runs
     one = read_all(scene, bodies, pose, z, acc, rolled, (0.5, -0.5))
     many = read_all(scene, bodies, pose, z, acc, rolled, (0.5, -0.5), threads=threads)
     for a, b in zip(one, many, strict=True):

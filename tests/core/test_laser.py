@@ -9,7 +9,9 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from iw_zenoh.core import laser
 from iw_zenoh.core.bodies import Bodies
+from iw_zenoh.core.cellgrid import scene_index
 from iw_zenoh.core.lab import Lab, Scene
 from iw_zenoh.core.laser import laser_distances
 from iw_zenoh.core.sensors import noise_bank, read_sensors
@@ -207,3 +209,32 @@ def test_resolution_is_the_field_of_view_over_the_gaps_between_beams() -> None:
     s = LaserSpec(0, angle_deg=10.0, fov_deg=180.0, beams=181)
     assert s.resolution_deg == pytest.approx(1.0)
     assert s.start_deg == pytest.approx(-80.0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_skipping_the_edges_a_beam_leaves_a_wall_by_reads_what_testing_every_edge_reads(seed: int) -> None:
+    """The kernel skips wall edges with their wall towards the scanner; scanners anywhere, on
+    walls' corners, on their edges and a hair off them (where the even-odd rule may call a point
+    on the outline outside) read what the kernel testing every edge reads."""
+    g = np.random.default_rng(seed)
+    scene = random_polygon_scene(g)
+    segs = scene.segments.reshape(-1, 4)
+    on_walls = len(segs) - 4  # the border's edges come last
+    pts = []
+    for _ in range(30):
+        a, b = segs[g.integers(max(on_walls, 1))].reshape(2, 2)
+        kind = int(g.integers(4)) if on_walls else 0
+        pts.append(
+            (g.uniform(0.0, 10.0, 2), a, a + g.uniform() * (b - a), a + g.uniform() * (b - a) + g.normal(0, 1e-9, 2))[
+                kind
+            ]
+        )
+    xy = np.asarray(pts)
+    n = len(xy)
+    start, step = g.uniform(-np.pi, np.pi, n), np.full(n, np.radians(1.0))
+    first = np.arange(n + 1, dtype=np.int64) * 361
+    ix = scene_index(scene, np.zeros((0, 4, 2)))
+    every = ix._replace(walls=ix.walls._replace(seg_side=np.zeros(len(segs))))  # no edge skipped
+    args = (xy[:, 0].copy(), xy[:, 1].copy(), start, step, first, np.full(n, 20.0), np.full(n, -1, dtype=np.int64))
+    np.testing.assert_array_equal(laser._scan(*args, ix), laser._scan(*args, every))

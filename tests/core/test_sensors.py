@@ -395,11 +395,30 @@ def test_noise_streams_fill_on_threads_gives_each_generator_sequence(seed: int, 
     after takes that left part of its block unused, a take between fills and a roster change
     (each hands back both the rows in use and the rows drawn after them)."""
     g = np.random.default_rng(seed)
-    n = int(g.integers(noise.THREADS_FROM * threads, noise.THREADS_FROM * threads + 30))
+    n = int(g.integers(2 * noise.THREADS_FROM * threads, 2 * noise.THREADS_FROM * threads + 30))
     ids = sorted(g.choice(1000, n, replace=False).tolist())
     counts = g.integers(0, 12, n).tolist()
+    counts[: 2 * noise.THREADS_FROM * threads] = [max(c, 1) for c in counts[: 2 * noise.THREADS_FROM * threads]]
     only = (g.random(n) < 0.9).tolist()
     starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(int).tolist()
+    was = noise.ROWS_MAX
+    noise.ROWS_MAX = 3  # blocks of three ticks: the rows drawn ahead are used, not only handed back
+    try:
+        _fill_on_threads(g, seed, threads, ids, counts, only, starts)
+    finally:
+        noise.ROWS_MAX = was
+
+
+def _fill_on_threads(
+    g: np.random.Generator,
+    seed: int,
+    threads: int,
+    ids: list[int],
+    counts: list[int],
+    only: list[bool],
+    starts: list[int],
+) -> None:
+    n = len(ids)
     streams = NoiseStreams(seed, Stream.SENSORS, block=16, threads=threads)
     want = {rid: rng_for(seed, rid, Stream.SENSORS).standard_normal(3000) for rid in ids}
     used = dict.fromkeys(ids, 0)
@@ -425,6 +444,7 @@ def test_noise_streams_fill_on_threads_gives_each_generator_sequence(seed: int, 
                     expected[s0 : s0 + c] = want[rid][used[rid] : used[rid] + c]
                     used[rid] += c
             np.testing.assert_array_equal(got, expected)
+            assert streams._ahead is not None  # the next rows are being drawn on their thread
 
 
 def test_a_sensor_inside_a_wall_or_another_body_reads_zero() -> None:
