@@ -7,14 +7,16 @@ created in keeps a robot's noise the same whichever process (or sensor shard) co
 from __future__ import annotations
 
 import enum
-import os
-from collections.abc import Callable
-from concurrent.futures import Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass
-from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
+
+from iw_zenoh import pools
+
+if TYPE_CHECKING:
+    from concurrent.futures import Future
 
 __all__ = ["NoiseBank", "NoiseStreams", "Stream", "rng_for", "standard_normals"]
 
@@ -178,7 +180,7 @@ class NoiseStreams:
                 # the rows after these, on a thread of their own while the caller goes on (the
                 # robots' streams are not touched here until they are done: take, another
                 # roster and hand-back wait for them)
-                self._ahead = _submit_ahead(self._draw_rows, list(ids), list(counts), list(starts), list(only), 1)
+                self._ahead = pools.submit_ahead(self._draw_rows, list(ids), list(counts), list(starts), list(only), 1)
         r = rows.buf[rows.row]
         rows.row += 1
         if rows.mask is None:
@@ -208,14 +210,7 @@ class NoiseStreams:
 
         k = min(self.threads if threads is None else threads, len(jobs) // THREADS_FROM)
         if k > 1:
-            runs = [jobs[i * len(jobs) // k : (i + 1) * len(jobs) // k] for i in range(k)]
-            done = [_pool(k).submit(draw, run) for run in runs[1:]]
-            try:
-                draw(runs[0])
-            finally:
-                wait(done)  # every run ended before anything goes on (or is raised)
-            for f in done:
-                f.result()
+            pools.run_all(draw, [jobs[i * len(jobs) // k : (i + 1) * len(jobs) // k] for i in range(k)])
         else:
             draw(jobs)
         return _Rows((list(ids), list(counts), list(only)), list(starts), buf, None if mask.all() else mask)
@@ -241,46 +236,6 @@ class NoiseStreams:
 
 
 THREADS_FROM = 16  # robots a thread at least (fewer: one thread draws them all)
-
-
-@lru_cache(maxsize=4)
-def _pool(threads: int) -> ThreadPoolExecutor:
-    """The threads :meth:`NoiseStreams.fill` draws on (one fewer than ``threads``: the caller
-    draws a run too), started on first use."""
-    return ThreadPoolExecutor(max_workers=threads - 1, thread_name_prefix="noise")
-
-
-@lru_cache(maxsize=1)
-def _prefetcher() -> ThreadPoolExecutor:
-    """The thread :meth:`NoiseStreams.fill` draws a roster's next rows on, started on first use."""
-    return ThreadPoolExecutor(max_workers=1, thread_name_prefix="noise-ahead")
-
-
-_PENDING: set[Future[_Rows]] = set()  # rows being drawn ahead (a fork waits for them)
-
-
-def _submit_ahead(fn: Callable[..., _Rows], *args: object) -> Future[_Rows]:
-    """``fn(*args)`` on :func:`_prefetcher`'s thread, kept in :data:`_PENDING` until it is done."""
-    f = _prefetcher().submit(fn, *args)
-    _PENDING.add(f)
-    f.add_done_callback(_PENDING.discard)
-    return f
-
-
-def _before_fork() -> None:
-    """A process forked while rows are drawn ahead would wait for them for ever (its copy of the
-    pool has no thread), and a robot's stream could be copied half drawn: finish them first."""
-    wait(list(_PENDING))
-
-
-def _after_fork_in_child() -> None:
-    """The child's pools are copies without their threads: it starts its own."""
-    _pool.cache_clear()
-    _prefetcher.cache_clear()
-    _PENDING.clear()
-
-
-os.register_at_fork(before=_before_fork, after_in_child=_after_fork_in_child)
 
 
 ROWS_BYTES = 1 << 22  # fill draws at most this much ahead (4 MB: 256 chairs of 78 values, 26 ticks)
