@@ -40,6 +40,7 @@ __all__ = [
     "noise_bank",
     "noise_layout",
     "proximity_distances",
+    "read_all_readings",
     "read_sensors",
 ]
 
@@ -258,6 +259,34 @@ def _seen_distances(
     return true_d, legacy_d
 
 
+def read_all_readings(
+    scene: Scene,
+    bodies: Bodies,
+    pose: FloatArray,
+    collided: BoolArray,
+    proximity_m: FloatArray,
+    proximity_legacy: FloatArray,
+    compass_deg: FloatArray,
+    gps: FloatArray,
+    encoder_acc: FloatArray,
+    laser_m: FloatArray,
+) -> Readings:
+    """The readings of a tick whose sensors :func:`~iw_zenoh.core.read_all.read_all` computed
+    (or the fused tick, :mod:`iw_zenoh.core.fused`): its arrays, with the ground and bumpers."""
+    return Readings(
+        proximity_m=proximity_m,
+        proximity_legacy=proximity_legacy,
+        compass_deg=compass_deg,
+        beacon_deg=np.empty((bodies.n, 0)),  # no beacons: no values (what np.full gives)
+        gps=gps,
+        ground=_ground(scene, bodies, pose),
+        collision=np.asarray(collided, dtype=bool).copy(),
+        encoder_acc=encoder_acc,
+        bumpers=_bumpers(scene, bodies, pose),
+        laser_m=laser_m,
+    )
+
+
 def read_sensors(
     scene: Scene,
     bodies: Bodies,
@@ -298,21 +327,8 @@ def read_sensors(
         only = None  # every robot (the usual shard of one): what None means, without the selections
     if only is None and not legacy_ir and not scene.lab.beacons and not moving_beacons and bodies.n:
         # the usual tick in one compiled call (core.read_all: the same functions, the same numbers)
-        prox, legacy, compass, gps, encoders, laser_m = read_all(
-            scene, bodies, pose, z, encoder_acc, rolled_m, p.gps_offset_m, p.threads
-        )
-        return Readings(
-            proximity_m=prox,
-            proximity_legacy=legacy,
-            compass_deg=compass,
-            beacon_deg=np.empty((bodies.n, 0)),  # no beacons: no values (what np.full gives)
-            gps=gps,
-            ground=_ground(scene, bodies, pose),
-            collision=np.asarray(collided, dtype=bool).copy(),
-            encoder_acc=encoders,
-            bumpers=_bumpers(scene, bodies, pose),
-            laser_m=laser_m,
-        )
+        got = read_all(scene, bodies, pose, z, encoder_acc, rolled_m, p.gps_offset_m, p.threads)
+        return read_all_readings(scene, bodies, pose, collided, *got)
     return _separately(scene, bodies, pose, collided, encoder_acc, rolled_m, z, p, only, legacy_ir, moving_beacons)
 
 

@@ -25,6 +25,8 @@ __all__ = [
     "WorldState",
     "commit",
     "commit_flags",
+    "committed",
+    "drive_table",
     "initial_state",
     "propose",
     "step",
@@ -101,6 +103,14 @@ def _proposal(pose: FloatArray, motor_out: FloatArray, linear: FloatArray, rolle
     return p
 
 
+def committed(
+    tick: int, pose: FloatArray, motor_out: FloatArray, cmd: FloatArray, collided: BoolArray, rolled_m: FloatArray
+) -> WorldState:
+    """The state :func:`commit_flags` makes, from arrays committed elsewhere (the fused tick,
+    :mod:`iw_zenoh.core.fused`), as cheaply as it makes it."""
+    return _state(tick, pose, motor_out, cmd, collided, rolled_m)
+
+
 def with_cmd(state: WorldState, cmd: FloatArray) -> WorldState:
     """``state`` commanding ``cmd`` (what ``dataclasses.replace(state, cmd=cmd)`` gives, for a
     fifth of its cost: the world does it every tick)."""
@@ -158,6 +168,11 @@ def propose(
         rolled,
     )
     return _proposal(nxt, out, linear, rolled)
+
+
+def drive_table(bodies: Bodies) -> FloatArray:
+    """What the drive's kernel reads of each robot (:func:`_table`: the same array while the bodies stay)."""
+    return _table(bodies)
 
 
 @lru_cache(maxsize=8)

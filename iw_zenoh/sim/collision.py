@@ -22,8 +22,9 @@ class CollisionNode:
     def __init__(self) -> None:
         self._doors: tuple[Bodies, npt.NDArray[np.bool_]] | None = None  # per roster, not per tick
 
-    def _doors_of(self, bodies: Bodies) -> npt.NDArray[np.bool_]:
-        """Which of these bodies are doors (computed again only when the roster's bodies change)."""
+    def doors_of(self, bodies: Bodies) -> npt.NDArray[np.bool_]:
+        """(N,) which of these bodies are doors: they pass through walls and each other
+        (computed again only when the roster's bodies change)."""
         if self._doors is None or self._doors[0] is not bodies:
             self._doors = (bodies, np.asarray([t == RobotType.DOOR for t in bodies.types], dtype=bool))
         return self._doors[1]
@@ -71,7 +72,7 @@ class CollisionNode:
             return check_collisions_ciberrato(view.scene, now, nxt, linear, active=active)
         # doors pass through walls and each other: the leaves of one revolving door cross at its hub
         # (each leaf is a Door robot turning about the hub), and two leaves of a double door meet
-        doors = self._doors_of(bodies)
+        doors = self.doors_of(bodies)
         return check_collisions(
             view.scene, bodies.outline, now, nxt, active=active, ignore_walls=doors, pass_each_other=True
         )

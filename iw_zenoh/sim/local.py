@@ -31,11 +31,14 @@ from typing import Protocol
 import numpy as np
 
 from iw_zenoh.convert import lab_from_msg, spec_from_msg, spec_to_msg
+from iw_zenoh.core import fused
 from iw_zenoh.core.bodies import Bodies
+from iw_zenoh.core.drive import floats
 from iw_zenoh.core.lab import Grid, Lab, Scene
 from iw_zenoh.core.modes import Mode, Profile
-from iw_zenoh.core.sensors import Readings
+from iw_zenoh.core.sensors import Readings, read_all_readings
 from iw_zenoh.core.spec import RobotSpec, RobotType
+from iw_zenoh.core.world import drive_table
 from iw_zenoh.errors import IwError
 from iw_zenoh.messages import (
     Actions,
@@ -169,6 +172,11 @@ class LocalWorld:
         self._specs: dict[int, RobotSpec] = {}  # each robot's spec as the view has it (kept while it is here)
         self.last: Step | None = None
         self._entries: tuple[int, list[Entry]] = (-1, [])  # step_arrays' robots, by revision
+        #: step_arrays computes a usual tick (the native profile, every robot sensed on the
+        #: caller's thread, no beacons) in one compiled call (:mod:`iw_zenoh.core.fused`: the
+        #: same kernels, the same numbers); False: the kernels one by one, as the roles call them
+        self.fused = True
+        self._fixed: tuple[Bodies, Scene, tuple[object, ...]] | None = None  # the fused tick's arguments, per roster
 
     # --- the roster ------------------------------------------------------------------------
 
@@ -325,6 +333,10 @@ class LocalWorld:
         for e, (left, right) in zip(entries, cmd.tolist(), strict=True):
             e.cmd = (left, right)  # as on_actions keeps them: a later step() without a command keeps them
         view = self.view()
+        if sense and self.fused and w.cfg.profile == Profile.NATIVE:
+            inputs = self.sensors.fused_inputs(w.tick + 1, ids, w.bodies, view)
+            if inputs is not None:
+                return self._step_fused(cmd, ids, view, *inputs)
         before = w.state.pose
         prop = w.propose_next(cmd)
         col = self.collide.check(view, w.bodies, before, prop.pose, prop.linear)
@@ -339,6 +351,36 @@ class LocalWorld:
             self.sensors.commit_counts(n, ids, enc)
         self.last = None  # step()'s messages are not built here
         return ArrayStep(n, ids, w.bodies, st.pose, st.collided, st.rolled_m, readings)
+
+    def _step_fused(
+        self, cmd: np.ndarray, ids: list[int], view: WorldView, z: np.ndarray, acc: np.ndarray
+    ) -> ArrayStep:
+        """:meth:`step_arrays`' tick in one compiled call: the world's proposal, the collision
+        check, the commit and the sensors, with this tick's normals ``z`` and encoder counts ``acc``."""
+        w = self.world
+        bodies, st = w.bodies, w.state
+        if self._fixed is None or self._fixed[0] is not bodies or self._fixed[1] is not view.scene:
+            doors = self.collide.doors_of(bodies)
+            args = fused.fixed_args(
+                view.scene,
+                bodies,
+                drive_table(bodies),
+                doors,
+                w.cfg.period_ms / 1000.0,
+                self.sensors.params.gps_offset_m,
+            )
+            self._fixed = (bodies, view.scene, args)
+        pose, out, rolled, hit, *got = fused.tick(
+            floats(st.pose), floats(st.motor_out), cmd, w.motion_normals(), z, acc, self._fixed[2]
+        )
+        n, was = w.took(cmd, pose, out, rolled, hit)
+        w.collisions += int(np.count_nonzero(hit & ~was))
+        if w.cfg.duration_ticks and n >= w.cfg.duration_ticks:
+            w.stopped = True
+        readings = read_all_readings(view.scene, bodies, pose, hit, *got)
+        self.sensors.commit_counts(n, ids, readings.encoder_acc.copy())
+        self.last = None
+        return ArrayStep(n, ids, bodies, pose, hit, rolled, readings)
 
     def array_ids(self) -> list[int]:
         """The robots' ids in the order :meth:`step_arrays` takes and gives them."""

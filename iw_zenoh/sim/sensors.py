@@ -21,6 +21,7 @@ from iw_zenoh import keys
 from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.modes import Profile
 from iw_zenoh.core.noise import NoiseStreams, Stream
+from iw_zenoh.core.read_all import PARALLEL_FROM
 from iw_zenoh.core.sensors import Readings, SensorParams, noise_layout, read_sensors
 from iw_zenoh.messages import LaserScan, Outgoing, Proposed, SensorReading, WorldState, encode
 from iw_zenoh.sim.early import state_from_proposal
@@ -89,6 +90,11 @@ class SensorsNode:
         self._undo: tuple[list[int], np.ndarray, tuple[int, list[int], np.ndarray] | None, int] | None = None
         self.corrections = 0  # ticks whose early readings the state proved wrong
         self._layout: _Layout | None = None
+
+    @property
+    def params(self) -> SensorParams:
+        """The tick-wide settings the node computes with."""
+        return self._params
 
     def warm(self, view: WorldView) -> None:
         """Computes the view's robots once, where they were placed, in a throwaway node (its own
@@ -263,6 +269,21 @@ class SensorsNode:
         if subset is None and lay.all_mine:  # every robot's count moves on (np.where's values, without the test)
             return r, only, r.encoder_acc.copy()
         return r, only, np.where(only[:, None], r.encoder_acc, enc)
+
+    def fused_inputs(
+        self, tick: int, ids: list[int], bodies: Bodies, view: WorldView
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """What a tick computed in one call (:mod:`iw_zenoh.core.fused`) takes of this node: the
+        tick's normals and the (N, 2) encoder counts before it; None when the tick is not one
+        :meth:`read` computes with :func:`~iw_zenoh.core.read_all.read_all` on the caller's
+        thread (a shard, beacons, Ciber-Rato's IR model, sensors on threads). Commit the counts
+        after (:meth:`commit_counts`), as after :meth:`read`."""
+        lay = self._roster(view, ids, bodies)
+        if not (lay.all_mine and not lay.moving and bodies.n) or view.scene.lab.beacons:
+            return None
+        if view.info.profile == Profile.CIBERRATO or (self._params.threads > 1 and bodies.n >= PARALLEL_FROM):
+            return None
+        return self._normals(tick, ids, lay.counts, lay.starts, lay.mine_list), self._encoders(ids)
 
     def _roster(self, view: WorldView, ids: list[int], bodies: Bodies) -> _Layout:
         """This shard's robots (read-only), the beacons robots carry, and the noise layout of a

@@ -23,7 +23,7 @@ from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.lab import Grid, Lab, Scene
 from iw_zenoh.core.modes import Mode, Profile, Silence
 from iw_zenoh.core.spec import RobotSpec, RobotType
-from iw_zenoh.core.world import Proposal, commit_flags, initial_state, propose, with_cmd
+from iw_zenoh.core.world import Proposal, commit_flags, committed, initial_state, propose, with_cmd
 from iw_zenoh.core.world import WorldState as CoreState
 from iw_zenoh.messages import (
     Actions,
@@ -359,6 +359,28 @@ class WorldCore:
         )
         self._pending = (self.state.tick + 1, prop)
         return prop
+
+    def took(
+        self, cmd: np.ndarray, pose: np.ndarray, motor_out: np.ndarray, rolled_m: np.ndarray, collided: np.ndarray
+    ) -> tuple[int, np.ndarray]:
+        """Makes tick n the state a caller proposed, checked and committed in one call, from the
+        (N, 2) powers it applied (:mod:`iw_zenoh.core.fused`, LocalWorld's fused tick): what
+        :meth:`propose_next` then :meth:`commit_next` with its flags leave, nobody held.
+
+        Returns:
+            The tick, and the collision flags before it.
+        """
+        was = self.state.collided
+        self.state = committed(self.state.tick + 1, pose, motor_out, cmd, collided, rolled_m)
+        self._pending = None
+        if self.steps_left > 0:
+            self.steps_left -= 1
+        return self.state.tick, was
+
+    def motion_normals(self) -> np.ndarray | None:
+        """This tick's (N, 2) standard normals of movement noise, in array order (None when no
+        robot's motion is noisy): drawn from each robot's stream, so ask once a tick."""
+        return self._motion_noise(self.registry.arrayed, self._profile)
 
     def _motion_noise(self, ids: list[int], profile: Profile) -> np.ndarray | None:
         """This tick's standard normals of movement noise (None when no robot's motion is noisy)."""

@@ -27,10 +27,10 @@ def _chair(name: str) -> RobotSpec:
     return replace(c, noise=replace(c.noise, motion=NoiseSpec(0.0, 0.02), laser_m=NoiseSpec(0.0, 0.01)))
 
 
-def _world() -> LocalWorld:
+def _world(duration_ticks: int = 0) -> LocalWorld:
     lab = Lab("t", 20.0, 10.0, (box_wall(9.0, 0.0, 10.0, 10.0),))
     grid = Grid((GridPosition(2, 5, 0), GridPosition(5, 5, 180), GridPosition(3, 2, 90)))
-    w = LocalWorld(lab, grid, seed=11)
+    w = LocalWorld(lab, grid, seed=11, duration_ticks=duration_ticks)
     w.add(_chair("a"))
     w.add(_chair("b"))
     return w
@@ -66,8 +66,10 @@ def _message(m: SensorReading) -> tuple[object, ...]:
     return m.proximity_m, beams, m.compass_deg, m.encoders, m.collision
 
 
-def test_the_array_path_gives_the_message_paths_states_and_readings_bit_for_bit() -> None:
+@pytest.mark.parametrize("fused", [True, False], ids=["one compiled call", "kernel by kernel"])
+def test_the_array_path_gives_the_message_paths_states_and_readings_bit_for_bit(fused: bool) -> None:
     slow, fast = _world(), _world()
+    fast.fused = fused
     g = np.random.default_rng(5)
     collisions = 0
     for t in range(80):
@@ -86,6 +88,39 @@ def test_the_array_path_gives_the_message_paths_states_and_readings_bit_for_bit(
         collisions += sum(a.collided.tolist())
     assert collisions > 0
     assert fast.world.collisions == slow.world.collisions > 0
+    assert (fast._fixed is not None) == fused  # the tick took the path asked for
+
+
+def _readings(a: ArrayStep) -> dict[str, list[object]]:
+    assert a.readings is not None
+    return {k: np.asarray(v).tolist() for k, v in vars(a.readings).items()}
+
+
+def test_the_fused_tick_gives_every_array_the_kernels_give_one_by_one() -> None:
+    """Every field of the state and of the readings (ground, bumpers, GPS, encoders...), the
+    world's counts and the sensors' encoder counts, tick after tick, through collisions, noise
+    and a roster change, and a world's ``duration_ticks``."""
+    one, apart = _world(duration_ticks=50), _world(duration_ticks=50)
+    apart.fused = False
+    g = np.random.default_rng(7)
+    for t in range(60):
+        if t == 20:
+            for w in (one, apart):
+                w.remove(1)
+                w.add(_chair("c"))
+        p = _powers(g, len(one.array_ids()))
+        a, b = one.step_arrays(p), apart.step_arrays(p)
+        assert (a.tick, a.ids) == (b.tick, b.ids)
+        for got, want in ((a.pose, b.pose), (a.collided, b.collided), (a.rolled_m, b.rolled_m)):
+            assert got.tolist() == want.tolist(), f"tick {a.tick}"
+        assert _readings(a) == _readings(b), f"tick {a.tick}"
+        assert one.world.state.motor_out.tolist() == apart.world.state.motor_out.tolist()
+        assert one.sensors._enc.tolist() == apart.sensors._enc.tolist()
+        assert (one.world.collisions, one.stopped) == (apart.world.collisions, apart.stopped)
+    assert one.world.collisions > 0
+    assert one.stopped
+    assert one._fixed is not None
+    assert apart._fixed is None
 
 
 def test_the_two_paths_mix_and_a_command_given_on_arrays_stands_in_step() -> None:
