@@ -163,9 +163,11 @@ def _proximity(
 
 
 def _ground(scene: Scene, bodies: Bodies, pose: FloatArray) -> IntArray:
-    out = np.full(len(pose), -1, dtype=np.int64)
     if not scene.lab.targets or len(pose) == 0:
+        out = np.empty(len(pose), dtype=np.int64)
+        out.fill(-1)  # on no target (np.full's value, for half its cost)
         return out
+    out = np.full(len(pose), -1, dtype=np.int64)
     t = scene.target_array  # (T, 3): x, y, radius
     # a body can only be wholly inside a target whose radius covers the body's centre
     ri, ti = scene.target_tree.query(shapely.points(pose[:, 0], pose[:, 1]))
@@ -272,19 +274,25 @@ def read_all_readings(
     laser_m: FloatArray,
 ) -> Readings:
     """The readings of a tick whose sensors :func:`~iw_zenoh.core.read_all.read_all` computed
-    (or the fused tick, :mod:`iw_zenoh.core.fused`): its arrays, with the ground and bumpers."""
-    return Readings(
+    (or the fused tick, :mod:`iw_zenoh.core.fused`): its arrays, with the ground and bumpers.
+
+    Built as its constructor builds it, without the frozen dataclass's ``object.__setattr__``
+    per field (a learning environment's chair makes one a step)."""
+    n = len(pose)
+    r = object.__new__(Readings)
+    r.__dict__.update(
         proximity_m=proximity_m,
         proximity_legacy=proximity_legacy,
         compass_deg=compass_deg,
-        beacon_deg=np.empty((bodies.n, 0)),  # no beacons: no values (what np.full gives)
+        beacon_deg=np.empty((n, 0)),  # no beacons: no values (what np.full gives)
         gps=gps,
         ground=_ground(scene, bodies, pose),
-        collision=np.asarray(collided, dtype=bool).copy(),
+        collision=np.array(collided, dtype=np.bool_),
         encoder_acc=encoder_acc,
         bumpers=_bumpers(scene, bodies, pose),
         laser_m=laser_m,
     )
+    return r
 
 
 def read_sensors(

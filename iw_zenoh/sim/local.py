@@ -358,8 +358,8 @@ class LocalWorld:
         """:meth:`step_arrays`' tick in one compiled call: the world's proposal, the collision
         check, the commit and the sensors, with this tick's normals ``z`` and encoder counts ``acc``."""
         w = self.world
-        bodies, st = w.bodies, w.state
-        if self._fixed is None or self._fixed[0] is not bodies or self._fixed[1] is not view.scene:
+        bodies, st, fx = w.bodies, w.state, self._fixed
+        if fx is None or fx[0] is not bodies or fx[1] is not view.scene:
             doors = self.collide.doors_of(bodies)
             args = fused.fixed_args(
                 view.scene,
@@ -369,16 +369,17 @@ class LocalWorld:
                 w.cfg.period_ms / 1000.0,
                 self.sensors.params.gps_offset_m,
             )
-            self._fixed = (bodies, view.scene, args)
-        pose, out, rolled, hit, *got = fused.tick(
-            floats(st.pose), floats(st.motor_out), cmd, w.motion_normals(), z, acc, self._fixed[2]
+            fx = self._fixed = (bodies, view.scene, args)
+        pose, out, rolled, hit, prox, legacy, compass, gps, enc, laser_m = fused.tick(
+            floats(st.pose), floats(st.motor_out), cmd, w.motion_normals(), z, acc, fx[2]
         )
         n, was = w.took(cmd, pose, out, rolled, hit)
-        w.collisions += int(np.count_nonzero(hit & ~was))
+        if np.count_nonzero(hit):  # the robots that hit this tick and had not the tick before
+            w.collisions += int(np.count_nonzero(hit & ~was))
         if w.cfg.duration_ticks and n >= w.cfg.duration_ticks:
             w.stopped = True
-        readings = read_all_readings(view.scene, bodies, pose, hit, *got)
-        self.sensors.commit_counts(n, ids, readings.encoder_acc.copy())
+        readings = read_all_readings(view.scene, bodies, pose, hit, prox, legacy, compass, gps, enc, laser_m)
+        self.sensors.commit_counts(n, ids, enc.copy())
         self.last = None
         return ArrayStep(n, ids, bodies, pose, hit, rolled, readings)
 

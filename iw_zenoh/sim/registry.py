@@ -74,6 +74,7 @@ class Registry:
         self._stale = False  # the roster changed since the arrays were built
         self._new_poses: dict[int, np.ndarray] = {}  # start poses of robots not yet in the arrays
         self.per_agent: Counter[str] = Counter()  # robots registered under each agent name
+        self._shapes: dict[int, tuple[RobotSpec, Bodies]] = {}  # a moved robot's body, while its spec stays
 
     @property
     def ids(self) -> list[int]:
@@ -156,10 +157,16 @@ class Registry:
         return placed
 
     def check_free(
-        self, placed: RobotSpec, pose: dict[int, tuple[float, float, float]], *, on_robots: bool = False
+        self,
+        placed: RobotSpec,
+        pose: dict[int, tuple[float, float, float]],
+        *,
+        on_robots: bool = False,
+        shape: Bodies | None = None,
     ) -> None:
         """Refuses a body at its spec's start pose outside the lab, on a wall (not for a door), or
-        on one of the robots of ``pose`` (unless ``on_robots``).
+        on one of the robots of ``pose`` (unless ``on_robots``). ``shape``: the spec's body
+        (:meth:`shape`, of a robot moved), else built from the spec.
 
         Raises:
             Refused: Why the place is not free.
@@ -168,7 +175,7 @@ class Registry:
         lab = self.scene.lab
         if not (0.0 < x < lab.width_m and 0.0 < y < lab.height_m):
             raise Refused(f"start ({x:g}, {y:g}) is outside the lab ({lab.width_m:g} x {lab.height_m:g})")
-        body = Bodies.from_specs([placed])
+        body = Bodies.from_specs([placed]) if shape is None else shape
         poly = shapely.polygons(body.world_outline(np.array([[x, y, np.radians(d)]])))[0]
         if placed.type != RobotType.DOOR:
             hit = self.scene.wall_tree.query(poly, predicate="intersects")
@@ -177,6 +184,17 @@ class Registry:
         other = None if on_robots else self._robot_under(placed, poly, (x, y), pose)
         if other is not None:
             raise Refused(f"start ({x:g}, {y:g}) puts the body on robot {other}; choose a free place")
+
+    def shape(self, robot_id: int) -> Bodies:
+        """A registered robot's body alone (built once while its spec stays: a learning
+        environment moves its chairs thousands of times, and a body cost half a millisecond)."""
+        spec = self.entries[robot_id].spec
+        got = self._shapes.get(robot_id)
+        if got is None or got[0] is not spec:
+            if len(self._shapes) > len(self.entries) + 64:  # robots gone: forget theirs
+                self._shapes = {rid: v for rid, v in self._shapes.items() if rid in self.entries}
+            got = self._shapes[robot_id] = (spec, Bodies.from_specs([spec]))
+        return got[1]
 
     def _robot_under(
         self,

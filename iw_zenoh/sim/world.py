@@ -206,7 +206,8 @@ class WorldCore:
         self._build()
         others = self.registry.poses_near(self.state, x_m, y_m)
         others.pop(robot_id, None)
-        self.registry.check_free(e.spec.placed(robot_id, x_m, y_m, dir_deg), others)
+        placed = e.spec.placed(robot_id, x_m, y_m, dir_deg)
+        self.registry.check_free(placed, others, shape=self.registry.shape(robot_id))
         st, i = self.state, self.registry.arrayed.index(robot_id)
         pose, out, cmd, hit, rolled = (
             st.pose.copy(),

@@ -177,3 +177,19 @@ def test_a_move_onto_a_wall_or_a_robot_or_of_no_robot_is_refused_and_changes_not
     with pytest.raises(IwError, match="no robot 99"):
         w.move(99, 1.0, 1.0, 0.0)
     assert np.array_equal(w.world.state.pose, pose)
+
+
+def test_each_moved_robot_is_checked_with_its_own_body_however_often_it_moves() -> None:
+    """A move checks the robot's own body (kept while its spec stays, not built a move): a
+    small robot fits beside the wall where the big chair does not, again and again."""
+    lab = Lab("t", 20.0, 10.0, (box_wall(9.0, 0.0, 10.0, 10.0),))
+    w = LocalWorld(lab, Grid((GridPosition(2, 5, 0), GridPosition(5, 2, 0))), seed=1)
+    big = w.add(prototype_chair("big"))
+    small = w.add(replace(prototype_chair("small"), width_m=0.3, height_m=0.3))
+    w.step_arrays(np.zeros((2, 2)), sense=False)
+    for y in (3.0, 6.0, 8.0):
+        w.move(small, 8.7, y, 0.0)  # 0.3 m from the wall: the small body's half is 0.15 m
+        with pytest.raises(IwError, match="on wall"):
+            w.move(big, 8.7, y + 1.0, 0.0)
+        w.move(big, 4.0, y, 0.0)
+    assert w.step_arrays(np.zeros((2, 2)), sense=False).pose[:, 0].tolist() == [4.0, 8.7]
