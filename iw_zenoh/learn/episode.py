@@ -71,6 +71,7 @@ class Episode:
         # nothing but learners' chairs: the world steps on arrays, no message is built
         self.fast = arrays and not self.agents and set(world.ids) == set(self.goals)
         self.arrays: ArrayStep | None = None
+        self._at: tuple[list[int], dict[int, int]] = ([], {})  # the arrays' robots, and each one's index
         self.last = self._advance({})
         self._dist = {rid: self._distance(rid) for rid in self.goals}
 
@@ -105,10 +106,11 @@ class Episode:
         }
         return s
 
-    def observe(self, rid: int) -> np.ndarray:
-        """A learner's current observation."""
+    def observe(self, rid: int, index: int | None = None) -> np.ndarray:
+        """A learner's current observation (``index``: its chair's in the arrays, when known)."""
         if self.arrays is not None:
-            return self.senses[rid].observe_arrays(self.arrays, self._index(rid), self.goals[rid])
+            i = self._index(rid) if index is None else index
+            return self.senses[rid].observe_arrays(self.arrays, i, self.goals[rid])
         return self.senses[rid].observe(self.last.readings[rid], self.last.state, self._index(rid), self.goals[rid])
 
     def step(self, actions: Mapping[int, np.ndarray]) -> dict[int, Outcome]:
@@ -122,8 +124,9 @@ class Episode:
         self.steps += 1
         return {rid: self._outcome(rid, self._distance(rid), self._collided(rid)) for rid in actions}
 
-    def _outcome(self, rid: int, dist: float, collided: bool) -> Outcome:
-        """A learner's outcome of the step just taken, from its distance to its goal and its flag."""
+    def _outcome(self, rid: int, dist: float, collided: bool, index: int | None = None) -> Outcome:
+        """A learner's outcome of the step just taken, from its distance to its goal and its flag
+        (``index``: its chair's in the arrays, when known)."""
         goal, terms = self.goals[rid], self.reward
         reached = dist < goal.within
         r = terms.progress * (self._dist[rid] - dist) + terms.time
@@ -132,13 +135,15 @@ class Episode:
         self._dist[rid] = dist
         info = {"distance": dist, "reached": reached, "collided": collided, "tick": self.world.tick}
         truncated = self.steps >= self.max_steps or self.world.stopped
-        return Outcome(self.observe(rid), float(r), reached or collided, truncated, info)
+        return Outcome(self.observe(rid, index), float(r), reached or collided, truncated, info)
 
     def _step_arrays(self, actions: Mapping[int, np.ndarray]) -> dict[int, Outcome]:
         """:meth:`step` when every robot is a learner's chair: the powers straight into the world's
         arrays (the roster cannot change: no agent adds or removes a robot), the same outcomes."""
-        ids = self.world.array_ids()
-        at = {rid: k for k, rid in enumerate(ids)}
+        ids = self.world.world.arrays()  # the world's list (a new one when the roster changes)
+        if ids is not self._at[0]:
+            self._at = (ids, {rid: k for k, rid in enumerate(ids)})
+        at = self._at[1]
         powers = np.zeros((len(ids), 2))  # a learner done (given no action) stands still
         for rid, a in actions.items():
             powers[at[rid]] = to_powers(a, self.specs[rid], self.action)
@@ -146,10 +151,11 @@ class Episode:
         self.last = _Lazy(s, self.world)  # type: ignore[assignment]
         self.steps += 1
         out: dict[int, Outcome] = {}
+        pose, collided = s.pose.tolist(), s.collided.tolist()
         for rid in actions:
             g, k = self.goals[rid], at[rid]
-            x, y = s.pose[k, :2].tolist()
-            out[rid] = self._outcome(rid, math.hypot(g.x - x, g.y - y), bool(s.collided[k]))
+            x, y, _ = pose[k]
+            out[rid] = self._outcome(rid, math.hypot(g.x - x, g.y - y), collided[k], k)
         return out
 
 

@@ -17,6 +17,7 @@ from iw_zenoh.core.world import WorldState
 __all__ = ["MAX_ROBOTS", "MAX_ROBOTS_PER_AGENT", "MAX_ROBOT_ID", "Entry", "Registry", "Refused"]
 
 MAX_ROBOT_ID = 2**31 - 1  # far below 64 bits: ids are summed, numbered on and kept in int64 arrays
+SHAPES_KEPT = 4096  # robots' bodies kept for moves and placement checks
 _REACH_M = 3 * MAX_BODY_M  # two bodies whose poses are farther apart than this cannot touch (corners: 11.2 m)
 MAX_ROBOTS = 10_000  # in one world (the largest benchmarked: 10,000 chairs)
 MAX_ROBOTS_PER_AGENT = 2_000  # registered under one agent name (a host of 1,000 chairs is benchmarked)
@@ -191,8 +192,8 @@ class Registry:
         spec = self.entries[robot_id].spec
         got = self._shapes.get(robot_id)
         if got is None or got[0] is not spec:
-            if len(self._shapes) > len(self.entries) + 64:  # robots gone: forget theirs
-                self._shapes = {rid: v for rid, v in self._shapes.items() if rid in self.entries}
+            if len(self._shapes) >= SHAPES_KEPT:  # a bounded table: start again (robots gone, a flood)
+                self._shapes = {}
             got = self._shapes[robot_id] = (spec, Bodies.from_specs([spec]))
         return got[1]
 
@@ -212,8 +213,8 @@ class Registry:
             others = [(i, q) for i, q in others if i not in self.entries or self.entries[i].spec.type != RobotType.DOOR]
         if not others:
             return None
-        ob = Bodies.from_specs([self.entries[i].spec for i, _ in others])
-        polys = shapely.polygons(ob.world_outline(np.array([q for _, q in others])))
+        # each body alone (kept while its spec stays: outlines of different lengths do not stack)
+        polys = [shapely.polygons(self.shape(i).world_outline(np.array([q])))[0] for i, q in others]
         touching = np.flatnonzero(shapely.intersects(polys, poly))
         return others[int(touching[0])][0] if len(touching) else None
 
