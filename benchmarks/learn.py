@@ -25,7 +25,10 @@ after its pass, alternately three times (13:15-13:22, a slow hour):
     vector env, 256 chairs, 2 CPUs  29,600-32,300 -> 44,500-66,600 chair-steps/s (target 100,000)
     the same on one core            29,600-32,300 -> 36,500-43,000
 
-(the vector figures: mean of 300 steps). Quiet, earlier that day, pinned: ChairNav 7,082 steps/s,
+(the vector figures: mean of 300 steps). Session 20 (the whole tick one compiled call,
+``core/fused.py``), the tree before and after alternately twice: ChairNav 4,195-4,516 ->
+6,058-7,114 steps/s, ChairNav / ir-sim 2.1-2.3 -> 2.9-4.5 (ir-sim 1,598-2,086), the vector env
+within the noise (58,700-81,600 -> 58,900-77,200 on two CPUs). Quiet, earlier that day, pinned: ChairNav 7,082 steps/s,
 ir-sim 1,868, 3.79 times; the vector env's median step on two threads 2.6-3.0 ms (85,000-98,000).
 Session 18, quiet, one core: 6,309 / 1,816 (3.47) / 38,533; session 17: 2,174 / 1,375 (1.58) /
 38,646. At one chair what is left is about a dozen compiled calls, each paying numba's argument
