@@ -4,7 +4,12 @@ from __future__ import annotations
 
 from iw_zenoh import kernel_cache
 
-kernel_cache.configure()  # before any kernel is compiled or loaded (its module doc says why)
+try:
+    kernel_cache.configure()  # before any kernel is compiled or loaded (its module doc says why)
+except Exception as e:  # noqa: BLE001 (the package must import: numba's own cache choice then)
+    import warnings
+
+    warnings.warn(f"iw_zenoh: the kernels' cache folder was not set ({e})", RuntimeWarning, stacklevel=1)
 
 __version__ = "0.1.0"
 

@@ -18,7 +18,7 @@ PACKAGE = Path(kernel_cache.__file__).resolve().parent
 
 
 def _hashed() -> set[Path]:
-    return {f for pattern in kernel_cache.SOURCES for f in PACKAGE.glob(pattern)}
+    return {PACKAGE / name for name in kernel_cache.SOURCES}
 
 
 def _kernels(tree: ast.Module) -> list[ast.FunctionDef]:
@@ -29,13 +29,13 @@ def _kernels(tree: ast.Module) -> list[ast.FunctionDef]:
     return [n for n in tree.body if isinstance(n, ast.FunctionDef) and any(compiled(d) for d in n.decorator_list)]
 
 
-def _module_file(module: str) -> Path:
-    rel = Path(*module.split(".")[1:])
-    return (
-        PACKAGE / rel.with_suffix(".py")
-        if (PACKAGE / rel.with_suffix(".py")).exists()
-        else PACKAGE / rel / "__init__.py"
-    )
+def _module_file(module: str, name: str) -> Path:
+    """The file a name imported ``from module import name`` comes from (a module of a package
+    is its own file)."""
+    rel = PACKAGE.joinpath(*module.split(".")[1:])
+    if (rel / f"{name}.py").exists():
+        return rel / f"{name}.py"
+    return rel.with_suffix(".py") if rel.with_suffix(".py").exists() else rel / "__init__.py"
 
 
 def test_every_kernel_and_what_its_body_uses_from_the_package_is_in_the_hashed_sources() -> None:
@@ -49,7 +49,7 @@ def test_every_kernel_and_what_its_body_uses_from_the_package_is_in_the_hashed_s
         found += 1
         assert f in hashed, f"{f.relative_to(PACKAGE)} has compiled kernels but is not in kernel_cache.SOURCES"
         imported = {
-            (a.asname or a.name): n.module
+            (a.asname or a.name): (n.module, a.name)
             for n in ast.walk(tree)
             if isinstance(n, ast.ImportFrom) and n.module and n.module.startswith("iw_zenoh")
             for a in n.names
@@ -57,7 +57,7 @@ def test_every_kernel_and_what_its_body_uses_from_the_package_is_in_the_hashed_s
         for k in kernels:
             used = {n.id for n in ast.walk(k) if isinstance(n, ast.Name)}
             for name in used & set(imported):
-                src = _module_file(imported[name])
+                src = _module_file(*imported[name])
                 assert src in hashed, f"{k.name} in {f.name} uses {name} of {src.relative_to(PACKAGE)}, not hashed"
     assert found >= 10  # core's kernels and learn/nav.py's
 
@@ -67,16 +67,17 @@ def test_a_change_to_a_kernels_source_gives_another_folder_and_other_files_do_no
     shutil.copytree(PACKAGE / "core", root / "core", ignore=shutil.ignore_patterns("__pycache__"))
     (root / "learn").mkdir()
     shutil.copy(PACKAGE / "learn" / "nav.py", root / "learn" / "nav.py")
-    (root / "sim").mkdir()
-    (root / "sim" / "world.py").write_text("x = 1\n")
     before = kernel_cache.fingerprint(root)
     assert before == kernel_cache.fingerprint(PACKAGE)  # the same sources, the same folder
-    (root / "sim" / "world.py").write_text("x = 2\n")
     (root / "learn" / "episode.py").write_text("y = 2\n")
+    world = root / "core" / "world.py"  # the core's Python, no kernel in it: no recompiling
+    world.write_text(world.read_text() + "\n# a change\n")
     assert kernel_cache.fingerprint(root) == before
-    drive = root / "core" / "drive.py"
-    drive.write_text(drive.read_text() + "\n# a change\n")
-    assert kernel_cache.fingerprint(root) != before
+    for name in ("core/drive.py", "learn/nav.py"):
+        f = root / name
+        f.write_text(f.read_text() + "\n# a change\n")
+        assert kernel_cache.fingerprint(root) != before, name
+        before = kernel_cache.fingerprint(root)
 
 
 def _python(code: str, env: dict[str, str]) -> str:
@@ -116,13 +117,24 @@ def test_old_folders_are_pruned_when_a_new_one_is_made_and_numba_imported_first_
     tmp_path: Path,
 ) -> None:
     base = tmp_path / "cache"
-    for i in range(5):
-        d = base / f"k-old{i}"
+    olds = [f"k-{i:016x}" for i in range(5)]
+    for i, name in enumerate(olds):
+        d = base / name
         d.mkdir(parents=True)
         os.utime(d, (1_000_000 + i, 1_000_000 + i))
-    (base / "not-a-cache").mkdir()
+    for other in ("not-a-cache", "k-means_0123abcd"):  # another project's numba folder too
+        (base / other).mkdir()
     code = "import numba; import iw_zenoh; print(numba.config.CACHE_DIR)"
-    got = _python(code, _env(NUMBA_CACHE_DIR=str(base)))
-    assert Path(got) == base / f"k-{kernel_cache.fingerprint()}"
+    got = Path(_python(code, _env(NUMBA_CACHE_DIR=str(base))))
+    assert got == base / f"k-{kernel_cache.fingerprint()}"
     left = sorted(d.name for d in base.iterdir())
-    assert left == ["k-old3", "k-old4", "not-a-cache"]  # the newest kept, the new one to come
+    assert left == sorted([olds[3], olds[4], got.name, "not-a-cache", "k-means_0123abcd"])
+
+
+def test_a_base_that_cannot_be_written_falls_back_to_the_users_cache(tmp_path: Path) -> None:
+    blocked = tmp_path / "a-file"  # not a folder: nothing can be made in it (even by root)
+    blocked.write_text("")
+    code = "import os, iw_zenoh; print(os.environ['NUMBA_CACHE_DIR'])"
+    got = Path(_python(code, _env(NUMBA_CACHE_DIR=str(blocked), XDG_CACHE_HOME=str(tmp_path / "xdg"))))
+    assert got == tmp_path / "xdg" / "iw_zenoh" / "kernels" / f"k-{kernel_cache.fingerprint()}"
+    assert got.is_dir()

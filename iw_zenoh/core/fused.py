@@ -6,8 +6,8 @@ calls, in the order the roles run them, the same compiled functions the separate
 the same values: :func:`~iw_zenoh.core.drive.propose_into` (the world's proposal),
 :func:`~iw_zenoh.core.collide._collide` (the collision check), :func:`~iw_zenoh.core.drive.commit_into`
 (the commit) and :func:`~iw_zenoh.core.read_all._read` (the sensors), so the states and readings
-are the same bit for bit (``tests/sim/test_local.py`` checks it against the separate path and
-against :meth:`~iw_zenoh.sim.local.LocalWorld.step`).
+are the same bit for bit (``tests/sim/test_local_arrays.py`` checks it against the separate path
+and against :meth:`~iw_zenoh.sim.local.LocalWorld.step`).
 
 Why: a learning environment's one chair spent about 150 us of a 190 us step in the Python
 between those four kernels (each argument converted and checked again, each intermediate result
@@ -49,7 +49,8 @@ def fixed_args(
     dt_s: float,
     gps_offset_m: tuple[float, float],
 ) -> tuple[Any, ...]:
-    """The arguments of :func:`tick` that are the same every tick of a roster in a scene.
+    """The arguments of :func:`tick` that are the same every tick of a roster in a scene, with
+    the number of robots and of normals a tick takes.
 
     Args:
         scene: The lab.
@@ -61,16 +62,20 @@ def fixed_args(
     """
     fixed = read_all._fixed(bodies)
     return (
-        table,
-        float(dt_s),
-        np.ascontiguousarray(bodies.outline, dtype=np.float64),
-        np.ascontiguousarray(wall_free, dtype=np.bool_),
-        *_scene_args(scene),
-        *read_all._walls(scene),
-        *fixed[2:],
-        float(gps_offset_m[0]),
-        float(gps_offset_m[1]),
-    )
+        bodies.n,
+        fixed[0],
+        (
+            table,
+            float(dt_s),
+            np.ascontiguousarray(bodies.outline, dtype=np.float64),
+            np.ascontiguousarray(wall_free, dtype=np.bool_),
+            *_scene_args(scene),
+            *read_all._walls(scene),
+            *fixed[2:],
+            float(gps_offset_m[0]),
+            float(gps_offset_m[1]),
+        ),
+    )  # (the robots and the normals a tick takes, to check the arrays a tick gets against)
 
 
 def tick(
@@ -93,13 +98,30 @@ def tick(
         acc: (N, 2) the encoders' counts before the tick.
         fixed: :func:`fixed_args` of the roster.
 
+    Raises:
+        ValueError: An array does not fit the roster.
+
     Returns:
         ``(pose, motor_out, rolled_m, collided, proximity_m, proximity_legacy, compass_deg,
         gps, encoder_acc, laser_m)``: the committed state's arrays, then the readings as
         :func:`~iw_zenoh.core.read_all.read_all` gives them.
     """
+    n, normals, args = fixed
     zm = _NO_NOISE if z_motion is None else np.ascontiguousarray(z_motion, dtype=np.float64)
-    return _tick(pose, prev, cmd, zm, z, acc, *fixed)  # type: ignore[no-any-return]
+    # the kernels do not check their indices (a short array would be read past its end)
+    if (
+        pose.shape != (n, 3)
+        or prev.shape != (n, 2)
+        or cmd.shape != (n, 2)
+        or acc.shape != (n, 2)
+        or z.shape != (normals,)
+        or zm.shape not in ((0, 2), (n, 2))
+    ):
+        raise ValueError(
+            f"{n} robots, {normals} normals: poses {pose.shape}, motors {prev.shape}, powers {cmd.shape}, "
+            f"encoders {acc.shape}, normals {z.shape}, movement noise {zm.shape}"
+        )
+    return _tick(pose, prev, cmd, zm, z, acc, *args)  # type: ignore[no-any-return]
 
 
 @njit(cache=True, nogil=True)

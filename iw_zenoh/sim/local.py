@@ -169,7 +169,9 @@ class LocalWorld:
         self.radio = RadioNode(sim, radio)
         self._view: WorldView | None = None
         self._scene_src: Scene | None = None  # the world's scene the view's was built from
-        self._specs: dict[int, RobotSpec] = {}  # each robot's spec as the view has it (kept while it is here)
+        # each robot's spec as the view has it, with the message it came from (kept while the world
+        # sends the same message: a robot removed and another added under its id is converted again)
+        self._specs: dict[int, tuple[RobotSpecMsg, RobotSpec]] = {}
         self.last: Step | None = None
         self._entries: tuple[int, list[Entry]] = (-1, [])  # step_arrays' robots, by revision
         #: step_arrays computes a usual tick (the native profile, every robot sensed on the
@@ -243,8 +245,12 @@ class LocalWorld:
             was, src = self._view, self.world.scene  # the world makes a new scene when its lab changes
             scene = was.scene if was is not None and src is self._scene_src else Scene(lab_from_msg(wi.lab))
             self._scene_src = src
-            self._specs = {s.id: self._specs.get(s.id) or spec_from_msg(s) for s in wi.robots}
-            self._view = WorldView(wi, scene, dict(self._specs))
+            was_specs = self._specs
+            self._specs = {
+                s.id: kept if (kept := was_specs.get(s.id)) is not None and kept[0] is s else (s, spec_from_msg(s))
+                for s in wi.robots
+            }
+            self._view = WorldView(wi, scene, {rid: spec for rid, (_, spec) in self._specs.items()})
         return self._view
 
     # --- the tick --------------------------------------------------------------------------

@@ -17,9 +17,9 @@ from iw_zenoh.core.world import WorldState
 __all__ = ["MAX_ROBOTS", "MAX_ROBOTS_PER_AGENT", "MAX_ROBOT_ID", "Entry", "Registry", "Refused"]
 
 MAX_ROBOT_ID = 2**31 - 1  # far below 64 bits: ids are summed, numbered on and kept in int64 arrays
-SHAPES_KEPT = 4096  # robots' bodies kept for moves and placement checks
 _REACH_M = 3 * MAX_BODY_M  # two bodies whose poses are farther apart than this cannot touch (corners: 11.2 m)
 MAX_ROBOTS = 10_000  # in one world (the largest benchmarked: 10,000 chairs)
+SHAPES_KEPT = MAX_ROBOTS  # robots' bodies kept for moves and placement checks (a removed one's dropped)
 MAX_ROBOTS_PER_AGENT = 2_000  # registered under one agent name (a host of 1,000 chairs is benchmarked)
 
 
@@ -263,6 +263,7 @@ class Registry:
     def remove(self, robot_id: int) -> Entry | None:
         """Removes a robot; returns it, or None if there was none."""
         e = self.entries.pop(robot_id, None)
+        self._shapes.pop(robot_id, None)
         if e is not None:
             self._stale = True
             self.per_agent[e.agent] -= 1

@@ -115,6 +115,8 @@ def test_the_fused_tick_gives_every_array_the_kernels_give_one_by_one() -> None:
             assert got.tolist() == want.tolist(), f"tick {a.tick}"
         assert _readings(a) == _readings(b), f"tick {a.tick}"
         assert one.world.state.motor_out.tolist() == apart.world.state.motor_out.tolist()
+        assert one.world.state.cmd.tolist() == apart.world.state.cmd.tolist()
+        assert (one.world.tick, one.world.steps_left) == (apart.world.tick, apart.world.steps_left)
         assert one.sensors._enc.tolist() == apart.sensors._enc.tolist()
         assert (one.world.collisions, one.stopped) == (apart.world.collisions, apart.stopped)
     assert one.world.collisions > 0
@@ -193,3 +195,23 @@ def test_each_moved_robot_is_checked_with_its_own_body_however_often_it_moves() 
             w.move(big, 8.7, y + 1.0, 0.0)
         w.move(big, 4.0, y, 0.0)
     assert w.step_arrays(np.zeros((2, 2)), sense=False).pose[:, 0].tolist() == [4.0, 8.7]
+
+
+def test_a_robot_added_under_a_removed_ones_id_is_stepped_with_its_own_body_on_both_paths() -> None:
+    """The world gives a freed id to the next robot: the view takes the new robot's spec (it kept
+    the old one by id, so step() moved and sensed the new chair with the old chair's body)."""
+    slow, fast = _world(), _world()
+    small = replace(_chair("small"), width_m=0.5, height_m=0.4)
+    for w in (slow, fast):
+        w.step()
+        w.remove(1)
+        assert w.add(small) == 1  # the freed id
+        assert w.view().specs[1].width_m == 0.5
+    g = np.random.default_rng(8)
+    for _ in range(30):
+        p = _powers(g, 2)
+        s = slow.step({rid: (float(p[i, 0]), float(p[i, 1])) for i, rid in enumerate(fast.array_ids())})
+        a = fast.step_arrays(p)
+        assert _as_message(a) == _state(s.state), f"tick {a.tick}"
+        for i, rid in enumerate(a.ids):
+            assert _reading(a, i) == _message(s.readings[rid]), f"tick {a.tick}, robot {rid}"
