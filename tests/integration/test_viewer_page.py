@@ -95,9 +95,14 @@ def test_the_page_has_no_test_hooks_unless_its_address_asks(live: tuple[Net, str
     page.close()
     page = _open(browser, url)  # ?hooks=1
     assert page.evaluate("typeof window.iwz.toScreen") == "function"
-    # names, not letters; waited for, as a busy machine may show them held while collision catches up
-    page.wait_for_function("window.iwz.robots().every((r) => r.state === 'driving')", timeout=WAIT_MS)
-    assert page.evaluate("window.iwz.robots().map((r) => r.state)") == ["driving", "driving"]
+    # names, not letters; waited for, as a busy machine may show them held while collision catches
+    # up (and taken from the same moment: a second look may catch the next late verdict)
+    states = page.wait_for_function(
+        "(() => { const s = window.iwz.robots().map((r) => r.state);"
+        f" return s.length === {len(CHAIRS)} && s.every((x) => x === 'driving') ? s : null; }})()",
+        timeout=WAIT_MS,
+    ).json_value()
+    assert states == ["driving", "driving"]
     page.close()
 
 
