@@ -111,16 +111,22 @@ class SerialBridge:
             log.write(CSV_HEADER)
 
     def register(self) -> int:
-        """Registers the chair; returns its robot id."""
-        self.robot_id = self.host.add(_Chair(self))
+        """Registers the chair; returns its robot id.
+
+        The serial loop (another thread) publishes the chair's readings once ``robot_id`` is set,
+        so it is set last: an operator who sees the first reading and presses e-stop at once must
+        find the control inbox already declared, not lose the e-stop in between.
+        """
+        rid = self.host.add(_Chair(self))
         io = self.host.io
-        self.actions = io.inbox(keys.actions(self.sim, self.robot_id))
+        self.actions = io.inbox(keys.actions(self.sim, rid))
         self.control = io.inbox(keys.control(self.sim))
-        return self.robot_id
+        self.robot_id = rid
+        return rid
 
     def _inputs(self, now: float) -> None:
         io = self.host.io
-        if self.actions is None or self.control is None:
+        if not self.robot_id or self.actions is None or self.control is None:
             return  # not registered yet: the chair is held at zero
         for d in self.actions.drain():
             a = io.decode(d, Actions)
