@@ -105,29 +105,35 @@ class SerialBridge:
         self._published = -1e9  # when the last chair reading went out
         self.ticked = False  # a tick came since (the agent host's thread sets it)
         self._last_sent: Message | None = None
-        self.actions: Inbox | None = None  # once registered
-        self.control: Inbox | None = None
+        self.actions: Inbox | None = None  # before asking for the chair's id (once it is known, for 0)
+        # an operator's e-stop may come the moment anything of the chair shows (its link event
+        # comes before its registration): the control key is heard from the start
+        self.control: Inbox = self.host.io.inbox(keys.control(sim))
         if log is not None:
             log.write(CSV_HEADER)
 
     def register(self) -> int:
         """Registers the chair; returns its robot id.
 
-        The serial loop (another thread) publishes the chair's readings once ``robot_id`` is set,
-        so it is set last: an operator who sees the first reading and presses e-stop at once must
-        find the control inbox already declared, not lose the e-stop in between.
+        Its inboxes exist before anything of it shows: the control key's from the start, its
+        actions' before the world is asked when the id is asked for (the world's ``registered``
+        event and the chair's agent may come before the answer). The serial loop (another
+        thread) publishes the chair's readings once ``robot_id`` is set, so it is set last: an
+        operator who sees the first reading and presses e-stop at once finds it heard.
         """
-        rid = self.host.add(_Chair(self))
         io = self.host.io
-        self.actions = io.inbox(keys.actions(self.sim, rid))
-        self.control = io.inbox(keys.control(self.sim))
+        if self.spec.id > 0:  # the world gives the id asked for
+            self.actions = io.inbox(keys.actions(self.sim, self.spec.id))
+        rid = self.host.add(_Chair(self))
+        if rid != self.spec.id:  # 0 asked: the actions' key is known now
+            self.actions = io.inbox(keys.actions(self.sim, rid))
         self.robot_id = rid
         return rid
 
     def _inputs(self, now: float) -> None:
         io = self.host.io
-        if not self.robot_id or self.actions is None or self.control is None:
-            return  # not registered yet: the chair is held at zero
+        if not self.robot_id or self.actions is None:
+            return  # not registered yet: the chair is held at zero (what came waits in the inboxes)
         for d in self.actions.drain():
             a = io.decode(d, Actions)
             if a is not None and a.robot_id == self.robot_id:

@@ -2,27 +2,43 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
+import pytest
+
 from bridges.serial.board import chair_spec
 from bridges.serial.node import SerialBridge
 from iw_zenoh import keys
-from iw_zenoh.bus import Inbox
+from iw_zenoh.bus import Handle, Inbox
 from iw_zenoh.viewer.sources import LocalBus
 
 
-def test_the_control_inbox_is_declared_before_any_reading_can_go_out() -> None:
+@pytest.mark.parametrize("asked", [7, 0])
+def test_every_inbox_is_declared_before_anything_of_the_chair_shows(asked: int) -> None:
     """The serial loop publishes the chair's readings as soon as ``robot_id`` is set. Set before
     the control inbox was declared, an operator who saw the first reading and pressed e-stop at
-    once lost it (CI caught it: no e-stop in 5 s). Every inbox must exist before the id does."""
-    bridge = SerialBridge(LocalBus(Inbox()), "t", "serial-test", port="loop://", spec=chair_spec("chair"))
-    bridge.host.add = lambda agent, **_: 7  # type: ignore[method-assign]  # the world's answer
-    seen: list[tuple[str, int]] = []
-    inbox = bridge.host.io.inbox
+    once lost it (CI caught it: no e-stop in 5 s). The control key is heard from the start (the
+    chair's link event comes before its registration); its actions' key before the world is
+    asked when the id is asked for, else before the id is set."""
+    added = False  # whether the world was asked yet
+    declared: dict[str, tuple[bool, int]] = {}  # key: (asked yet, the bridge's robot_id then)
+    bus = LocalBus(Inbox())
+    bridge: SerialBridge | None = None
+    subscribe = bus.subscribe
 
-    def declare(key: str, *args: object, **kwargs: object) -> Inbox:
-        seen.append((key, bridge.robot_id))
-        return inbox(key, *args, **kwargs)  # type: ignore[arg-type]
+    def watched(key: str, inbox: Inbox, *, ordered: bool = False) -> Handle:
+        declared[key] = (added, bridge.robot_id if bridge is not None else 0)
+        return subscribe(key, inbox, ordered=ordered)
 
-    bridge.host.io.inbox = declare  # type: ignore[method-assign,assignment]
-    assert bridge.register() == 7
-    assert bridge.robot_id == 7
-    assert sorted(seen) == sorted([(keys.actions("t", 7), 0), (keys.control("t"), 0)])
+    def add(agent: object, **_: object) -> int:  # the world: the id asked for, else 9
+        nonlocal added
+        added = True
+        return asked or 9
+
+    bus.subscribe = watched  # type: ignore[method-assign,assignment]
+    bridge = SerialBridge(bus, "t", "serial-test", port="loop://", spec=replace(chair_spec("chair"), id=asked))
+    bridge.host.add = add  # type: ignore[method-assign]
+    rid = bridge.register()
+    assert rid == bridge.robot_id == (asked or 9)
+    assert declared[keys.control("t")] == (False, 0)
+    assert declared[keys.actions("t", rid)] == (asked == 0, 0)
