@@ -213,6 +213,8 @@ class AgentHost:
         early = None
         if asked.id > 0 and not self.batched and asked.id not in self._subscribed:
             early = self._subscribe_sensors(asked.id)
+        elif asked.id == 0 and not self.batched:  # the id is the world's to choose: every robot's, until it is known
+            early = self.io.bus.subscribe(keys.all_sensors(self.sim), self.readings)
         reg = self._ask(req, timeout_s)
         try:
             reply = reg.reply()
@@ -229,6 +231,10 @@ class AgentHost:
                 f"is `iwz world` running with --sim {self.sim}? (secured: does the policy name {self.name!r} an agent?)"
             )
         if early is not None and (not reply.ok or reply.robot_id != asked.id):
+            if reply.ok and asked.id == 0 and reply.robot_id not in self._subscribed:
+                # its own key before every robot's is dropped: a reading between the two is
+                # delivered twice at most (a tick's second copy counts once, _take)
+                self._subscribed[reply.robot_id] = self._subscribe_sensors(reply.robot_id)
             early.undeclare()
             early = None
         if not reply.ok or spec is None:

@@ -1,0 +1,66 @@
+"""An agent host listens for its robot's readings before it asks the world for the robot: the
+world expects the robot's answer from the first tick after accepting it (in lock-step it waits
+for it), so a reading published before a subscription made after the answer would be lost and
+the world would wait out its whole timeout (a laggard, and a run that no longer replays)."""
+
+from __future__ import annotations
+
+import pytest
+
+from iw_zenoh import keys
+from iw_zenoh.agent import AgentHost
+from iw_zenoh.agent.hosting import Command
+from iw_zenoh.bus import Asked, Handle, Inbox
+from iw_zenoh.core.spec import RobotSpec
+from iw_zenoh.messages import Heard, LabMsg, RegisterReply, RobotSpecMsg, SensorReading, WorldInfo, encode
+from tests.support.fakes import FakeBus
+
+
+class _Agent:
+    def __init__(self, rid: int) -> None:
+        self.rid = rid
+
+    def spec(self) -> RobotSpec:
+        return RobotSpec("fwd", id=self.rid)
+
+    def on_sensors(self, reading: SensorReading, heard: list[Heard]) -> Command:
+        return Command(0.0, 0.0)
+
+
+class _Subscription:
+    def __init__(self, bus: _Watching, key: str) -> None:
+        self.bus, self.key = bus, key
+
+    def undeclare(self) -> None:
+        self.bus.live.discard(self.key)
+
+
+class _Watching(FakeBus):
+    """Keeps the keys subscribed now, and those subscribed when the world was asked."""
+
+    def __init__(self, given: int) -> None:
+        super().__init__()
+        self.live: set[str] = set()
+        self.when_asked: set[str] = set()
+        spec = RobotSpecMsg(name="fwd", id=given, x_m=1.0, y_m=1.0)
+        self.answer = lambda key, payload: [encode(RegisterReply(tick=5, ok=True, robot_id=given, spec=spec))]
+        self.info = [encode(WorldInfo(tick=5, revision=1, lab=LabMsg(name="l", width=5, height=5), period_ns=1))]
+
+    def subscribe(self, key_expr: str, inbox: Inbox, *, ordered: bool = False) -> Handle:
+        self.live.add(key_expr)
+        return _Subscription(self, key_expr)
+
+    def ask(self, key: str, payload: bytes = b"", timeout_s: float = 2.0) -> Asked:
+        self.when_asked = set(self.live)
+        return super().ask(key, payload, timeout_s)
+
+
+@pytest.mark.parametrize(("asked", "given"), [(3, 3), (0, 7)])
+def test_the_robots_readings_are_heard_from_before_it_is_asked_for(asked: int, given: int) -> None:
+    bus = _Watching(given)
+    host = AgentHost(bus, "t", "host")
+    assert host.add(_Agent(asked), timeout_s=1.0) == given
+    # an id asked for: its own key; 0 (the world chooses): every robot's, until the answer says which
+    assert (keys.sensors("t", asked) if asked else keys.all_sensors("t")) in bus.when_asked
+    assert keys.sensors("t", given) in bus.live
+    assert keys.all_sensors("t") not in bus.live  # every robot's readings: only while the id was unknown
