@@ -8,7 +8,16 @@ import pytest
 
 from iw_zenoh import keys
 from iw_zenoh.messages import Event, Hear, RobotSpecMsg, Say, WorldState, decode, encode
-from tests.integration.harness import Net, register, start_world, subscribe, wait_event, wait_msg, watch
+from tests.integration.harness import (
+    Net,
+    register,
+    start_world,
+    subscribe,
+    wait_alive,
+    wait_event,
+    wait_msg,
+    watch,
+)
 
 pytestmark = [pytest.mark.zenoh, pytest.mark.timeout(120)]
 
@@ -28,6 +37,8 @@ def test_radio_delivers_within_range_and_enforces_byte_limits(net: Net) -> None:
     assert all(r.ok for r in regs.values()), {n: r.reason for n, r in regs.items()}
     ids = {n: r.robot_id for n, r in regs.items()}
     wait_msg(states, WorldState, lambda m: len(m.ids) == len(xs))
+    # the radio is the only subscriber of say: a state says nothing of it (its token comes after its inboxes)
+    wait_alive(bus, keys.alive(net.sim, "radio", "radio"))
 
     bus.publish(keys.say(net.sim, ids["a"]), encode(Say(robot_id=ids["a"], text="hello")))
     heard = {}
@@ -72,6 +83,7 @@ def test_malformed_messages_are_dropped_with_an_event_and_nothing_else_changes(n
     net.spawn("agent", "waypoint", "--waypoints", "35,5", "--start", "3,5,0", "--name", "driver")
     first = wait_msg(states, WorldState, lambda m: len(m.ids) == 1 and m.speed[0] > 0.05 and not m.held)
     rid = first.ids[0]
+    wait_alive(bus, keys.alive(net.sim, "radio", "radio"))  # say's only subscriber: a moving chair says nothing of it
     targets = [
         keys.actions(net.sim, rid),
         keys.pose_report(net.sim, rid),
