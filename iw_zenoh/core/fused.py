@@ -50,7 +50,7 @@ def fixed_args(
     gps_offset_m: tuple[float, float],
 ) -> tuple[Any, ...]:
     """The arguments of :func:`tick` that are the same every tick of a roster in a scene, with
-    the number of robots and of normals a tick takes.
+    the number of robots and of normals a tick takes, and the sizes of its readings.
 
     Args:
         scene: The lab.
@@ -75,7 +75,8 @@ def fixed_args(
             float(gps_offset_m[0]),
             float(gps_offset_m[1]),
         ),
-    )  # (the robots and the normals a tick takes, to check the arrays a tick gets against)
+        (len(bodies.ir_owner), int(bodies.lasers.first[len(bodies.lasers.owner)])),
+    )  # (robots and normals: to check a tick's arrays against; proximity sensors and beams: its readings' sizes)
 
 
 def tick(
@@ -106,7 +107,7 @@ def tick(
         gps, encoder_acc, laser_m)``: the committed state's arrays, then the readings as
         :func:`~iw_zenoh.core.read_all.read_all` gives them.
     """
-    n, normals, args = fixed
+    n, normals, args, (m, beams) = fixed
     zm = _NO_NOISE if z_motion is None else np.ascontiguousarray(z_motion, dtype=np.float64)
     # the kernels do not check their indices (a short array would be read past its end)
     if (
@@ -121,7 +122,14 @@ def tick(
             f"{n} robots, {normals} normals: poses {pose.shape}, motors {prev.shape}, powers {cmd.shape}, "
             f"encoders {acc.shape}, normals {z.shape}, movement noise {zm.shape}"
         )
-    return _tick(pose, prev, cmd, zm, z, acc, *args)  # type: ignore[no-any-return]
+    # the results go into arrays made here: a kernel's returned array costs about a microsecond
+    # to hand back to Python (numba boxes it), and a tick gives ten
+    out = (
+        np.empty((n, 3)), np.empty((n, 2)), np.empty((n, 2)), np.empty(n, dtype=np.bool_),
+        np.empty(m), np.empty(m), np.empty(n), np.empty((n, 3)), np.empty((n, 2)), np.empty(beams),
+    )  # fmt: skip
+    _tick(pose, prev, cmd, zm, z, acc, *args, *out)
+    return out
 
 
 @njit(cache=True, nogil=True)
@@ -138,6 +146,7 @@ def _tick(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
     compass_mean, compass_std, gps_mean, gps_std, heading_mean, heading_std,
     slip_mean, slip_std, ticks_per_m,
     off_x, off_y,
+    pose2, out2, rolled2, hit, o_prox, o_legacy, o_compass, o_gps, o_enc, o_laser,
 ):  # fmt: skip  # noqa: ANN001  # pragma: no cover
     n = pose.shape[0]
     # the world's proposal (world.propose: native profile, no report)
@@ -148,8 +157,7 @@ def _tick(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
     _collide(
         outline, pose, nxt, _EVERY, wall_free, True, flags, c_segs, c_first, c_count, c_box, c_start, c_items, c_frame
     )
-    # the commit (world.commit_flags: nobody held)
-    pose2, out2, rolled2, hit = np.empty((n, 3)), np.empty((n, 2)), np.empty((n, 2)), np.empty(n, dtype=np.bool_)
+    # the commit (world.commit_flags: nobody held), into the caller's arrays
     commit_into(pose, prev, nxt, out, rolled, flags[0], _NO_HOLD, False, pose2, out2, rolled2, hit)
     # the sensors at the committed poses (read_all._read)
     prox, legacy, compass, gps, encoders, laser_m = _read(
@@ -165,4 +173,9 @@ def _tick(  # type: ignore[no-untyped-def]  # noqa: ANN202, PLR0913
         slip_mean, slip_std, ticks_per_m,
         z, acc, rolled2, off_x, off_y,
     )  # fmt: skip
-    return pose2, out2, rolled2, hit, prox, legacy, compass, gps, encoders, laser_m
+    o_prox[:] = prox
+    o_legacy[:] = legacy
+    o_compass[:] = compass
+    o_gps[:] = gps
+    o_enc[:] = encoders
+    o_laser[:] = laser_m

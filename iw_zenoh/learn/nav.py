@@ -234,14 +234,23 @@ def _slices(bodies: Bodies) -> tuple[list[int], list[int], list[int], list[int]]
     )
 
 
+_PAIR = (2,)
+_FLOATS = (np.dtype(np.float32), np.dtype(np.float64))
+
+
 def to_powers(action: np.ndarray, spec: RobotSpec, mode: str) -> tuple[float, float]:
     """Wheel powers (left, right) for an action in ``[-1, 1]^2`` (see the module doc).
 
     Raises:
         ValueError: An unknown ``mode``.
     """
-    # clamped as Python floats: np.clip's value (NaN kept, -0.0 kept) without its wrappers' cost
-    a = [min(max(x, -1.0), 1.0) for x in np.asarray(action, dtype=np.float64).reshape(2).tolist()]
+    # clamped as Python floats: np.clip's value (NaN kept, -0.0 kept) without its wrappers' cost;
+    # a float array of two (what a policy gives) straight to floats (float32's are exact in float64)
+    if type(action) is np.ndarray and action.shape == _PAIR and action.dtype in _FLOATS:
+        a0, a1 = action.tolist()
+    else:
+        a0, a1 = np.asarray(action, dtype=np.float64).reshape(2).tolist()
+    a = (min(max(a0, -1.0), 1.0), min(max(a1, -1.0), 1.0))
     if mode == "wheels":
         return float(a[0] * MAX_POWER), float(a[1] * MAX_POWER)
     if mode != "vw":

@@ -38,10 +38,12 @@ def _bits(x: float) -> str:
     return "nan" if x != x else float(x).hex()
 
 
-@given(st.tuples(ACTION, ACTION), st.sampled_from(["vw", "wheels"]))
-def test_to_powers_is_the_numpy_clamp_bit_for_bit(action: tuple[float, float], mode: str) -> None:
+@given(st.tuples(ACTION, ACTION), st.sampled_from(["vw", "wheels"]), st.sampled_from(["f32", "f64", "list", "2x1"]))
+def test_to_powers_is_the_numpy_clamp_bit_for_bit(action: tuple[float, float], mode: str, given_as: str) -> None:
+    """Whatever form the action comes in: the float arrays a policy gives take a shorter path."""
     a = np.asarray(action, dtype=np.float32)
-    assert [_bits(x) for x in to_powers(a, CHAIR, mode)] == [_bits(x) for x in _old_to_powers(a, mode)]
+    shaped = {"f32": a, "f64": a.astype(np.float64), "list": a.tolist(), "2x1": a.reshape(2, 1)}[given_as]
+    assert [_bits(x) for x in to_powers(shaped, CHAIR, mode)] == [_bits(x) for x in _old_to_powers(a, mode)]  # type: ignore[arg-type]
 
 
 def _old_vector(prox: np.ndarray, laser: np.ndarray, compass_deg: float, pose: tuple[float, float, float],
