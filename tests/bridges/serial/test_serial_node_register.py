@@ -10,6 +10,7 @@ from bridges.serial.board import chair_spec
 from bridges.serial.node import SerialBridge
 from iw_zenoh import keys
 from iw_zenoh.bus import Handle, Inbox
+from iw_zenoh.messages import Control, encode
 from iw_zenoh.viewer.sources import LocalBus
 
 
@@ -37,8 +38,30 @@ def test_every_inbox_is_declared_before_anything_of_the_chair_shows(asked: int) 
 
     bus.subscribe = watched  # type: ignore[method-assign,assignment]
     bridge = SerialBridge(bus, "t", "serial-test", port="loop://", spec=replace(chair_spec("chair"), id=asked))
+    assert keys.control("t") in declared  # on building the bridge: before its serial thread can start
     bridge.host.add = add  # type: ignore[method-assign]
     rid = bridge.register()
     assert rid == bridge.robot_id == (asked or 9)
     assert declared[keys.control("t")] == (False, 0)
     assert declared[keys.actions("t", rid)] == (asked == 0, 0)
+
+
+def test_an_e_stop_sent_before_the_chair_is_registered_acts_once_it_is() -> None:
+    """What comes on world/control before the id is known waits: the chair's own e-stop latches
+    once the id is set, another robot's never does."""
+    bus = LocalBus(Inbox())
+    bridge = SerialBridge(bus, "t", "serial-test", port="loop://", spec=replace(chair_spec("chair"), id=7))
+    bridge.host.add = lambda agent, **_: 7  # type: ignore[method-assign]
+    bus.publish(keys.control("t"), encode(Control(command="estop", robot_id=8)))
+    bridge._inputs(0.0)  # not registered: nothing taken
+    assert not bridge.core.estop
+    bus.publish(keys.control("t"), encode(Control(command="estop", robot_id=7)))
+    bridge.register()
+    bridge._inputs(0.0)
+    assert bridge.core.estop  # its own, sent before it was registered
+    other = SerialBridge(LocalBus(Inbox()), "t", "serial-other", port="loop://", spec=replace(chair_spec("c"), id=9))
+    other.host.add = lambda agent, **_: 9
+    other.host.io.bus.publish(keys.control("t"), encode(Control(command="estop", robot_id=8)))
+    other.register()
+    other._inputs(0.0)
+    assert not other.core.estop  # another robot's e-stop
