@@ -230,10 +230,16 @@ class AgentHost:
                 f"no world answered on {reg.key} within {timeout_s:g} s; "
                 f"is `iwz world` running with --sim {self.sim}? (secured: does the policy name {self.name!r} an agent?)"
             )
+        if reply.ok and (reply.robot_id < 1 or spec is None):  # a world's answer names its robot and spec
+            if early is not None:
+                early.undeclare()
+            raise RegistrationRefused(f"the answer on {reg.key} accepts the robot but names no id or spec")
         if early is not None and (not reply.ok or reply.robot_id != asked.id):
             if reply.ok and asked.id == 0 and reply.robot_id not in self._subscribed:
                 # its own key before every robot's is dropped: a reading between the two is
-                # delivered twice at most (a tick's second copy counts once, _take)
+                # delivered twice at most (a tick's second copy counts once, _take; the two
+                # deliver on threads of their own, so a sensors' correction of a tick inside this
+                # window could be overtaken by its first copy)
                 self._subscribed[reply.robot_id] = self._subscribe_sensors(reply.robot_id)
             early.undeclare()
             early = None

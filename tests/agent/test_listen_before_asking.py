@@ -8,7 +8,7 @@ from __future__ import annotations
 import pytest
 
 from iw_zenoh import keys
-from iw_zenoh.agent import AgentHost
+from iw_zenoh.agent import AgentHost, RegistrationRefused
 from iw_zenoh.agent.hosting import Command
 from iw_zenoh.bus import Asked, Handle, Inbox
 from iw_zenoh.core.spec import RobotSpec
@@ -64,3 +64,14 @@ def test_the_robots_readings_are_heard_from_before_it_is_asked_for(asked: int, g
     assert (keys.sensors("t", asked) if asked else keys.all_sensors("t")) in bus.when_asked
     assert keys.sensors("t", given) in bus.live
     assert keys.all_sensors("t") not in bus.live  # every robot's readings: only while the id was unknown
+
+
+@pytest.mark.parametrize("asked", [3, 0])
+def test_an_answer_that_accepts_no_robot_is_refused_and_nothing_stays_subscribed(asked: int) -> None:
+    """A world's "ok" names the robot: an answer of robot 0 (none) is not one, and the
+    subscription made before asking goes with the refusal."""
+    bus = _Watching(0)
+    host = AgentHost(bus, "t", "host")
+    with pytest.raises(RegistrationRefused, match="names no id"):
+        host.add(_Agent(asked), timeout_s=1.0)
+    assert not [k for k in bus.live if k.endswith("/sensors")]
