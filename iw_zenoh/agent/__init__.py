@@ -44,7 +44,7 @@ from iw_zenoh import keys
 from iw_zenoh.agent.hooks import AttachTo, DrivesNow, OnChair, OnDrive, OnRegistered, OnState, attached_to
 from iw_zenoh.agent.hosting import Command, InlineAnswers, Outbox, WorldRegistration
 from iw_zenoh.agent.places import point_arg, points_arg, pose_arg
-from iw_zenoh.bus import Asked, Bus, Handle, Inbox
+from iw_zenoh.bus import Asked, Bus, Delivery, Handle, Inbox
 from iw_zenoh.convert import spec_from_msg, spec_to_msg
 from iw_zenoh.core.modes import Mode
 from iw_zenoh.core.motor import MAX_POWER
@@ -210,11 +210,12 @@ class AgentHost:
         # listen before asking when the id is known: in lock-step the world waits for this robot
         # from the first tick after it is accepted, and readings published before a subscription
         # made after the answer would be lost (the world then waits out its whole timeout)
-        early = None
+        early, early_box = None, None
         if asked.id > 0 and not self.batched and asked.id not in self._subscribed:
             early = self._subscribe_sensors(asked.id)
         elif asked.id == 0 and not self.batched:  # the id is the world's to choose: every robot's, until it is known
-            early = self.io.bus.subscribe(keys.all_sensors(self.sim), self.readings)
+            early_box = Inbox()  # apart, taken before the robot's own key's (see below); wakes nobody
+            early = self.io.bus.subscribe(keys.all_sensors(self.sim), early_box)
         reg = self._ask(req, timeout_s)
         try:
             reply = reg.reply()
@@ -236,10 +237,7 @@ class AgentHost:
             raise RegistrationRefused(f"the answer on {reg.key} accepts the robot but names no id or spec")
         if early is not None and (not reply.ok or reply.robot_id != asked.id):
             if reply.ok and asked.id == 0 and reply.robot_id not in self._subscribed:
-                # its own key before every robot's is dropped: a reading between the two is
-                # delivered twice at most (a tick's second copy counts once, _take; the two
-                # deliver on threads of their own, so a sensors' correction of a tick inside this
-                # window could be overtaken by its first copy)
+                # its own key before every robot's is dropped, so no reading falls between them
                 self._subscribed[reply.robot_id] = self._subscribe_sensors(reply.robot_id)
             early.undeclare()
             early = None
@@ -253,6 +251,15 @@ class AgentHost:
                 except DecodeError as e:
                     self.io.bad_message(keys.info(self.sim), e)
         self.hosted[reply.robot_id] = _Hosted(agent, reply.robot_id, spec)
+        if early_box is not None:
+            # what every robot's key brought of this one, taken before anything its own key
+            # brought (the host's loop drains those later): the two subscriptions deliver on
+            # threads of their own, and a tick's reading and the sensors' correction of it, taken
+            # in the wrong order, would leave the first as the tick's (a copy delivered by both
+            # is taken twice: a tick counts once, _take)
+            for d in early_box.drain():
+                if keys.robot_id_of(d[0]) == reply.robot_id:
+                    self._reading_in(d, self.hosted[reply.robot_id])
         if early is not None:
             self._subscribed[reply.robot_id] = early
         elif not self.batched and reply.robot_id not in self._subscribed:
@@ -454,13 +461,8 @@ class AgentHost:
         for d in self.readings.drain():
             rid = self._robot_of_key.get(d[0]) or keys.robot_id_of(d[0])
             h = self.hosted.get(rid) if rid is not None else None
-            if h is None:
-                continue
-            r = self.io.decode(d, SensorReading)
-            if r is not None and r.robot_id != rid:
-                self.io.bad_message(d[0], ProtocolError(f"a reading of robot {r.robot_id} on robot {rid}'s key"))
-            elif r is not None and self._in_window(d[0], r.tick):
-                self._take(h, r)
+            if h is not None:
+                self._reading_in(d, h)
         if self.batches is not None:
             for d in self.batches.drain():
                 try:  # only this host's robots' readings are decoded
@@ -471,6 +473,14 @@ class AgentHost:
                 if mine and self._in_window(d[0], max(r.tick for r in mine)):
                     for r in mine:
                         self._take(self.hosted[r.robot_id], r)
+
+    def _reading_in(self, d: Delivery, h: _Hosted) -> None:
+        """A delivery on hosted robot ``h``'s sensors key: decoded, checked, taken."""
+        r = self.io.decode(d, SensorReading)
+        if r is not None and r.robot_id != h.robot_id:
+            self.io.bad_message(d[0], ProtocolError(f"a reading of robot {r.robot_id} on robot {h.robot_id}'s key"))
+        elif r is not None and self._in_window(d[0], r.tick):
+            self._take(h, r)
 
     def _take(self, h: _Hosted, r: SensorReading) -> None:
         """Keeps a robot's newest reading and counts the tick's fresh ones; a second reading of a
