@@ -209,10 +209,12 @@ def test_the_agent_host_stops_listening_for_robots_the_world_removed() -> None:
         host.removed.put((keys.event("t", EventKind.REMOVED), encode(removed), 0))
         host.step(timeout_s=0)
         assert len(host._subscribed) == len(host.hosted) == 0
-    sensors = [k for k in bus.subscribed if k.endswith("/sensors")]
+    every = keys.all_sensors("t")  # heard while a robot's id is the world's to choose (asked 0)
+    sensors = [k for k in bus.subscribed if k.endswith("/sensors") and k != every]
     assert len(sensors) == COMERS - 1
+    assert bus.subscribed.count(every) == COMERS - 1
     assert host._robot_of_key == {}  # nor is any robot's sensors key kept
-    assert sorted(bus.undeclared) == sorted(sensors)  # each robot's subscription given up, once
+    assert sorted(bus.undeclared) == sorted([*sensors, *[every] * (COMERS - 1)])  # each given up, once
 
 
 def test_the_agent_host_keeps_a_bounded_count_of_ticks_it_cannot_answer_yet() -> None:
