@@ -31,9 +31,11 @@ after its pass, alternately three times (13:15-13:22, a slow hour):
 within the noise (58,700-81,600 -> 58,900-77,200 on two CPUs). Quiet, earlier that day, pinned: ChairNav 7,082 steps/s,
 ir-sim 1,868, 3.79 times; the vector env's median step on two threads 2.6-3.0 ms (85,000-98,000).
 Session 18, quiet, one core: 6,309 / 1,816 (3.47) / 38,533; session 17: 2,174 / 1,375 (1.58) /
-38,646. At one chair what is left is about a dozen compiled calls, each paying numba's argument
-handling, and the Python between them; at 256 chairs, the kernels (about 60 % of a step on one
-core), the collision check, the noise's draws and the Python around them.
+38,646. Session 21 (results into arrays passed in, ``to_powers`` shorter), three runs in a slow
+hour: ChairNav 6,004-7,041 steps/s, ir-sim 1,083-1,466, ratio 4.8-5.7; vector env 50,000-61,000
+(median 57,000-72,600) on two CPUs. At one chair what is left is the Python around one
+compiled call (~100 lines, none above 5 % of a step); at 256 chairs, the kernels (about 60 %
+of a step on one core), the collision check, the noise's draws and the Python around them.
 """
 
 from __future__ import annotations
