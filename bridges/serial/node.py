@@ -57,6 +57,11 @@ class _Chair:
         """The chair, a Real robot."""
         return self.bridge.spec
 
+    def on_registered(self, robot_id: int, spec: RobotSpec) -> None:
+        """The world's id for the chair: at its registration, and at each one anew (a chair the
+        world removed is registered again by the host, and with no id asked it may get another)."""
+        self.bridge.take_id(robot_id)
+
     def on_sensors(self, reading: SensorReading, heard: list[Heard]) -> Command:
         """The odometry pose, no actions (the chair's agent commands it)."""
         with self.bridge.lock:
@@ -106,6 +111,8 @@ class SerialBridge:
         self.ticked = False  # a tick came since (the agent host's thread sets it)
         self._last_sent: Message | None = None
         self.actions: Inbox | None = None  # before asking for the chair's id (once it is known, for 0)
+        self._actions_id = 0  # the robot whose actions self.actions hears
+        self._old_actions: list[Inbox] = []  # those of an id the chair had before: emptied, never obeyed
         # an operator's e-stop may come the moment anything of the chair shows (its link event
         # comes before its registration): the control key is heard from the start
         self.control: Inbox = self.host.io.inbox(keys.control(sim))
@@ -121,19 +128,31 @@ class SerialBridge:
         thread) publishes the chair's readings once ``robot_id`` is set, so it is set last: an
         operator who sees the first reading and presses e-stop at once finds it heard.
         """
-        io = self.host.io
         if self.spec.id > 0:  # the world gives the id asked for
-            self.actions = io.inbox(keys.actions(self.sim, self.spec.id))
+            self._hear_actions(self.spec.id)
         rid = self.host.add(_Chair(self))
-        if rid != self.spec.id:  # 0 asked: the actions' key is known now
-            self.actions = io.inbox(keys.actions(self.sim, rid))
-        self.robot_id = rid
+        self.take_id(rid)  # (as on_registered did, for a host that calls it)
         return rid
+
+    def take_id(self, rid: int) -> None:
+        """Makes ``rid`` the chair's robot id: its actions heard first, then the id set (the
+        serial loop publishes the chair's readings, and obeys controls, for the id set)."""
+        self._hear_actions(rid)
+        self.robot_id = rid
+
+    def _hear_actions(self, rid: int) -> None:
+        if rid != self._actions_id:
+            if self.actions is not None:
+                self._old_actions.append(self.actions)
+            self.actions = self.host.io.inbox(keys.actions(self.sim, rid))
+            self._actions_id = rid
 
     def _inputs(self, now: float) -> None:
         io = self.host.io
         if not self.robot_id or self.actions is None:
             return  # not registered yet: the chair is held at zero (what came waits in the inboxes)
+        for old in self._old_actions:  # a former id's: another robot's now, or nobody's
+            old.drain()
         for d in self.actions.drain():
             a = io.decode(d, Actions)
             if a is not None and a.robot_id == self.robot_id:

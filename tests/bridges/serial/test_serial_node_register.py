@@ -7,10 +7,10 @@ from dataclasses import replace
 import pytest
 
 from bridges.serial.board import chair_spec
-from bridges.serial.node import SerialBridge
+from bridges.serial.node import SerialBridge, _Chair
 from iw_zenoh import keys
 from iw_zenoh.bus import Handle, Inbox
-from iw_zenoh.messages import Control, encode
+from iw_zenoh.messages import Actions, Control, encode
 from iw_zenoh.viewer.sources import LocalBus
 
 
@@ -65,3 +65,29 @@ def test_an_e_stop_sent_before_the_chair_is_registered_acts_once_it_is() -> None
     other.register()
     other._inputs(0.0)
     assert not other.core.estop  # another robot's e-stop
+
+
+def test_a_chair_registered_again_under_another_id_answers_to_that_id() -> None:
+    """With no id asked, a chair the world removed and the host registered again may get another
+    id (the host tells the agent: on_registered). The bridge then obeys that id's actions and
+    e-stops, and its former id's no more: before, it kept its first id, and an operator's e-stop
+    for the chair's new id was ignored."""
+    bus = LocalBus(Inbox())
+    bridge = SerialBridge(bus, "t", "serial-test", port="loop://", spec=replace(chair_spec("chair"), id=0))
+
+    def add(agent: _Chair, **_: object) -> int:  # the world gives 3, and the host says so
+        agent.on_registered(3, bridge.spec)
+        return 3
+
+    bridge.host.add = add  # type: ignore[assignment,method-assign]
+    assert bridge.register() == 3
+    _Chair(bridge).on_registered(5, bridge.spec)  # removed, registered again: robot 5
+    assert bridge.robot_id == 5
+    bus.publish(keys.actions("t", 3), encode(Actions(robot_id=3, left=0.1, right=0.1)))
+    bridge._inputs(1.0)
+    assert bridge.core.command == (0.0, 0.0)  # robot 3 is somebody else now
+    bus.publish(keys.actions("t", 5), encode(Actions(robot_id=5, left=0.05, right=0.05)))
+    bus.publish(keys.control("t"), encode(Control(command="estop", robot_id=5)))
+    bridge._inputs(2.0)
+    assert bridge.core.command == (0.05, 0.05)
+    assert bridge.core.estop
