@@ -42,6 +42,7 @@ __all__ = [
     "proximity_distances",
     "read_all_readings",
     "read_sensors",
+    "reads_all_at_once",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -295,6 +296,16 @@ def read_all_readings(
     return r
 
 
+def reads_all_at_once(
+    scene: Scene, bodies: Bodies, *, every: bool, legacy_ir: bool, moving_beacons: tuple[tuple[int, float], ...]
+) -> bool:
+    """Whether :func:`read_sensors` computes a tick's sensors in one compiled call
+    (:func:`~iw_zenoh.core.read_all.read_all`), which the fused tick (:mod:`iw_zenoh.core.fused`)
+    runs too: ``every`` robot computed (no shard), without Ciber-Rato's IR model, no beacon in
+    the lab or carried by a robot, at least one robot."""
+    return every and not legacy_ir and not scene.lab.beacons and not moving_beacons and bodies.n > 0
+
+
 def read_sensors(
     scene: Scene,
     bodies: Bodies,
@@ -333,7 +344,7 @@ def read_sensors(
     p = params or SensorParams()
     if only is not None and np.all(only):
         only = None  # every robot (the usual shard of one): what None means, without the selections
-    if only is None and not legacy_ir and not scene.lab.beacons and not moving_beacons and bodies.n:
+    if reads_all_at_once(scene, bodies, every=only is None, legacy_ir=legacy_ir, moving_beacons=moving_beacons):
         # the usual tick in one compiled call (core.read_all: the same functions, the same numbers)
         got = read_all(scene, bodies, pose, z, encoder_acc, rolled_m, p.gps_offset_m, p.threads)
         return read_all_readings(scene, bodies, pose, collided, *got)

@@ -22,7 +22,7 @@ from iw_zenoh.core.bodies import Bodies
 from iw_zenoh.core.modes import Profile
 from iw_zenoh.core.noise import NoiseStreams, Stream
 from iw_zenoh.core.read_all import PARALLEL_FROM
-from iw_zenoh.core.sensors import Readings, SensorParams, noise_layout, read_sensors
+from iw_zenoh.core.sensors import Readings, SensorParams, noise_layout, read_sensors, reads_all_at_once
 from iw_zenoh.messages import LaserScan, Outgoing, Proposed, SensorReading, WorldState, encode
 from iw_zenoh.sim.early import state_from_proposal
 from iw_zenoh.sim.view import ROSTERS_KEPT, WorldView
@@ -279,9 +279,10 @@ class SensorsNode:
         thread (a shard, beacons, Ciber-Rato's IR model, sensors on threads). Commit the counts
         after (:meth:`commit_counts`), as after :meth:`read`."""
         lay = self._roster(view, ids, bodies)
-        if not (lay.all_mine and not lay.moving and bodies.n) or view.scene.lab.beacons:
+        legacy = view.info.profile == Profile.CIBERRATO  # read() asks for Ciber-Rato's IR model so
+        if not reads_all_at_once(view.scene, bodies, every=lay.all_mine, legacy_ir=legacy, moving_beacons=lay.moving):
             return None
-        if view.info.profile == Profile.CIBERRATO or (self._params.threads > 1 and bodies.n >= PARALLEL_FROM):
+        if self._params.threads > 1 and bodies.n >= PARALLEL_FROM:  # read_all's threads: its parallel kernel
             return None
         return self._normals(tick, ids, lay.counts, lay.starts, lay.mine_list), self._encoders(ids)
 
