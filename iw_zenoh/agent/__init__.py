@@ -58,6 +58,7 @@ from iw_zenoh.messages import (
     EventKind,
     Heard,
     RadioBatch,
+    RegisterReply,
     RegisterRequest,
     SensorReading,
     WorldInfo,
@@ -207,42 +208,15 @@ class AgentHost:
         asked = agent.spec()
         self._want_states(agent)
         req = RegisterRequest(spec=spec_to_msg(asked), agent=self.name, request_id=f"{os.getpid()}-{self._requests}")
-        # listen before asking when the id is known: in lock-step the world waits for this robot
-        # from the first tick after it is accepted, and readings published before a subscription
-        # made after the answer would be lost (the world then waits out its whole timeout)
-        early, early_box = None, None
-        if asked.id > 0 and not self.batched and asked.id not in self._subscribed:
-            early = self._subscribe_sensors(asked.id)
-        elif asked.id == 0 and not self.batched:  # the id is the world's to choose: every robot's, until it is known
-            early_box = Inbox()  # apart, taken before the robot's own key's (see below); wakes nobody
-            early = self.io.bus.subscribe(keys.all_sensors(self.sim), early_box)
-        reg = self._ask(req, timeout_s)
-        try:
-            reply = reg.reply()
-            spec = spec_from_msg(reply.spec) if reply is not None and reply.ok and reply.spec is not None else None
-        except IwError as e:  # an answer that does not decode, or a spec the world should not have sent
-            if early is not None:
-                early.undeclare()
-            raise RegistrationRefused(f"the answer on {reg.key} is refused: {e}") from None
-        if reply is None:
-            if early is not None:
-                early.undeclare()
-            raise RegistrationRefused(
-                f"no world answered on {reg.key} within {timeout_s:g} s; "
-                f"is `iwz world` running with --sim {self.sim}? (secured: does the policy name {self.name!r} an agent?)"
-            )
-        if reply.ok and (reply.robot_id < 1 or spec is None):  # a world's answer names its robot and spec
-            if early is not None:
-                early.undeclare()
-            raise RegistrationRefused(f"the answer on {reg.key} accepts the robot but names no id or spec")
-        if early is not None and (not reply.ok or reply.robot_id != asked.id):
-            if reply.ok and asked.id == 0 and reply.robot_id not in self._subscribed:
+        early, early_box = self._listen_early(asked)
+        reply, spec = self._accepted(self._ask(req, timeout_s), timeout_s, early)
+        rid = reply.robot_id
+        if early is not None and rid != asked.id:
+            if asked.id == 0 and rid not in self._subscribed:
                 # its own key before every robot's is dropped, so no reading falls between them
-                self._subscribed[reply.robot_id] = self._subscribe_sensors(reply.robot_id)
+                self._subscribed[rid] = self._subscribe_sensors(rid)
             early.undeclare()
             early = None
-        if not reply.ok or spec is None:
-            raise RegistrationRefused(reply.reason)
         self.window.anchor(reply.tick, time.monotonic_ns())  # the world's own word for its tick
         if not self.hosted:  # learn the world's mode once (lock-step changes when we answer)
             for data in self.io.bus.query(keys.info(self.sim), timeout_s=timeout_s):
@@ -250,7 +224,7 @@ class AgentHost:
                     self.lockstep = decode(data, WorldInfo).mode == Mode.LOCKSTEP
                 except DecodeError as e:
                     self.io.bad_message(keys.info(self.sim), e)
-        self.hosted[reply.robot_id] = _Hosted(agent, reply.robot_id, spec)
+        self.hosted[rid] = _Hosted(agent, rid, spec)
         if early_box is not None:
             # what every robot's key brought of this one, taken before anything its own key
             # brought (the host's loop drains those later): the two subscriptions deliver on
@@ -258,16 +232,56 @@ class AgentHost:
             # in the wrong order, would leave the first as the tick's (a copy delivered by both
             # is taken twice: a tick counts once, _take)
             for d in early_box.drain():
-                if keys.robot_id_of(d[0]) == reply.robot_id:
-                    self._reading_in(d, self.hosted[reply.robot_id])
+                if keys.robot_id_of(d[0]) == rid:
+                    self._reading_in(d, self.hosted[rid])
         if early is not None:
-            self._subscribed[reply.robot_id] = early
-        elif not self.batched and reply.robot_id not in self._subscribed:
-            self._subscribed[reply.robot_id] = self._subscribe_sensors(reply.robot_id)
-        self._accept_driver(agent, reply.robot_id)
+            self._subscribed[rid] = early
+        elif not self.batched and rid not in self._subscribed:
+            self._subscribed[rid] = self._subscribe_sensors(rid)
+        self._accept_driver(agent, rid)
         if isinstance(agent, OnRegistered):
-            agent.on_registered(reply.robot_id, spec)
-        return reply.robot_id
+            agent.on_registered(rid, spec)
+        return rid
+
+    def _listen_early(self, asked: RobotSpec) -> tuple[Handle | None, Inbox | None]:
+        """Listens for a robot's readings before it is asked for: in lock-step the world waits
+        for the robot from the first tick after it is accepted, and readings published before a
+        subscription made after the answer would be lost (the world then waits out its whole
+        timeout). Its own key when its id is asked for; else every robot's, into an inbox of
+        their own that wakes nobody (see :meth:`add`), until the answer names it."""
+        if self.batched:
+            return None, None
+        if asked.id > 0:
+            return (self._subscribe_sensors(asked.id) if asked.id not in self._subscribed else None), None
+        box = Inbox()
+        return self.io.bus.subscribe(keys.all_sensors(self.sim), box), box
+
+    def _accepted(
+        self, reg: WorldRegistration, timeout_s: float, early: Handle | None
+    ) -> tuple[RegisterReply, RobotSpec]:
+        """The world's answer that accepts the robot, with the spec it accepted (naming its id:
+        a world's "ok" does); else RegistrationRefused, ``early`` given up."""
+
+        def refused(why: str) -> RegistrationRefused:
+            if early is not None:
+                early.undeclare()
+            return RegistrationRefused(why)
+
+        try:
+            reply = reg.reply()
+            spec = spec_from_msg(reply.spec) if reply is not None and reply.ok and reply.spec is not None else None
+        except IwError as e:  # an answer that does not decode, or a spec the world should not have sent
+            raise refused(f"the answer on {reg.key} is refused: {e}") from None
+        if reply is None:
+            raise refused(
+                f"no world answered on {reg.key} within {timeout_s:g} s; "
+                f"is `iwz world` running with --sim {self.sim}? (secured: does the policy name {self.name!r} an agent?)"
+            )
+        if not reply.ok:
+            raise refused(reply.reason)
+        if reply.robot_id < 1 or spec is None:
+            raise refused(f"the answer on {reg.key} accepts the robot but names no id or spec")
+        return reply, spec
 
     def _want_states(self, agent: Agent) -> None:
         """Subscribes the world's states (before the robot is asked for: its first tick's state
