@@ -21,7 +21,7 @@ from iw_zenoh.messages import (
     decode,
     encode,
 )
-from tests.support.builders import agent_host
+from tests.support.builders import agent_host, bare_reading
 from tests.support.fakes import FakeBus
 
 KEY = keys.sensors("t", 1)
@@ -50,20 +50,6 @@ def _host(agent: _Recording) -> tuple[AgentHost, FakeBus]:
     return agent_host(agent)
 
 
-def _reading(tick: int, rid: int = 1) -> bytes:
-    return encode(
-        SensorReading(
-            tick=tick,
-            robot_id=rid,
-            proximity_ids=[],
-            proximity_m=[],
-            proximity_legacy=[],
-            compass_deg=0.0,
-            gps=(0, 0, 0),
-        )
-    )
-
-
 def _answered(bus: FakeBus) -> list[int]:
     return [decode(d, Actions).tick for k, d in bus.published if k == keys.actions("t", 1)]
 
@@ -75,7 +61,7 @@ def _deliver(host: AgentHost, tick: int) -> int:
 
     def put() -> None:
         who.append(threading.get_ident())
-        host.readings.put((KEY, _reading(tick), 0))
+        host.readings.put((KEY, bare_reading(tick), 0))
 
     t = threading.Thread(target=put)
     t.start()
@@ -141,7 +127,7 @@ def test_each_robot_answered_on_its_own_delivery_gets_what_it_heard_that_tick() 
     said = [Heard(sender=9, distance_m=2.5, text="door 4 opening")]
     batch = RadioBatch(tick=51, hear=[Hear(robot_id=1, messages=said), Hear(robot_id=2, messages=said)])
     host.radio.put((keys.radio("t"), encode(batch), 0))
-    host.readings.put((keys.sensors("t", 1), _reading(51, 1), 0))
-    host.readings.put((keys.sensors("t", 2), _reading(51, 2), 0))
+    host.readings.put((keys.sensors("t", 1), bare_reading(51, 1), 0))
+    host.readings.put((keys.sensors("t", 2), bare_reading(51, 2), 0))
     assert one.heard == [said]
     assert two.heard == [said]

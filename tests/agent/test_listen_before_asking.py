@@ -13,6 +13,7 @@ from iw_zenoh.agent.hosting import Command
 from iw_zenoh.bus import Asked, Handle, Inbox
 from iw_zenoh.core.spec import RobotSpec
 from iw_zenoh.messages import Heard, LabMsg, RegisterReply, RobotSpecMsg, SensorReading, WorldInfo, encode
+from tests.support.builders import bare_reading
 from tests.support.fakes import FakeBus
 
 Deliver = tuple[str, str, bytes]  # the subscription's key expression, the sample's key, the payload
@@ -80,28 +81,14 @@ def test_the_robots_readings_are_heard_from_before_it_is_asked_for(asked: int, g
     assert keys.all_sensors("t") not in bus.live  # every robot's readings: only while the id was unknown
 
 
-def _reading(rid: int, tick: int, compass: float) -> bytes:
-    return encode(
-        SensorReading(
-            tick=tick,
-            robot_id=rid,
-            proximity_ids=[],
-            proximity_m=[],
-            proximity_legacy=[],
-            compass_deg=compass,
-            gps=(0, 0, 0),
-        )
-    )
-
-
 def test_a_reading_heard_before_the_answer_never_overtakes_its_correction() -> None:
     """Every robot's key and the robot's own one deliver on threads of their own: a lagging
     copy of a tick's first reading (every robot's key) must not be taken after the sensors'
     correction of it (its own key), or the tick would be answered on the first."""
     bus = _Watching(7)
     every, own = keys.all_sensors("t"), keys.sensors("t", 7)
-    first, corrected = _reading(7, 6, 0.0), _reading(7, 6, 90.0)
-    bus.on_ask = [(every, keys.sensors("t", 3), _reading(3, 6, 0.0)), (every, own, first)]
+    first, corrected = bare_reading(6, 7), bare_reading(6, 7, 90.0)
+    bus.on_ask = [(every, keys.sensors("t", 3), bare_reading(6, 3)), (every, own, first)]
     # the robot's own key brings both; every robot's key's copy of the first comes after them
     bus.on_info = [(own, own, first), (own, own, corrected), (every, own, first)]
     host = AgentHost(bus, "t", "host")

@@ -9,7 +9,16 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from iw_zenoh.core.lab import Lab, Scene, Wall, check_wall
-from iw_zenoh.messages import LabMsg, Proposed, RegisterReply, RobotSpecMsg, WorldInfo, WorldState, encode
+from iw_zenoh.messages import (
+    LabMsg,
+    Proposed,
+    RegisterReply,
+    RobotSpecMsg,
+    SensorReading,
+    WorldInfo,
+    WorldState,
+    encode,
+)
 
 if TYPE_CHECKING:
     from iw_zenoh.agent import Agent, AgentHost
@@ -120,6 +129,21 @@ DEAD_END = Lab(
     3.0,
     (box_wall(2.0, 0.0, 6.0, 1.05), box_wall(2.0, 1.95, 6.0, 3.0), box_wall(5.0, 1.05, 6.0, 1.95)),
 )  # a 0.9 m corridor from the open end at x = 2 to a wall at x = 5: too narrow to turn the chair in
+
+
+def bare_reading(tick: int, rid: int = 1, compass_deg: float = 0.0) -> bytes:
+    """An encoded reading of a robot with no sensor but its compass (and a GPS at the origin)."""
+    return encode(
+        SensorReading(
+            tick=tick,
+            robot_id=rid,
+            proximity_ids=[],
+            proximity_m=[],
+            proximity_legacy=[],
+            compass_deg=compass_deg,
+            gps=(0, 0, 0),
+        )
+    )
 
 
 def agent_host(*agents: Agent, world_tick: int = 50) -> tuple[AgentHost, FakeBus]:
