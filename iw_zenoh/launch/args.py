@@ -22,6 +22,24 @@ def default_recording(name: str) -> Path:
     return Path("recordings") / f"{name}-{time.strftime('%Y%m%d-%H%M%S')}.mcap"
 
 
+EPILOG = (
+    "Examples:\n"
+    "  iwz run demo                        (Ctrl-C stops everything cleanly)\n"
+    "  iwz run demo --secure     (every process its certificate; the router enforces the roles)\n"
+    "  iwz run demo --secure --no-audit   (enforced all the same, refusals not logged)\n"
+    "  iwz run lab.toml --listen tls/10.0.0.1:7447 --ids ids          (host with the router)\n"
+    "  iwz run lab.toml --host laptop2 --connect tls/10.0.0.1:7447 --ids ids   (another host)\n"
+    "\n"
+    "Exit codes: 0 every criterion holds, 1 one fails (or the recording was not finished:\n"
+    "its disk full, its recorder killed), 2 scenario or arguments refused, 3 a role could\n"
+    "not start, 70 iwz run itself failed (its traceback above), 130 Ctrl-C.\n"
+    "SIGTERM and SIGHUP (its terminal closed) stop the run as Ctrl-C does, with the verdict\n"
+    "so far (0 or 1). Killed, it leaves nothing running: each process it started begins to\n"
+    "stop by itself within half a second, and is killed if it still runs a minute later\n"
+    "(docs/runtime.md, Faults)."
+)
+
+
 def _add_trace(p: argparse.ArgumentParser) -> None:
     """``--input-trace``: a recorded driver replayed (``--lockstep`` is among the study's arguments)."""
     p.add_argument(
@@ -40,21 +58,7 @@ def build_parser() -> argparse.ArgumentParser:
             "Start a whole simulation from a scenario file: the router, world, collision, sensors, "
             "radio and every agent, each its own process on this machine."
         ),
-        epilog=(
-            "Examples:\n"
-            "  iwz run demo                        (Ctrl-C stops everything cleanly)\n"
-            "  iwz run demo --secure     (every process its certificate; the router enforces the roles)\n"
-            "  iwz run demo --secure --no-audit   (enforced all the same, refusals not logged)\n"
-            "  iwz run lab.toml --listen tls/10.0.0.1:7447 --ids ids          (host with the router)\n"
-            "  iwz run lab.toml --host laptop2 --connect tls/10.0.0.1:7447 --ids ids   (another host)\n"
-            "\n"
-            "Exit codes: 0 every criterion holds, 1 one fails (or the recording was cut off: its\n"
-            "disk full), 2 scenario or arguments refused, 3 a role could not start, 130 Ctrl-C.\n"
-            "SIGTERM and SIGHUP (its terminal closed) stop the run as Ctrl-C does, with the verdict\n"
-            "so far (0 or 1). Killed, it leaves nothing running: each process it started begins to\n"
-            "stop by itself within half a second, and is killed if it still runs a minute later\n"
-            "(docs/runtime.md, Faults)."
-        ),
+        epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument(

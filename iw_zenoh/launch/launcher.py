@@ -1,8 +1,9 @@
 """``iwz run SCENARIO.toml``: the router and every role as a child process on this machine,
 supervised, with a live status line, a summary, and an exit code from the scenario's criteria.
 
-Exit codes: 0 every criterion met; 1 a criterion failed; 2 the scenario or arguments are
-refused; 3 a role could not start; 130 interrupted.
+Exit codes: 0 every criterion met; 1 a criterion failed, or the recording was not finished; 2
+the scenario or arguments are refused; 3 a role could not start; 70 iwz run itself failed (its
+output says where; never read as a verdict); 130 interrupted.
 """
 
 from __future__ import annotations
@@ -373,8 +374,14 @@ class Launcher:
         print(f"iwz run: {text}", flush=True)
 
     def shutdown(self, timeout_s: float = 8.0) -> None:
-        """Stops every child: agents first, the router last; SIGKILL after ``timeout_s``."""
+        """Stops every child: agents first, the router last; SIGKILL after ``timeout_s``. A
+        recorder that did not end with 0 (killed, crashed while finishing, or a restarted one
+        stopped before it could open its part) left its file cut off: the run says so (exit 1)."""
         stop_in_order(self.children, timeout_s)
+        for c in self.children:
+            if c.role == "record" and c.proc is not None and c.proc.returncode != 0 and self.record_cut is None:
+                self.record_cut = self.tally.sim_s
+                self._say(f"{c.name} did not finish the recording (exit {c.proc.returncode}):\n{c.tail()}")
 
     def verdict(self) -> tuple[bool, list[str]]:
         """Whether the criteria are met, and a line per criterion."""
@@ -420,10 +427,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         code = 3
     except KeyboardInterrupt:
         code = 130
+    except Exception:  # iwz run's own failure: exit 1 would read as a verdict, its recording as whole
+        logger.exception("iwz run failed")
+        code = 70
     finally:
-        if launcher.bus is not None:
-            launcher.bus.close()
-        launcher.shutdown()
+        try:
+            if launcher.bus is not None:
+                launcher.bus.close()
+        finally:
+            launcher.shutdown()  # whatever happened: every child stopped and waited for, the recording finished
     if launcher.failed is not None:
         return 3  # no verdict: the run never ran
     ok = print_summary(

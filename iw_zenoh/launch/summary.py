@@ -43,7 +43,7 @@ def print_summary(
         print(f"  {line}")
     if record is not None and record_cut is not None:
         ok = False
-        print(f"  FAIL recording cut off at t={record_cut:.1f} s: the recorder could not write it (why: above)")
+        print(f"  FAIL recording cut off at t={record_cut:.1f} s: the recorder did not finish it (why: above)")
     for name, took in recovered.items():
         print(f"iwz run: {name} restarted {len(took)} time(s), back after " + ", ".join(f"{s:.2f} s" for s in took))
     if record is not None and record.exists():

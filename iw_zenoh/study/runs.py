@@ -152,7 +152,7 @@ def run_one(job: RunJob, stop: threading.Event | None = None) -> dict[str, Any]:
     try:
         report = report_of(job.stem.with_suffix(".mcap"))
     except (IwError, OSError, ValueError) as e:
-        row["reason"] = f"its recording could not be measured: {e}"
+        row["reason"] = f"its recording could not be measured: {e}; its output: {_tail(log)}"
         return row
     row.update(status="ok", criteria_met=code == 0, report=as_json(report))
     return row
