@@ -378,8 +378,10 @@ class Launcher:
         recorder that did not end with 0 (killed, crashed while finishing, or a restarted one
         stopped before it could open its part) left its file cut off: the run says so (exit 1)."""
         stop_in_order(self.children, timeout_s)
-        for c in self.children:
-            if c.role == "record" and c.proc is not None and c.proc.returncode != 0 and self.record_cut is None:
+        for c in self.children:  # (one that never started, or could not, is said as such: not here)
+            if c.role != "record" or c.proc is None or not c.seen or c is self.failed:
+                continue
+            if c.proc.returncode != 0 and self.record_cut is None:
                 self.record_cut = self.tally.sim_s
                 self._say(f"{c.name} did not finish the recording (exit {c.proc.returncode}):\n{c.tail()}")
 
@@ -417,6 +419,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
 
     stop_on_signals(launcher.stop_event)
+    try:
+        return _run_and_judge(launcher)
+    except Exception:  # iwz run's own failure (its children stopped all the same): 1 would read as a verdict
+        logger.exception("iwz run failed")
+        return 70
+
+
+def _run_and_judge(launcher: Launcher) -> int:
+    """Starts and supervises the run, stops every child in order whatever happened, and judges
+    it: the exit code (see the module doc)."""
     code = 0
     try:
         launcher.start()
@@ -427,9 +439,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         code = 3
     except KeyboardInterrupt:
         code = 130
-    except Exception:  # iwz run's own failure: exit 1 would read as a verdict, its recording as whole
-        logger.exception("iwz run failed")
-        code = 70
     finally:
         try:
             if launcher.bus is not None:

@@ -31,7 +31,7 @@ def _scenario(tmp_path: Path) -> Path:
 def test_a_recorder_that_did_not_end_with_0_fails_the_run(tmp_path: Path) -> None:
     sc = load_scenario(_scenario(tmp_path))
     launcher = Launcher(sc, port=free_port(), sim="cut", log_dir=tmp_path / "logs", status=False)
-    rec = Child("record", "recorder", [], tmp_path / "recorder.log")
+    rec = Child("record", "recorder", [], tmp_path / "recorder.log", seen=True)
     rec.proc = subprocess.Popen([sys.executable, "-c", NO_HANDLER], stdout=subprocess.PIPE)
     try:
         assert rec.proc.stdout is not None
@@ -50,7 +50,7 @@ def test_a_recorder_that_did_not_end_with_0_fails_the_run(tmp_path: Path) -> Non
 def test_a_recorder_that_ended_with_0_leaves_the_run_whole(tmp_path: Path) -> None:
     sc = load_scenario(_scenario(tmp_path))
     launcher = Launcher(sc, port=free_port(), sim="whole", log_dir=tmp_path / "logs", status=False)
-    rec = Child("record", "recorder", [], tmp_path / "recorder.log")
+    rec = Child("record", "recorder", [], tmp_path / "recorder.log", seen=True)
     rec.proc = subprocess.Popen([sys.executable, "-c", "pass"])
     rec.proc.wait(30)
     launcher.children = [rec]
@@ -70,8 +70,8 @@ def test_the_children_are_stopped_even_when_the_launchers_bus_fails_to_close(
     monkeypatch.setattr(Launcher, "start", lambda self: setattr(self, "bus", Unclosable()))
     monkeypatch.setattr(Launcher, "supervise", lambda self, bus: 0)
     monkeypatch.setattr(Launcher, "shutdown", lambda self, timeout_s=8.0: stopped.append(True))
-    with pytest.raises(RuntimeError):
-        main([str(_scenario(tmp_path)), "--no-record", "--no-status", "--port", str(free_port())])
+    code = main([str(_scenario(tmp_path)), "--no-record", "--no-status", "--port", str(free_port())])
+    assert code == 70  # iwz run's own failure, not a verdict
     assert stopped == [True]  # before: skipped, and the orphaned recorder still writing as iwz run exited 1
 
 
@@ -105,3 +105,24 @@ def test_a_session_close_that_fails_is_said_not_raised(caplog: pytest.LogCapture
     bus._handles, bus._pubs, bus.session = {}, {}, Session()  # type: ignore[assignment]
     bus.close()
     assert "did not close cleanly: close operation timed out" in caplog.text
+
+
+def test_a_recorder_that_never_started_is_not_said_to_have_cut_the_recording(tmp_path: Path) -> None:
+    """One that could not start (its error said, exit 3) or was stopped while starting (no
+    handlers yet: -15) wrote nothing to cut off: the run's verdict so far stands."""
+    sc = load_scenario(_scenario(tmp_path))
+    launcher = Launcher(sc, port=free_port(), sim="unborn", log_dir=tmp_path / "logs", status=False)
+    rec = Child("record", "recorder", [], tmp_path / "recorder.log")  # its token never seen
+    rec.proc = subprocess.Popen([sys.executable, "-c", NO_HANDLER], stdout=subprocess.PIPE)
+    try:
+        assert rec.proc.stdout is not None
+        assert rec.proc.stdout.readline() == b"ready\n"
+        rec.proc.stdout.close()
+        launcher.children = [rec]
+        launcher.shutdown()
+        assert rec.proc.returncode == -15
+        assert launcher.record_cut is None
+    finally:
+        if rec.proc.poll() is None:
+            rec.proc.kill()
+            rec.proc.wait(5)
