@@ -397,11 +397,25 @@ class ZenohBus:
 
     def query(self, key: str, payload: bytes = b"", timeout_s: float = 2.0) -> list[bytes]:
         """Asks ``key`` and waits up to ``timeout_s`` for every answer; the answers' payloads
-        (errors left out)."""
+        (errors left out, each logged with its payload).
+
+        Every replier's answer is kept (no consolidation): Zenoh's default keeps one answer per
+        key, the last to arrive, so a second queryable on the key (another world on the same
+        simulation) silently replaced the first one's answer."""
         out: list[bytes] = []
-        for reply in self.session.get(key, payload=payload, timeout=timeout_s):
+        errors: list[str] = []
+        t0 = time.monotonic()
+        for reply in self.session.get(
+            key, payload=payload, timeout=timeout_s, consolidation=zenoh.ConsolidationMode.NONE
+        ):
             if reply.ok is not None:
                 out.append(reply.ok.payload.to_bytes())
+            elif reply.err is not None:
+                errors.append(reply.err.payload.to_bytes().decode(errors="replace")[:200])
+        if errors:  # a timeout is said at info level (a busy world), any other error as a warning
+            level = logging.INFO if set(errors) == {"Timeout"} else logging.WARNING
+            logger.log(level, "query %s: %d answers, error replies: %s", key, len(out), errors)
+        logger.debug("query %s: %d answers in %.1f ms", key, len(out), (time.monotonic() - t0) * 1e3)
         return out
 
     def ask(self, key: str, payload: bytes = b"", timeout_s: float = 2.0) -> Asked:
@@ -412,8 +426,17 @@ class ZenohBus:
         def on_reply(reply: zenoh.Reply) -> None:
             if reply.ok is not None:
                 asked.replies.append(reply.ok.payload.to_bytes())
+            elif reply.err is not None:
+                why = reply.err.payload.to_bytes().decode(errors="replace")[:200]
+                logger.log(logging.INFO if why == "Timeout" else logging.WARNING, "query %s: error reply: %s", key, why)
 
-        self.session.get(key, zenoh.handlers.Callback(on_reply, asked.done.set), payload=payload, timeout=timeout_s)
+        self.session.get(
+            key,
+            zenoh.handlers.Callback(on_reply, asked.done.set),
+            payload=payload,
+            timeout=timeout_s,
+            consolidation=zenoh.ConsolidationMode.NONE,  # every replier's answer (see query)
+        )
         return asked
 
     def token(self, key: str) -> Handle:

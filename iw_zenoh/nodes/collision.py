@@ -66,7 +66,10 @@ def run(bus: Bus, sim: str, *, name: str = "collision", io: NodeIO | None = None
         msg, view = newest
         if view is None:
             logger.warning(
-                "tick %d: no world info for revision %d; no verdict (the world holds robots)", msg.tick, msg.revision
+                "tick %d: no world info for revision %d (%s); no verdict (the world holds robots)",
+                msg.tick,
+                msg.revision,
+                cache.why or "a newer revision without its robots",
             )
             continue
         verdict = node.on_proposed(msg, view)

@@ -35,6 +35,8 @@ class InfoCache:
         self.view: WorldView | None = None
         self._scene_key: tuple[object, ...] | None = None
         self._scene: Scene | None = None
+        self.why = ""  # why the last get found no view (the nodes' warning says it)
+        self._answered: tuple[int, ...] = ()  # revisions of the last answers when more than one (logged once)
 
     def get(self, revision: int) -> WorldView | None:
         """The view at ``revision`` (or newer); None when the world does not answer.
@@ -43,28 +45,51 @@ class InfoCache:
         its revisions from 1 again): the world is asked, and a view older than the one kept is
         taken as the new world's, else the one kept serves.
         """
-        kept = self.view
+        kept, self.why = self.view, ""
         if kept is not None and kept.info.revision == revision:
             return kept
-        view = self._ask()
+        view = self._ask(revision)
         if kept is not None and kept.info.revision > revision:
             if view is not None and view.info.revision < kept.info.revision:
                 logger.info("world/info: revision %d after %d: a new world", view.info.revision, kept.info.revision)
                 self.view = view
-                return view if view.info.revision >= revision else None
+                return self._at(view, revision)
+            self.why = ""  # the kept view serves (a late message)
             return kept
         if view is not None:
             self.view = view
-            return view if view.info.revision >= revision else None
+            return self._at(view, revision)
         return None
 
-    def _ask(self) -> WorldView | None:
-        """The world's answer to ``world/info``, or None."""
-        for data in self.bus.query(keys.info(self.sim), timeout_s=self.timeout_s):
-            view = self._build(data, "answer")
-            if view is not None:
-                return view
+    def _at(self, view: WorldView, revision: int) -> WorldView | None:
+        if view.info.revision >= revision:
+            self.why = ""
+            return view
+        self.why = f"the world answered revision {view.info.revision}, older than {revision}"
         return None
+
+    def _ask(self, revision: int) -> WorldView | None:
+        """The world's answer to ``world/info`` (of several, the one at ``revision``, else the
+        newest), or None; :attr:`why` says what came when none serves."""
+        answers = self.bus.query(keys.info(self.sim), timeout_s=self.timeout_s)
+        views = [v for v in (self._build(data, "answer") for data in answers) if v is not None]
+        revisions = tuple(v.info.revision for v in views)
+        if len(views) > 1 and revisions != self._answered:  # logged once per set of answers
+            logger.warning(
+                "world/info: %d answers (revisions %s): is another world running on simulation %r?",
+                len(views),
+                list(revisions),
+                self.sim,
+            )
+        self._answered = revisions if len(views) > 1 else ()
+        if not views:
+            self.why = (
+                f"{len(answers)} answers to {keys.info(self.sim)}, none usable (refused above)"
+                if answers
+                else f"no answer to {keys.info(self.sim)} within {self.timeout_s:g} s (no world reached)"
+            )
+            return None
+        return next((v for v in views if v.info.revision == revision), max(views, key=lambda v: v.info.revision))
 
     def take(self, data: bytes) -> WorldView | None:
         """Takes the world's description as it published it (at every revision): the new view,

@@ -93,7 +93,7 @@ class _Loop:
         if props and node is not None and node.last_tick + 1 >= self.ahead_from:
             for d in props:  # each checked, so a bad one is reported even when a newer one follows
                 p = self.io.decode(d, Proposed)
-                view = _checked(self.io, self.window, d[0], p) if p is not None else None
+                view = _checked(self.io, self.window, d[0], p, self.cache) if p is not None else None
                 if p is not None and view is not None:
                     self.proposal = (p, view)
         if self.proposal is not None and node is not None and node.early is None:
@@ -140,7 +140,7 @@ class _Loop:
         io = self.io
         decoded = [m for m in (io.decode(d, WorldState) for d in pending) if m is not None]
         for msg in decoded[-CATCH_UP:]:
-            view = _checked(io, self.window, keys.state(self.sim), msg)
+            view = _checked(io, self.window, keys.state(self.sim), msg, self.cache)
             if view is None:
                 continue
             self.said.settle(msg)
@@ -201,14 +201,22 @@ def _warm(fresh: list[WorldView | None], node: SensorsNode | None, sim: str, sha
             (node or SensorsNode(sim, view.info.seed, shard)).warm(view)
 
 
-def _checked(io: NodeIO, window: ViewWindow[WorldView], key: str, msg: WorldState | Proposed) -> WorldView | None:
+def _checked(
+    io: NodeIO, window: ViewWindow[WorldView], key: str, msg: WorldState | Proposed, cache: InfoCache
+) -> WorldView | None:
     """The view to compute ``msg`` in, or None; a refused one (a tick too far ahead, robots the
     world does not have) is reported as a bad message."""
     view, why = window.view(msg, time.monotonic_ns())
     if why:
         io.bad_message(key, ProtocolError(why))
     elif view is None:
-        logger.warning("tick %d: no world info for revision %d and robots %s", msg.tick, msg.revision, msg.ids[:5])
+        logger.warning(
+            "tick %d: no world info for revision %d and robots %s (%s)",
+            msg.tick,
+            msg.revision,
+            msg.ids[:5],
+            cache.why or "a newer revision without its robots",
+        )
     return view
 
 

@@ -50,6 +50,9 @@ __all__ = ["WorldOptions", "add_arguments", "main", "parse_obstacle", "prepare",
 
 logger = logging.getLogger(__name__)
 
+# the roles that keep the world's description from its publication (nodes/info.py, the radio):
+# one that comes alive is sent it again, since a publication is not kept for late joiners
+INFO_READERS = frozenset({"collision", "sensors", "radio"})
 UNKNOWN_EVERY_NS = 1_000_000_000  # messages for a robot the world does not have: one event a second
 UNKNOWN_KEPT = 1_000  # robots remembered for that (forged ids by the million cost no memory)
 # a flood of registrations does not stop the clock: a pass answers them for this long (one at
@@ -182,6 +185,8 @@ class _World:
             parts = keys.alive_parts(key)
             if parts:
                 lost |= parts[0] == "collision" and not alive
+                if alive and parts[0] in INFO_READERS:
+                    self._info_revision = -1  # published again at the next pass (_publish_info)
                 self.io.send_all(self.core.on_alive(parts[0], parts[1], alive, now))
         return lost
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -19,6 +20,7 @@ from iw_zenoh.bus.net import NetConfig, free_port, port_in_use
 from iw_zenoh.messages import Event, Message, RegisterReply, RegisterRequest, RobotSpecMsg, WorldState, decode, encode
 
 M = TypeVar("M", bound=Message)
+ROUTER_TRIES = 3  # ports tried for a test's router (one chosen here may be taken before it binds)
 ROOT = Path(__file__).resolve().parents[2]
 MAPS = ROOT / "maps"
 SCENARIOS = MAPS / "scenarios"
@@ -97,28 +99,42 @@ class Net:
         return proc
 
     def start_router(self, listen: str | None = None, prefix: list[str] | None = None) -> Proc:
-        """Starts the router and waits until it accepts connections."""
-        if not self.port:
-            self.port = free_port()
-        argv = [
-            *(prefix or []),
-            sys.executable,
-            "-m",
-            "iw_zenoh.cli",
-            "router",
-            "--sim",
-            self.sim,
-            "--listen",
-            listen or self.endpoint,
-        ]
-        proc = self.launch("router", argv)
+        """Starts the router and waits until it says it listens on its port (a port chosen here
+        and taken meanwhile, by a parallel test's router or a connection's own port: another).
+
+        The port in use is not enough: it may be another test's router, which this test's
+        processes would then join (two worlds of simulation ``t`` answering each other)."""
+        chosen = not self.port
+        for attempt in range(1, ROUTER_TRIES + 1):
+            if chosen:
+                self.port = free_port()
+            argv = [
+                *(prefix or []),
+                sys.executable,
+                "-m",
+                "iw_zenoh.cli",
+                "router",
+                "--sim",
+                self.sim,
+                "--listen",
+                listen or self.endpoint,
+            ]
+            proc = self.launch("router" if attempt == 1 else f"router-{attempt}", argv)  # each its own log
+            if prefix is not None or self._listens(proc) or not chosen or attempt == ROUTER_TRIES:
+                break
         if prefix is None:
-            deadline = time.monotonic() + 20
-            while not port_in_use(self.port):
-                assert proc.popen.poll() is None, f"router died:\n{proc.output()}"
-                assert time.monotonic() < deadline, "router did not listen in 20 s"
-                time.sleep(0.02)  # polling a port: there is no event to wait on
+            assert self._listens(proc), f"router died (its port {self.port} taken?):\n{proc.output()}"
         return proc
+
+    def _listens(self, proc: Proc) -> bool:
+        """Waits until the router says it listens on :attr:`port` (True) or dies (False)."""
+        said, deadline = re.compile(rf":{self.port}(?!\d)"), time.monotonic() + 20
+        while not (port_in_use(self.port) and any(said.search(line) for line in _listening(proc.output()))):
+            if proc.popen.poll() is not None:
+                return False
+            assert time.monotonic() < deadline, f"router did not listen in 20 s:\n{proc.output()}"
+            time.sleep(0.02)  # polling its log: there is no event to wait on
+        return True
 
     def client(self) -> ZenohBus:
         """A Zenoh client session of the test itself."""
@@ -187,8 +203,8 @@ def iwz_run_argv(
 
 
 def subscribe(bus: ZenohBus, key_expr: str, maxlen: int | None = None) -> Inbox:
-    """A test inbox on a key expression."""
-    box = Inbox(maxlen=maxlen)
+    """A test inbox on a key expression (``maxlen``: the newest kept; None: a million, all a test sees)."""
+    box = Inbox(maxlen=maxlen if maxlen is not None else 1_000_000)
     bus.subscribe(key_expr, box)
     return box
 
@@ -253,3 +269,8 @@ def state_of(msg: WorldState, robot_id: int) -> tuple[float, float, float, bool]
     """x, y, heading, collided of one robot in a state message."""
     i = msg.ids.index(robot_id)
     return msg.x[i], msg.y[i], msg.heading[i], msg.collided[i]
+
+
+def _listening(output: str) -> list[str]:
+    """The router's "listening on" lines in its output."""
+    return [line for line in output.splitlines() if "listening on" in line]

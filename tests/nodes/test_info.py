@@ -89,3 +89,27 @@ def test_a_late_message_of_an_older_revision_keeps_the_view() -> None:
     bus.info.append(encode(_info(5, robots=1)))  # the world is still at 5
     assert cache.get(4) is kept
     assert cache.view is kept
+
+
+def test_of_several_answers_the_one_at_the_revision_asked_serves() -> None:
+    bus = _CountingBus()
+    bus.info += [encode(_info(0)), encode(_info(1, robots=1))]  # another world (revision 0) answered too
+    cache = InfoCache(bus, "s")
+    view = cache.get(1)
+    assert view is not None
+    assert view.info.revision == 1
+    assert cache.why == ""
+
+
+def test_an_answer_older_than_asked_says_so() -> None:
+    bus = _CountingBus()
+    bus.info.append(encode(_info(0)))
+    cache = InfoCache(bus, "s")
+    assert cache.get(1) is None
+    assert cache.why == "the world answered revision 0, older than 1"
+
+
+def test_no_answer_says_so() -> None:
+    cache = InfoCache(_CountingBus(), "s")
+    assert cache.get(1) is None
+    assert cache.why.startswith("no answer to iw/s/world/info")
