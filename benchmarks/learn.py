@@ -36,6 +36,12 @@ hour: ChairNav 6,004-7,041 steps/s, ir-sim 1,083-1,466, ratio 4.8-5.7; vector en
 (median 57,000-72,600) on two CPUs. At one chair what is left is the Python around one
 compiled call (~100 lines, none above 5 % of a step); at 256 chairs, the kernels (about 60 %
 of a step on one core), the collision check, the noise's draws and the Python around them.
+
+Session 22, on a machine about four times faster (ir-sim too), quiet, 22:37: ChairNav 28,702
+steps/s, ir-sim 6,644, ratio 4.32; the compiled tick alone (the floor, printed since) 15.5 us, so
+ir-sim's step is 9.7 times it: the ratio's ceiling with no Python at all, under the target of 10;
+the vector env 215,245 chair-steps/s on two CPUs (median 278,047), 137,052 on one core (target
+met); with --ppo 20 (22:12-22:36): 44,523,584 steps trained, 91 % of 100 unseen episodes reached.
 """
 
 from __future__ import annotations
@@ -114,6 +120,7 @@ def measure(steps: int) -> dict[str, float]:
     out["world_steps_s"] = _rate(steps, lambda i: world.step({rid: to_powers(acts[i], chair, "vw")}))
     out["world_unsensed_steps_s"] = _rate(steps, lambda i: world.step({rid: (0.0, 0.0)}, sense=False))
     out["observe_s"] = _rate(steps, lambda i: env.episode.observe(rid))
+    out["compiled_tick_us"] = measure_compiled_tick(env, steps)
     out["target_env_steps_s"] = TARGET_STEPS_S
     mean, median = measure_vector(vector_steps, 1)
     out["vector_one_core_chair_steps_s"], out["vector_one_core_median_chair_steps_s"] = mean, median
@@ -124,6 +131,32 @@ def measure(steps: int) -> dict[str, float]:
         out["ratio_to_irsim"] = out["env_steps_s"] / irsim
     os.sched_setaffinity(0, cpus)  # PPO trains on every CPU
     return out
+
+
+def measure_compiled_tick(env: iw_zenoh.learn.ChairNavEnv, steps: int) -> float:
+    """The floor of a ChairNav step: the whole tick's one compiled call (``core/fused.py``:
+    propose, collision check, commit, the eight cones and the 64 beams with their noise), on the
+    environment's own chair and room, in microseconds (its best of five rounds); everything else
+    in a step is Python around it. The chair stays where it is (zero powers, nothing committed
+    back), so each call does the same work."""
+    from iw_zenoh.core import fused  # noqa: PLC0415
+
+    ep = env.episode
+    assert ep is not None
+    lw = ep.world
+    fixed = lw._fixed  # noqa: SLF001 (LocalWorld's fused tick's arguments, built at the first step)
+    assert fixed is not None, "the environment has not stepped on the fused path"
+    st = lw.world.state
+    pose, prev = np.ascontiguousarray(st.pose), np.ascontiguousarray(st.motor_out)
+    n, normals = fixed[2][0], fixed[2][1]
+    cmd, acc, z = np.zeros((n, 2)), np.zeros((n, 2)), np.random.default_rng(3).standard_normal(normals)
+    best = float("inf")
+    for _ in range(5):
+        t = time.perf_counter()
+        for _ in range(steps):
+            fused.tick(pose, prev, cmd, None, z, acc, fixed[2])
+        best = min(best, (time.perf_counter() - t) / steps)
+    return best * 1e6
 
 
 IRSIM_WORLD = """\
@@ -224,9 +257,16 @@ def main() -> int:
     print(f"  LocalWorld tick with sensors:    {r['world_steps_s']:,.0f} steps/s")
     print(f"  LocalWorld tick without sensors: {r['world_unsensed_steps_s']:,.0f} steps/s")
     print(f"  observation vector alone:        {r['observe_s']:,.0f} /s")
+    floor = r["compiled_tick_us"]
+    print(
+        f"  the compiled tick alone (the floor): {floor:.1f} us, {1e6 / floor:,.0f} /s;"
+        f" a step is {1e6 / r['env_steps_s'] / floor:.1f} times it"
+    )
     if r["irsim_steps_s"]:
         print(f"ir-sim env.step, same run (1 robot, 64-beam lidar): {r['irsim_steps_s']:,.0f} steps/s;", end=" ")
         print(f"ChairNav / ir-sim = {r['ratio_to_irsim']:.2f} (target >= 10)")
+        ceiling = 1e6 / r["irsim_steps_s"] / floor
+        print(f"  ir-sim's step / the compiled tick alone = {ceiling:.1f} (the ratio's ceiling, no Python at all)")
     else:
         print("ir-sim not installed (the dev extra): no ratio")
     print(
