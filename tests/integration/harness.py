@@ -9,7 +9,7 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TypeVar
@@ -60,11 +60,12 @@ class Net:
     buses: list[ZenohBus] = field(default_factory=list)
     prefix: list[str] = field(default_factory=list)
     endpoint_host: str = "127.0.0.1"
+    scheme: str = "tcp"  # tls: a secured router (start_secured_router)
 
     @property
     def endpoint(self) -> str:
         """The router's endpoint."""
-        return f"tcp/{self.endpoint_host}:{self.port}"
+        return f"{self.scheme}/{self.endpoint_host}:{self.port}"
 
     def spawn(
         self, role: str, *args: str, name: str | None = None, prefix: list[str] | None = None, connect: bool = True
@@ -98,7 +99,9 @@ class Net:
         self.procs.append(proc)
         return proc
 
-    def start_router(self, listen: str | None = None, prefix: list[str] | None = None) -> Proc:
+    def start_router(
+        self, listen: str | None = None, prefix: list[str] | None = None, extra: Sequence[str] = ()
+    ) -> Proc:
         """Starts the router and waits until it says it listens on its port (a port chosen here
         and taken meanwhile, by a parallel test's router or a connection's own port: another).
 
@@ -118,6 +121,7 @@ class Net:
                 self.sim,
                 "--listen",
                 listen or self.endpoint,
+                *extra,
             ]
             proc = self.launch("router" if attempt == 1 else f"router-{attempt}", argv)  # each its own log
             if prefix is not None or self._listens(proc) or not chosen or attempt == ROUTER_TRIES:
@@ -125,6 +129,14 @@ class Net:
         if prefix is None:
             assert self._listens(proc), f"router died (its port {self.port} taken?):\n{proc.output()}"
         return proc
+
+    def start_secured_router(self, ids: Path, *extra: str) -> Proc:
+        """A secured run's router (mutual TLS as ``ids/router``, enforcing ``ids/policy.toml``)
+        on a port of its own, as :meth:`start_router`; :attr:`endpoint` is then its ``tls/`` one."""
+        self.scheme = "tls"
+        return self.start_router(
+            extra=["--identity", str(ids / "router"), "--policy", str(ids / "policy.toml"), *extra]
+        )
 
     def _listens(self, proc: Proc) -> bool:
         """Waits until the router says it listens on :attr:`port` (True) or dies (False)."""

@@ -7,7 +7,6 @@ input on chair 2's drive key (the router drops it), whatever a modified viewer w
 from __future__ import annotations
 
 import sys
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -16,7 +15,7 @@ from playwright.sync_api import Browser
 
 from iw_zenoh import keys
 from iw_zenoh.bus import ZenohBus
-from iw_zenoh.bus.net import NetConfig, free_port, port_in_use
+from iw_zenoh.bus.net import NetConfig
 from iw_zenoh.messages import DriveInput, DriveState, WorldState, encode
 from iw_zenoh.secure.certs import init_ca, issue
 from iw_zenoh.secure.cli import add_identity
@@ -69,19 +68,10 @@ def secured(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Secured]:
     _identities(ids)
     (tmp / "lab.xml").write_text(LAB)
     (tmp / "grid.xml").write_text(GRID)
-    net = Net(tmp, sim=SIM, port=free_port())
-    endpoint = f"tls/127.0.0.1:{net.port}"
+    net = Net(tmp, sim=SIM)
     try:
-        router = net.launch(
-            "router",
-            [sys.executable, "-m", "iw_zenoh.cli", "router", "--identity", str(ids / "router")]
-            + ["--policy", str(ids / "policy.toml"), "--listen", endpoint, "--sim", SIM],
-        )
-        deadline = time.monotonic() + 20
-        while not port_in_use(net.port):
-            assert router.popen.poll() is None, f"router died:\n{router.output()}"
-            assert time.monotonic() < deadline, "router did not listen in 20 s"
-            time.sleep(0.02)  # polling a port: there is no event to wait on
+        net.start_secured_router(ids)
+        endpoint = net.endpoint
         lab = [str(tmp / "lab.xml"), "--grid", str(tmp / "grid.xml"), "--policy", str(ids / "policy.toml")]
         _spawn(net, ids, endpoint, "world", "world", *lab)
         _spawn(net, ids, endpoint, "collision", "collision")

@@ -103,19 +103,10 @@ def secured(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Secured]:
     _identities(ids)
     (tmp / "lab.xml").write_text(LAB)
     (tmp / "grid.xml").write_text(GRID)
-    net = Net(tmp, sim="sec", port=free_port())
-    endpoint = f"tls/127.0.0.1:{net.port}"
+    net = Net(tmp, sim="sec")
     try:
-        router = net.launch(
-            "router",
-            [sys.executable, "-m", "iw_zenoh.cli", "router", "--identity", str(ids / "router")]
-            + ["--policy", str(ids / "policy.toml"), "--listen", endpoint, "--sim", "sec"],
-        )
-        deadline = time.monotonic() + 20
-        while not port_in_use(net.port):
-            assert router.popen.poll() is None, f"router died:\n{router.output()}"
-            assert time.monotonic() < deadline, "router did not listen in 20 s"
-            time.sleep(0.02)  # polling a port: there is no event to wait on
+        router = net.start_secured_router(ids)
+        endpoint = net.endpoint
         lab = [str(tmp / "lab.xml"), "--grid", str(tmp / "grid.xml"), "--policy", str(ids / "policy.toml")]
         world = _spawn(net, ids, endpoint, "world", "world", *lab)
         yield _start(net, ids, endpoint, router, world)

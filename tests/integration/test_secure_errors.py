@@ -9,7 +9,6 @@ import datetime
 import shutil
 import subprocess
 import sys
-import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,7 +17,7 @@ import pytest
 from cryptography import x509
 from cryptography.hazmat.primitives import hashes, serialization
 
-from iw_zenoh.bus.net import free_port, port_in_use
+from iw_zenoh.bus.net import free_port
 from iw_zenoh.secure.certs import init_ca, issue
 from iw_zenoh.secure.cli import add_identity
 from tests.integration.harness import Net
@@ -49,19 +48,10 @@ def run(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Run]:
     issue(ids, "stranger")  # of the authority, not in the policy
     (ids / "policy.toml").write_text((ids / "policy.toml").read_text().replace('sim = "default"', 'sim = "err"'))
     (tmp / "lab.xml").write_text(LAB)
-    net = Net(tmp, sim="err", port=free_port())
-    endpoint = f"tls/127.0.0.1:{net.port}"
+    net = Net(tmp, sim="err")
     try:
-        router = net.launch(
-            "router",
-            [sys.executable, "-m", "iw_zenoh.cli", "router", "--identity", str(ids / "router")]
-            + ["--policy", str(ids / "policy.toml"), "--listen", endpoint, "--sim", "err"],
-        )
-        deadline = time.monotonic() + 20
-        while not port_in_use(net.port):
-            assert router.popen.poll() is None, f"router died:\n{router.output()}"
-            assert time.monotonic() < deadline, "router did not listen in 20 s"
-            time.sleep(0.02)  # polling a port: there is no event to wait on
+        net.start_secured_router(ids)
+        endpoint = net.endpoint
         net.launch(
             "world",
             [sys.executable, "-m", "iw_zenoh.cli", "world", str(tmp / "lab.xml"), "--policy", str(ids / "policy.toml")]
