@@ -28,10 +28,13 @@ def _scenario(tmp_path: Path) -> Path:
     return tmp_path / "judged.toml"
 
 
-def test_a_recorder_that_did_not_end_with_0_fails_the_run(tmp_path: Path) -> None:
-    sc = load_scenario(_scenario(tmp_path))
-    launcher = Launcher(sc, port=free_port(), sim="cut", log_dir=tmp_path / "logs", status=False)
-    rec = Child("record", "recorder", [], tmp_path / "recorder.log", seen=True)
+def _stopped_while_deaf(tmp_path: Path, sim: str, *, seen: bool) -> Launcher:
+    """A launcher whose only child is a recorder with no SIGTERM handler (``seen``: its token
+    was seen), after its ordered stop."""
+    launcher = Launcher(
+        load_scenario(_scenario(tmp_path)), port=free_port(), sim=sim, log_dir=tmp_path / "logs", status=False
+    )
+    rec = Child("record", "recorder", [], tmp_path / "recorder.log", seen=seen)
     rec.proc = subprocess.Popen([sys.executable, "-c", NO_HANDLER], stdout=subprocess.PIPE)
     try:
         assert rec.proc.stdout is not None
@@ -39,12 +42,17 @@ def test_a_recorder_that_did_not_end_with_0_fails_the_run(tmp_path: Path) -> Non
         rec.proc.stdout.close()
         launcher.children = [rec]
         launcher.shutdown()
-        assert rec.proc.returncode == -15
-        assert launcher.record_cut is not None  # print_summary fails the run on it: exit 1, "cut off" said
+        assert rec.proc.returncode == -15  # killed by the stop: its file (if any) not finished
     finally:
         if rec.proc.poll() is None:
             rec.proc.kill()
             rec.proc.wait(5)
+    return launcher
+
+
+def test_a_recorder_that_did_not_end_with_0_fails_the_run(tmp_path: Path) -> None:
+    launcher = _stopped_while_deaf(tmp_path, "cut", seen=True)
+    assert launcher.record_cut is not None  # print_summary fails the run on it: exit 1, "cut off" said
 
 
 def test_a_recorder_that_ended_with_0_leaves_the_run_whole(tmp_path: Path) -> None:
@@ -110,19 +118,5 @@ def test_a_session_close_that_fails_is_said_not_raised(caplog: pytest.LogCapture
 def test_a_recorder_that_never_started_is_not_said_to_have_cut_the_recording(tmp_path: Path) -> None:
     """One that could not start (its error said, exit 3) or was stopped while starting (no
     handlers yet: -15) wrote nothing to cut off: the run's verdict so far stands."""
-    sc = load_scenario(_scenario(tmp_path))
-    launcher = Launcher(sc, port=free_port(), sim="unborn", log_dir=tmp_path / "logs", status=False)
-    rec = Child("record", "recorder", [], tmp_path / "recorder.log")  # its token never seen
-    rec.proc = subprocess.Popen([sys.executable, "-c", NO_HANDLER], stdout=subprocess.PIPE)
-    try:
-        assert rec.proc.stdout is not None
-        assert rec.proc.stdout.readline() == b"ready\n"
-        rec.proc.stdout.close()
-        launcher.children = [rec]
-        launcher.shutdown()
-        assert rec.proc.returncode == -15
-        assert launcher.record_cut is None
-    finally:
-        if rec.proc.poll() is None:
-            rec.proc.kill()
-            rec.proc.wait(5)
+    launcher = _stopped_while_deaf(tmp_path, "unborn", seen=False)  # its token never seen
+    assert launcher.record_cut is None
