@@ -113,3 +113,31 @@ def test_no_answer_says_so() -> None:
     cache = InfoCache(_CountingBus(), "s")
     assert cache.get(1) is None
     assert cache.why.startswith("no answer to iw/s/world/info")
+
+
+@pytest.mark.parametrize(
+    "hostile",
+    [
+        b"{not json",
+        b"\xff\xfe\x00",
+        b'{"revision": "un", "lab": {}, "period_ns": 1}',
+        b'{"revision": NaN}',
+        ("{" + '"name": "' + "é" * 200_000 + '"}').encode(),
+    ],
+)
+def test_a_hostile_answer_beside_the_worlds_is_refused_and_the_worlds_serves(hostile: bytes) -> None:
+    bus = _CountingBus()
+    bus.info += [hostile, encode(_info(2, robots=1)), hostile]
+    cache = InfoCache(bus, "s")
+    view = cache.get(2)
+    assert view is not None
+    assert view.info.revision == 2
+    assert cache.why == ""
+
+
+def test_only_hostile_answers_say_they_were_refused() -> None:
+    bus = _CountingBus()
+    bus.info += [b"{not json", b"\x00" * 1000]
+    cache = InfoCache(bus, "s")
+    assert cache.get(1) is None
+    assert cache.why == "2 answers to iw/s/world/info, none usable (refused above)"
